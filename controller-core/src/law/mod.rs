@@ -1,0 +1,128 @@
+//! Steering laws: pose error → body velocity command (v, ω).
+//!
+//! Three laws sit behind one small interface, [`steer`], selected by [`LawKind`]:
+//!
+//! | law | source | reference | steady error on a moving reference |
+//! |---|---|---|---|
+//! | [`paper`] | Jin & Tack eqs. (33)–(34) (Aicardi et al. 1995) | a fixed pose | trails by ≈ v_r/γ |
+//! | [`tracking`] | the paper's Lyapunov design redone in the reference's frame | moving | zero |
+//! | [`kanayama`] | Kanayama et al. 1990 | moving | zero |
+//!
+//! Every law reports its Lyapunov function V and its predicted rate V̇ along the
+//! closed-loop error dynamics, so plots and telemetry show what it is doing.
+
+pub mod kanayama;
+pub mod paper;
+pub mod tracking;
+
+use crate::kinematics::{BodyVelocity, Pose};
+use crate::reference::ReferenceState;
+
+pub use kanayama::KanayamaGains;
+pub use paper::{PaperGains, PolarError};
+pub use tracking::TrackingGains;
+
+/// Which steering law the controller runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LawKind {
+    /// The paper's polar regulation law, eqs. (33)–(34), exactly as published.
+    Paper,
+    /// Lyapunov tracking law with feed-forward: zero steady error on a moving reference.
+    Tracking,
+    /// Kanayama et al. (1990), the classic baseline.
+    Kanayama,
+}
+
+impl LawKind {
+    /// Every law, in the order used by comparisons.
+    pub const ALL: [LawKind; 3] = [LawKind::Paper, LawKind::Tracking, LawKind::Kanayama];
+
+    /// The law's short name: `paper`, `tracking` or `kanayama`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            LawKind::Paper => "paper",
+            LawKind::Tracking => "tracking",
+            LawKind::Kanayama => "kanayama",
+        }
+    }
+
+    /// The law called `name` (see [`LawKind::name`]), if any.
+    pub fn from_name(name: &str) -> Option<LawKind> {
+        LawKind::ALL.into_iter().find(|law| law.name() == name)
+    }
+}
+
+/// Gains of all three laws (only the selected law's gains are used).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LawGains {
+    /// Gains of the paper's law.
+    pub paper: PaperGains,
+    /// Gains of the tracking law.
+    pub tracking: TrackingGains,
+    /// Gains of Kanayama's law.
+    pub kanayama: KanayamaGains,
+}
+
+impl LawGains {
+    /// The name of the first gain that is not finite and > 0, if any.
+    pub fn first_invalid(&self) -> Option<&'static str> {
+        let all = [
+            ("paper.gamma", self.paper.gamma),
+            ("paper.k", self.paper.k),
+            ("paper.h", self.paper.h),
+            ("paper.lambda", self.paper.lambda),
+            ("tracking.lambda", self.tracking.lambda),
+            ("tracking.k_x", self.tracking.k_x),
+            ("tracking.k_theta", self.tracking.k_theta),
+            ("kanayama.k_x", self.kanayama.k_x),
+            ("kanayama.k_y", self.kanayama.k_y),
+            ("kanayama.k_theta", self.kanayama.k_theta),
+        ];
+        all.into_iter()
+            .find(|(_, g)| !(g.is_finite() && *g > 0.0))
+            .map(|(name, _)| name)
+    }
+}
+
+/// What a law computed: the command and its diagnostics.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LawOutput {
+    /// Commanded body velocity (v m/s, ω rad/s), before limits.
+    pub command: BodyVelocity,
+    /// Lyapunov function V at this instant (dimensionless mix of m² and rad²).
+    pub lyapunov: f32,
+    /// V̇ predicted by the law's proof along its closed-loop error dynamics, per s (≤ 0).
+    pub lyapunov_rate: f32,
+    /// Polar error (r_e, α, β) of the paper's law (computed for every law, for telemetry).
+    pub polar: PolarError,
+}
+
+/// Runs law `kind` with `gains` for a robot at `robot` chasing `reference`.
+pub fn steer(
+    kind: LawKind,
+    gains: &LawGains,
+    robot: &Pose,
+    reference: &ReferenceState,
+) -> LawOutput {
+    match kind {
+        LawKind::Paper => paper::steer(&gains.paper, robot, &reference.pose),
+        LawKind::Tracking => tracking::steer(&gains.tracking, robot, reference),
+        LawKind::Kanayama => kanayama::steer(&gains.kanayama, robot, reference),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip() {
+        for law in LawKind::ALL {
+            assert_eq!(LawKind::from_name(law.name()), Some(law));
+        }
+        assert_eq!(LawKind::from_name("pid"), None);
+    }
+}

@@ -1,0 +1,305 @@
+//! The one place where the core computes `sqrt`, `sin`, `cos` and `atan2`.
+//!
+//! Every function here is built from IEEE-754 `f32` add, subtract, multiply and divide
+//! only (never a fused multiply-add, never `f64`), so a host build and a Cortex-M4F build
+//! produce the same bits. The one exception is [`sqrt`], which is correctly rounded by
+//! IEEE-754 on both sides: the FPU's `vsqrt.f32` on the M4F and `libm::sqrtf` elsewhere.
+//!
+//! Do not call `x.sqrt()`, `x.sin()` … on an `f32` anywhere in this crate: under
+//! `cargo test` those resolve to `std`'s implementations, which the firmware does not
+//! have, and the host and target would silently compute different numbers.
+//!
+//! | function | max error (measured over its domain, see tests) | M4F cost |
+//! |---|---|---|
+//! | [`sin`], [`cos`], [`sin_cos`] | ≤ 2e-7 absolute for \|x\| ≤ 8π; ≤ 1e-5 for \|x\| ≤ 1e4 | ~40 instructions |
+//! | [`atan2`] | ≤ 3e-7 rad | ~50 instructions, 1–2 divisions |
+//! | [`sqrt`] | correctly rounded | a call to `vsqrt.f32` (14 cycles) |
+//!
+//! The alternatives were measured and rejected: `micromath`'s `sqrt` is ~5 % off, and
+//! `libm`'s `sinf`/`cosf` evaluate in `f64`, which is software on the M4F (1200–2100
+//! instructions per call).
+
+use core::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
+
+/// 2/π, used to find the quadrant of an angle.
+const FRAC_2_PI: f32 = core::f32::consts::FRAC_2_PI;
+/// π/2 split in three parts (Cody–Waite), so that `x - k·π/2` stays exact for moderate `k`.
+const PIO2_HI: f32 = 1.570_312_5;
+const PIO2_MID: f32 = 4.837_513e-4;
+const PIO2_LO: f32 = 7.549_79e-8;
+
+/// Rounds to the nearest integer, ties away from zero. Saturates for huge or NaN input
+/// (NaN gives 0), never panics.
+#[inline]
+fn round_to_i32(x: f32) -> i32 {
+    if x >= 0.0 {
+        (x + 0.5) as i32
+    } else {
+        (x - 0.5) as i32
+    }
+}
+
+/// Sine and cosine of `r` for |r| ≤ π/4 (minimax polynomials, Cephes `sinf`/`cosf`).
+#[inline]
+fn sin_cos_kernel(r: f32) -> (f32, f32) {
+    let z = r * r;
+    let s = r + r * z * (-1.666_665_5e-1 + z * (8.332_161e-3 + z * -1.951_529_6e-4));
+    let c = 1.0 - 0.5 * z + z * z * (4.166_664_6e-2 + z * (-1.388_731_6e-3 + z * 2.443_315_7e-5));
+    (s, c)
+}
+
+/// Sine and cosine of an angle in radians, computed together (one range reduction).
+///
+/// Accurate to ~2e-7 for |x| ≤ 8π and to 1e-5 up to |x| = 1e4; angles in the core are
+/// wrapped to (−π, π] first. Non-finite input gives NaN, never a panic.
+pub fn sin_cos(x: f32) -> (f32, f32) {
+    if !x.is_finite() {
+        return (f32::NAN, f32::NAN);
+    }
+    let k = round_to_i32(x * FRAC_2_PI);
+    let kf = k as f32;
+    let r = ((x - kf * PIO2_HI) - kf * PIO2_MID) - kf * PIO2_LO;
+    let (s, c) = sin_cos_kernel(r);
+    match k & 3 {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    }
+}
+
+/// Sine of an angle in radians. See [`sin_cos`] for accuracy.
+#[inline]
+pub fn sin(x: f32) -> f32 {
+    sin_cos(x).0
+}
+
+/// Cosine of an angle in radians. See [`sin_cos`] for accuracy.
+#[inline]
+pub fn cos(x: f32) -> f32 {
+    sin_cos(x).1
+}
+
+/// sin(x)/x, with its removable singularity at x = 0 evaluated by a series, never by 0/0.
+///
+/// This is the factor of the paper's eq. (34), (cos θ_e sin θ_e / θ_e).
+pub fn sinc(x: f32) -> f32 {
+    let z = x * x;
+    if z < 1e-4 {
+        // sin x / x = 1 − x²/6 + x⁴/120 − …; the next term is < 2e-13 here.
+        1.0 - z * (1.0 / 6.0) + z * z * (1.0 / 120.0)
+    } else {
+        sin(x) / x
+    }
+}
+
+/// Arc tangent of `a` for 0 ≤ a ≤ 1 (Cephes `atanf` polynomial, with the π/8 reduction).
+#[inline]
+fn atan_unit(a: f32) -> f32 {
+    // tan(π/8)
+    let (base, t) = if a > 0.414_213_57 {
+        (FRAC_PI_4, (a - 1.0) / (a + 1.0))
+    } else {
+        (0.0, a)
+    };
+    let z = t * t;
+    let p = (((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_295e-1) * z;
+    base + (t + t * p)
+}
+
+/// Four-quadrant arc tangent of `y/x`, in radians, in [−π, π].
+///
+/// `atan2(0, 0)` is 0 (no division by zero); non-finite input gives NaN or a finite
+/// value, never a panic.
+pub fn atan2(y: f32, x: f32) -> f32 {
+    let ax = abs(x);
+    let ay = abs(y);
+    let (lo, hi) = if ax >= ay { (ay, ax) } else { (ax, ay) };
+    if hi == 0.0 {
+        return 0.0;
+    }
+    let mut angle = atan_unit(lo / hi);
+    if ay > ax {
+        angle = FRAC_PI_2 - angle;
+    }
+    if x < 0.0 {
+        angle = PI - angle;
+    }
+    if y < 0.0 {
+        -angle
+    } else {
+        angle
+    }
+}
+
+// The Cortex-M4F's FPU has a correctly rounded `vsqrt.f32` (14 cycles). Stable Rust cannot
+// name the FPU registers in inline `asm!` for this target (the `vfp2` feature is unstable
+// there), so it is a two-instruction leaf function: under the hard-float ABI the argument
+// and the result are both in s0.
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+core::arch::global_asm!(
+    ".section .text.controller_core_vsqrt_f32,\"ax\",%progbits",
+    ".global controller_core_vsqrt_f32",
+    ".type controller_core_vsqrt_f32,%function",
+    ".fpu fpv4-sp-d16",
+    ".thumb_func",
+    "controller_core_vsqrt_f32:",
+    "vsqrt.f32 s0, s0",
+    "bx lr",
+    ".size controller_core_vsqrt_f32, . - controller_core_vsqrt_f32",
+);
+
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+extern "C" {
+    fn controller_core_vsqrt_f32(x: f32) -> f32;
+}
+
+/// Square root, correctly rounded (IEEE-754), identical bits on host and Cortex-M4F.
+///
+/// Negative input gives NaN.
+#[inline]
+pub fn sqrt(x: f32) -> f32 {
+    #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+    {
+        // SAFETY: the function above reads s0 and writes s0 and touches nothing else,
+        // which is exactly the hard-float AAPCS contract of `extern "C" fn(f32) -> f32`.
+        unsafe { controller_core_vsqrt_f32(x) }
+    }
+    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+    {
+        libm::sqrtf(x)
+    }
+}
+
+/// Euclidean length √(x² + y²) of a vector in metres (or any unit).
+#[inline]
+pub fn hypot(x: f32, y: f32) -> f32 {
+    sqrt(x * x + y * y)
+}
+
+/// Absolute value (bit operation, so also correct for −0 and NaN).
+#[inline]
+pub fn abs(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() & 0x7fff_ffff)
+}
+
+/// Clamps `x` into `[lo, hi]`. NaN is returned unchanged so that faults stay visible.
+#[inline]
+pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
+
+/// Wraps an angle in radians into (−π, π]. Non-finite input is returned unchanged so that
+/// the caller's fault check sees it.
+pub fn wrap_angle(a: f32) -> f32 {
+    if a > -PI && a <= PI {
+        return a;
+    }
+    if !a.is_finite() {
+        return a;
+    }
+    let turns = round_to_i32(a / TAU) as f32;
+    let mut w = a - turns * TAU;
+    if w <= -PI {
+        w += TAU;
+    } else if w > PI {
+        w -= TAU;
+    }
+    w
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn max_err(f: impl Fn(f32) -> f32, g: impl Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
+        let n = 200_000;
+        (0..=n)
+            .map(|i| {
+                let x = (lo + (hi - lo) * i as f64 / n as f64) as f32;
+                (f(x) as f64 - g(x as f64)).abs()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn sin_cos_within_2e7_on_eight_pi() {
+        let r = 8.0 * core::f64::consts::PI;
+        assert!(max_err(sin, f64::sin, -r, r) < 2e-7);
+        assert!(max_err(cos, f64::cos, -r, r) < 2e-7);
+    }
+
+    #[test]
+    fn sin_cos_within_1e5_up_to_1e4() {
+        assert!(max_err(sin, f64::sin, -1e4, 1e4) < 1e-5);
+        assert!(max_err(cos, f64::cos, -1e4, 1e4) < 1e-5);
+    }
+
+    #[test]
+    fn sin_cos_hand_values() {
+        assert_eq!(sin(0.0), 0.0);
+        assert_eq!(cos(0.0), 1.0);
+        assert!((sin(FRAC_PI_2) - 1.0).abs() < 1e-7);
+        assert!((cos(PI) + 1.0).abs() < 1e-7);
+        assert!((sin(PI / 6.0) - 0.5).abs() < 1e-7);
+    }
+
+    #[test]
+    fn atan2_matches_f64_everywhere() {
+        let mut worst = 0.0f64;
+        for i in 0..720 {
+            let a = i as f64 * core::f64::consts::PI / 360.0;
+            for r in [1e-6, 0.3, 1.0, 7.0, 1e5] {
+                let (y, x) = ((r * a.sin()) as f32, (r * a.cos()) as f32);
+                let exact = (y as f64).atan2(x as f64);
+                worst = worst.max((atan2(y, x) as f64 - exact).abs());
+            }
+        }
+        assert!(worst < 3e-7, "worst atan2 error {worst}");
+        assert_eq!(atan2(0.0, 0.0), 0.0);
+        assert!((atan2(1.0, 0.0) - FRAC_PI_2).abs() < 1e-7);
+        assert!((atan2(0.0, -1.0) - PI).abs() < 1e-7);
+        assert!((atan2(-1.0, -1.0) + 3.0 * FRAC_PI_4).abs() < 1e-7);
+    }
+
+    #[test]
+    fn sqrt_is_correctly_rounded() {
+        for i in 0..100_000u32 {
+            let x = f32::from_bits(0x3000_0000 + i * 9973);
+            let exact = (x as f64).sqrt() as f32; // f64 sqrt then round = correctly rounded f32
+            assert_eq!(sqrt(x).to_bits(), exact.to_bits(), "x = {x}");
+        }
+        assert_eq!(sqrt(0.0), 0.0);
+        assert!(sqrt(-1.0).is_nan());
+    }
+
+    #[test]
+    fn sinc_is_continuous_through_zero() {
+        assert_eq!(sinc(0.0), 1.0);
+        for x in [1e-8f32, 1e-4, 9.9e-3, 1.01e-2, 0.5, 3.0] {
+            let exact = (x as f64).sin() / x as f64;
+            assert!((sinc(x) as f64 - exact).abs() < 1e-6, "x = {x}");
+            assert_eq!(sinc(-x), sinc(x));
+        }
+    }
+
+    #[test]
+    fn wrap_angle_lands_in_half_open_interval() {
+        assert_eq!(wrap_angle(PI), PI);
+        assert!((wrap_angle(-PI) - PI).abs() < 1e-6);
+        assert!((wrap_angle(3.0 * PI / 2.0) + PI / 2.0).abs() < 1e-6);
+        assert!((wrap_angle(-7.0) - (-7.0 + TAU)).abs() < 1e-6);
+        assert!((wrap_angle(100.0) - (100.0 - 16.0 * TAU)).abs() < 1e-4);
+        assert!(wrap_angle(f32::NAN).is_nan());
+        for i in -1000..1000 {
+            let w = wrap_angle(i as f32 * 0.37);
+            assert!(w > -PI && w <= PI);
+        }
+    }
+}

@@ -428,15 +428,26 @@ mod tests {
                 1..300,
             ),
             law in prop::sample::select(LawKind::ALL.to_vec()),
+            pose in prop::option::of((
+                prop::num::f32::ANY, prop::num::f32::ANY, prop::num::f32::ANY
+            )),
         ) {
             let mut c = controller();
             c.set_law(law);
             c.set_mode(Mode::FollowPath);
+            // Also a pose fix that is NaN, infinite or huge.
+            if let Some((x, y, th)) = pose {
+                c.set_pose(Pose::new(x, y, th));
+            }
             for pair in ticks.chunks(2) {
                 let t = TickDeltas { left: pair[0], right: *pair.last().unwrap_or(&0) };
                 let out = c.step(t);
                 for d in [out.duty.left, out.duty.right] {
                     prop_assert!(d.is_finite() && (-1.0..=1.0).contains(&d));
+                }
+                if !out.telemetry.pose.is_finite() {
+                    prop_assert!(out.telemetry.faults.non_finite);
+                    prop_assert_eq!(out.duty, MotorCommand::STOP);
                 }
             }
         }

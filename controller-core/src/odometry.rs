@@ -65,7 +65,9 @@ impl Odometry {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::encoder::WrappingCounter;
     use core::f32::consts::{PI, TAU};
+    use proptest::prelude::*;
 
     fn odo() -> Odometry {
         // R = 0.05 m, L = 0.2 m, 1000 ticks per revolution.
@@ -118,5 +120,30 @@ mod tests {
         }
         let th = o.pose().theta_rad;
         assert!(th > -PI && th <= PI);
+    }
+
+    proptest! {
+        /// Odometry fed through a 16-bit counter that wraps (raw counts start near the top)
+        /// equals odometry fed the tick deltas directly, bit for bit.
+        #[test]
+        fn odometry_across_a_counter_wrap_equals_odometry_without_one(
+            start_left in 65_000u32..65_536, start_right in 0u32..500,
+            steps in prop::collection::vec((-40i32..40, -40i32..40), 1..400),
+        ) {
+            let mut direct = odo();
+            let mut wrapped = odo();
+            let mut left = WrappingCounter::new(16, start_left);
+            let mut right = WrappingCounter::new(16, start_right);
+            let (mut raw_left, mut raw_right) = (start_left, start_right);
+            for &(dl, dr) in &steps {
+                raw_left = raw_left.wrapping_add(dl as u32) & 0xffff;
+                raw_right = raw_right.wrapping_add(dr as u32) & 0xffff;
+                let a = direct.update(dl, dr);
+                let b = wrapped.update(left.delta(raw_left), right.delta(raw_right));
+                prop_assert_eq!(a.x_m.to_bits(), b.x_m.to_bits());
+                prop_assert_eq!(a.y_m.to_bits(), b.y_m.to_bits());
+                prop_assert_eq!(a.theta_rad.to_bits(), b.theta_rad.to_bits());
+            }
+        }
     }
 }

@@ -422,6 +422,15 @@ impl Path {
         let mut best_s = hint_m;
         let mut best_d = f32::INFINITY;
         for (segment, start) in self.segments.iter().zip(self.starts_m.iter()) {
+            if !self.overlaps_window(
+                *start,
+                start + segment.length_m(),
+                hint_m,
+                behind_m,
+                ahead_m,
+            ) {
+                continue;
+            }
             let candidate = start + segment.closest_m(p);
             let mut offset = candidate - hint_m;
             if self.closed && behind_m.is_finite() {
@@ -436,6 +445,22 @@ impl Path {
             }
         }
         best_s
+    }
+
+    /// True when arc lengths [`from_m`, `to_m`] meet the search window around `hint_m`
+    /// (also shifted by one length either way on a closed path). Keeps the projection's
+    /// cost to the few segments near the robot instead of the whole path.
+    fn overlaps_window(
+        &self,
+        from_m: f32,
+        to_m: f32,
+        hint_m: f32,
+        behind_m: f32,
+        ahead_m: f32,
+    ) -> bool {
+        let (lo, hi) = (hint_m - behind_m, hint_m + ahead_m);
+        let meets = |shift: f32| from_m + shift <= hi && to_m + shift >= lo;
+        meets(0.0) || (self.closed && (meets(self.length_m) || meets(-self.length_m)))
     }
 }
 

@@ -270,7 +270,9 @@ impl Controller {
     /// One control period: `ticks` counted since the last call. Returns the duties to
     /// apply (in [−1, 1], 0 on any fault) and the step's telemetry.
     pub fn step(&mut self, ticks: TickDeltas) -> StepOutput {
-        let steering_due = self.steps % self.params.config().steering_divider == 0;
+        // Phase the steering loop on the path clock, so the law runs on the very first step
+        // after path following (re)starts.
+        let steering_due = self.path_clock.steps() % self.params.config().steering_divider == 0;
         let mut t = self.telemetry;
         t.step = self.steps;
         t.steering_updated = false;
@@ -288,10 +290,12 @@ impl Controller {
                 self.speed[0].update(ticks.left),
                 self.speed[1].update(ticks.right),
             );
-            if self.mode == Mode::FollowPath && steering_due {
-                self.steer(&mut t);
+            if self.mode == Mode::FollowPath {
+                if steering_due {
+                    self.steer(&mut t);
+                }
+                t.error = tracking_error(&t.pose, &t.reference.pose);
             }
-            t.error = tracking_error(&t.pose, &t.reference.pose);
             t.duty = match self.mode {
                 Mode::Idle => MotorCommand::STOP,
                 Mode::FollowPath | Mode::HoldWheelSpeeds(_) => MotorCommand {
@@ -385,6 +389,12 @@ mod tests {
         assert!(out.telemetry.steering_updated);
         assert!(out.duty.left > 0.0 && out.duty.right > 0.0);
         assert!(!out.telemetry.faults.any());
+        // The steering law runs every `steering_divider` (10) steps, the PIDs every step.
+        let pattern: Vec<bool> = (1..=20)
+            .map(|_| c.step(TickDeltas::default()).telemetry.steering_updated)
+            .collect();
+        let expected: Vec<bool> = (1..=20).map(|k| k % 10 == 0).collect();
+        assert_eq!(pattern, expected);
     }
 
     #[test]

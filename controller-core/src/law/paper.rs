@@ -69,6 +69,37 @@ pub fn lyapunov(gains: &PaperGains, e: &PolarError) -> f32 {
         + 0.5 * (e.alpha_rad * e.alpha_rad + gains.h * e.beta_rad * e.beta_rad)
 }
 
+/// Eqs. (27)–(29): the rates (ṙ_e m/s, α̇ rad/s, β̇ rad/s) of the polar error when the
+/// robot moves at `command` and the reference pose is **fixed**. Undefined at r_e = 0;
+/// there the rates of α and β are returned as 0.
+pub fn polar_error_rate(e: &PolarError, command: BodyVelocity) -> PolarError {
+    let (sin_a, cos_a) = math::sin_cos(e.alpha_rad);
+    let bearing_rate = if e.r_e_m > 0.0 {
+        command.v_m_s * sin_a / e.r_e_m
+    } else {
+        0.0
+    };
+    PolarError {
+        r_e_m: -command.v_m_s * cos_a,
+        alpha_rad: -command.omega_rad_s + bearing_rate,
+        beta_rad: bearing_rate,
+    }
+}
+
+/// Eq. (32): V̇ for *any* command (v, ω) and a fixed reference,
+/// V̇ = −λ r_e v cos α + α [−ω + v (sin α / (r_e α)) (α + hβ)].
+/// Under the law (33)–(34) it reduces to (35).
+pub fn lyapunov_rate(gains: &PaperGains, e: &PolarError, command: BodyVelocity) -> f32 {
+    let cos_a = math::cos(e.alpha_rad);
+    let bearing = if e.r_e_m > 0.0 {
+        command.v_m_s * math::sinc(e.alpha_rad) / e.r_e_m
+    } else {
+        0.0
+    };
+    -gains.lambda * e.r_e_m * command.v_m_s * cos_a
+        + e.alpha_rad * (-command.omega_rad_s + bearing * (e.alpha_rad + gains.h * e.beta_rad))
+}
+
 /// Eqs. (33)–(34) for a robot at `robot` and the reference pose `target`, with V (30) and
 /// V̇ (35).
 pub fn steer(gains: &PaperGains, robot: &Pose, target: &Pose) -> LawOutput {
@@ -146,7 +177,52 @@ mod tests {
         assert!(at.command.omega_rad_s.is_finite());
     }
 
+    #[test]
+    fn polar_rates_match_finite_differences_for_a_fixed_target() {
+        // Eqs. (27)–(29) against a central difference of the polar error along (5).
+        let robot = Pose::new(0.3, -0.2, 0.4);
+        let target = Pose::new(1.5, 0.8, -0.7);
+        let command = BodyVelocity::new(0.35, -0.6);
+        let rate = pose_rate(&robot, command);
+        let dt = 1e-3f32;
+        let moved = |h: f32| {
+            let p = Pose::new(
+                robot.x_m + rate.x_dot_m_s * h,
+                robot.y_m + rate.y_dot_m_s * h,
+                robot.theta_rad + rate.theta_dot_rad_s * h,
+            );
+            polar_error(&p, &target)
+        };
+        let (ahead, behind) = (moved(dt), moved(-dt));
+        let e = polar_error(&robot, &target);
+        let predicted = polar_error_rate(&e, command);
+        assert!(((ahead.r_e_m - behind.r_e_m) / (2.0 * dt) - predicted.r_e_m).abs() < 1e-3);
+        assert!(
+            ((ahead.alpha_rad - behind.alpha_rad) / (2.0 * dt) - predicted.alpha_rad).abs() < 1e-3
+        );
+        assert!(
+            ((ahead.beta_rad - behind.beta_rad) / (2.0 * dt) - predicted.beta_rad).abs() < 1e-3
+        );
+        // (31) from these rates equals (32).
+        let v31 = GAINS.lambda * e.r_e_m * predicted.r_e_m
+            + e.alpha_rad * predicted.alpha_rad
+            + GAINS.h * e.beta_rad * predicted.beta_rad;
+        assert!((v31 - lyapunov_rate(&GAINS, &e, command)).abs() < 1e-5);
+    }
+
     proptest! {
+        /// Under the law, (32) reduces to (35).
+        #[test]
+        fn eq_32_reduces_to_eq_35_under_the_law(
+            x in -3.0f32..3.0, y in -3.0f32..3.0, th in -3.1f32..3.1, tth in -3.1f32..3.1,
+        ) {
+            let robot = Pose::new(x, y, th);
+            let target = Pose::new(0.0, 0.0, tth);
+            let out = steer(&GAINS, &robot, &target);
+            let general = lyapunov_rate(&GAINS, &out.polar, out.command);
+            prop_assert!((general - out.lyapunov_rate).abs() < 1e-3 * (1.0 + general.abs()));
+        }
+
         /// For a fixed reference, V̇ from (35) is ≤ 0 and agrees with the finite-difference
         /// V̇ along one small unicycle step under the law's own command.
         #[test]

@@ -1,1 +1,87 @@
-fn main() {}
+//! Project automation, run as `cargo xtask <command>` (an alias in `.cargo/config.toml`).
+//!
+//! | command | what it does |
+//! |---|---|
+//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU program), host tests, firmware build and size budget, the core on an emulated Cortex-M4F. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
+//! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` |
+//! | `size` | builds the firmware and checks it against the flash and RAM budget |
+//! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
+//! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
+//!
+//! Every step runs even if an earlier one failed, so one CI log shows every problem.
+
+mod elf_size;
+mod qemu;
+mod setup;
+mod steps;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{bail, Context as _, Result};
+
+use crate::steps::{Context, Step};
+
+const USAGE: &str = "usage: cargo xtask <command>
+
+commands:
+  ci      run every check (what CI runs): setup, fmt, clippy, tests, firmware size, QEMU
+  setup   install what is missing: ARM target, flip-link, qemu-system-arm
+  size    build the firmware and check its flash / static RAM budget
+  qemu    run the core on an emulated Cortex-M4F and compare with the host
+  size-of ELF
+          flash and static RAM of an ARM ELF against the firmware budget (no build)";
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::FAILURE,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Runs the command named on the command line; `Ok(false)` when a step failed.
+fn run() -> Result<bool> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let ctx = Context::new(workspace_root()?);
+    let selected: Vec<Step> = match args.iter().map(String::as_str).collect::<Vec<_>>()[..] {
+        ["ci"] => steps::ci(),
+        ["setup"] => vec![steps::setup()],
+        ["size"] => vec![steps::setup(), steps::firmware_size()],
+        ["qemu"] => vec![steps::setup(), steps::qemu()],
+        ["size-of", elf] => {
+            let elf = PathBuf::from(elf);
+            vec![Step::new("size of an ELF", move |_| {
+                elf_size::check_budget("ELF", &elf, elf_size::FLASH_BUDGET, elf_size::RAM_BUDGET)
+                    .map(drop)
+            })]
+        }
+        ["help" | "-h" | "--help"] => {
+            println!("{USAGE}");
+            return Ok(true);
+        }
+        _ => bail!("unknown command {args:?}\n\n{USAGE}"),
+    };
+    Ok(steps::run_all(&ctx, &selected))
+}
+
+/// The workspace root: the parent of this crate's manifest directory.
+fn workspace_root() -> Result<PathBuf> {
+    let manifest_dir = std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")));
+    let root = manifest_dir
+        .parent()
+        .context("xtask's manifest directory has no parent")?
+        .to_path_buf();
+    if !root.join("Cargo.toml").is_file() {
+        bail!(
+            "no Cargo.toml in {} (expected the workspace root)",
+            root.display()
+        );
+    }
+    Ok(root)
+}

@@ -1,0 +1,223 @@
+//! The steps of `cargo xtask ci`, and running them: headers, timing, the closing tally.
+
+use std::ffi::OsString;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+use anyhow::{bail, Context as _, Result};
+
+use crate::{elf_size, qemu, setup};
+
+/// The ARM target of the firmware and the QEMU program.
+pub const TARGET: &str = "thumbv7em-none-eabihf";
+/// Packages built only for [`TARGET`], never for the host.
+pub const TARGET_ONLY_PACKAGES: [&str; 2] = ["firmware", "qemu-m4f"];
+
+/// What every step needs: where the workspace is and which `cargo` runs it.
+pub struct Context {
+    /// The workspace root (where `Cargo.toml` and `memory.x` are).
+    pub root: PathBuf,
+    /// The `cargo` that started xtask (`$CARGO`), so nested builds use the same toolchain.
+    cargo: OsString,
+}
+
+impl Context {
+    /// A context for the workspace at `root`.
+    pub fn new(root: PathBuf) -> Self {
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        Self { root, cargo }
+    }
+
+    /// `cargo <args>`, run in the workspace root.
+    pub fn cargo(&self, args: &[&str]) -> Command {
+        let mut cmd = Command::new(&self.cargo);
+        cmd.args(args).current_dir(&self.root).stdin(Stdio::null());
+        cmd
+    }
+}
+
+/// Prints `$ program args…` (for the log) and runs `cmd` with inherited output.
+pub fn run_command(cmd: &mut Command) -> Result<()> {
+    let shown = display_command(cmd);
+    println!("$ {shown}");
+    let status = cmd
+        .status()
+        .with_context(|| format!("could not start `{shown}`"))?;
+    if !status.success() {
+        bail!("`{shown}` failed ({status})");
+    }
+    Ok(())
+}
+
+/// `program args…` with the program shown by its file name.
+pub fn display_command(cmd: &Command) -> String {
+    let program = Path::new(cmd.get_program())
+        .file_name()
+        .unwrap_or(cmd.get_program())
+        .to_string_lossy()
+        .into_owned();
+    cmd.get_args().fold(program, |mut line, arg| {
+        line.push(' ');
+        line.push_str(&arg.to_string_lossy());
+        line
+    })
+}
+
+/// Builds `package` for [`TARGET`] in release and returns the paths of the executables
+/// it produced (diagnostics go to the terminal as usual).
+pub fn build_target_executables(ctx: &Context, package: &str) -> Result<Vec<PathBuf>> {
+    let mut cmd = ctx.cargo(&[
+        "build",
+        "--release",
+        "--package",
+        package,
+        "--target",
+        TARGET,
+        "--message-format=json-render-diagnostics",
+    ]);
+    let shown = display_command(&cmd);
+    println!("$ {shown}");
+    let output = cmd
+        .stderr(Stdio::inherit())
+        .output()
+        .with_context(|| format!("could not start `{shown}`"))?;
+    if !output.status.success() {
+        bail!("`{shown}` failed ({})", output.status);
+    }
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let mut executables = Vec::new();
+    for line in stdout.lines().filter(|l| l.starts_with('{')) {
+        let message: serde_json::Value = serde_json::from_str(line)
+            .with_context(|| format!("cargo printed a line that is not JSON: {line}"))?;
+        if message["reason"] != "compiler-artifact" {
+            continue;
+        }
+        let is_bin = message["target"]["kind"]
+            .as_array()
+            .is_some_and(|kinds| kinds.iter().any(|k| k == "bin"));
+        if let (true, Some(path)) = (is_bin, message["executable"].as_str()) {
+            executables.push(PathBuf::from(path));
+        }
+    }
+    Ok(executables)
+}
+
+/// What a step runs; an error fails the step.
+pub type Check = dyn Fn(&Context) -> Result<()>;
+
+/// A named check.
+pub struct Step {
+    /// Shown in the header and the summary.
+    pub name: &'static str,
+    /// The check.
+    pub run: Box<Check>,
+}
+
+impl Step {
+    /// A step named `name` that runs `run`.
+    pub fn new(name: &'static str, run: impl Fn(&Context) -> Result<()> + 'static) -> Self {
+        Self {
+            name,
+            run: Box::new(run),
+        }
+    }
+}
+
+/// Runs every step (all of them, whatever fails), prints a summary and the closing line
+/// `N passed, N failed`. Returns true when all passed.
+pub fn run_all(ctx: &Context, steps: &[Step]) -> bool {
+    let started = Instant::now();
+    let mut results = Vec::with_capacity(steps.len());
+    for (i, step) in steps.iter().enumerate() {
+        println!("\n==> [{}/{}] {}", i + 1, steps.len(), step.name);
+        let t0 = Instant::now();
+        let result = (step.run)(ctx);
+        let secs = t0.elapsed().as_secs_f64();
+        match &result {
+            Ok(()) => println!("--> ok: {} ({secs:.1} s)", step.name),
+            Err(e) => println!("--> FAILED: {} ({secs:.1} s)\n    {e:#}", step.name),
+        }
+        results.push((step.name, secs, result));
+    }
+
+    println!("\n==> summary ({:.0} s)", started.elapsed().as_secs_f64());
+    for (name, secs, result) in &results {
+        let verdict = if result.is_ok() { "ok    " } else { "FAILED" };
+        println!("    {verdict} {name} ({secs:.1} s)");
+    }
+    let failed = results.iter().filter(|(_, _, r)| r.is_err()).count();
+    println!("{} passed, {failed} failed", results.len() - failed);
+    failed == 0
+}
+
+/// Every check, in the order `cargo xtask ci` runs them.
+pub fn ci() -> Vec<Step> {
+    vec![
+        setup(),
+        Step::new("rustfmt", |ctx| {
+            run_command(&mut ctx.cargo(&["fmt", "--all", "--check"]))
+        }),
+        Step::new("clippy: host crates", |ctx| {
+            let mut args = vec!["clippy", "--workspace"];
+            for package in TARGET_ONLY_PACKAGES {
+                args.extend(["--exclude", package]);
+            }
+            args.extend(["--all-targets", "--", "-D", "warnings"]);
+            run_command(&mut ctx.cargo(&args))
+        }),
+        Step::new("clippy: firmware (thumbv7em-none-eabihf)", |ctx| {
+            clippy_for_target(ctx, "firmware")
+        }),
+        Step::new("clippy: qemu-m4f (thumbv7em-none-eabihf)", |ctx| {
+            clippy_for_target(ctx, "qemu-m4f")
+        }),
+        Step::new("tests: host crates", |ctx| {
+            let mut args = vec!["test", "--workspace"];
+            for package in TARGET_ONLY_PACKAGES {
+                args.extend(["--exclude", package]);
+            }
+            run_command(&mut ctx.cargo(&args))
+        }),
+        firmware_size(),
+        qemu(),
+    ]
+}
+
+fn clippy_for_target(ctx: &Context, package: &str) -> Result<()> {
+    run_command(&mut ctx.cargo(&[
+        "clippy",
+        "--package",
+        package,
+        "--target",
+        TARGET,
+        "--release",
+        "--",
+        "-D",
+        "warnings",
+    ]))
+}
+
+/// Installs or checks the ARM target, flip-link and qemu-system-arm.
+pub fn setup() -> Step {
+    Step::new(
+        "setup: thumbv7em target, flip-link, qemu-system-arm",
+        setup::ensure_all,
+    )
+}
+
+/// Builds the firmware and checks flash and static RAM against the budget.
+pub fn firmware_size() -> Step {
+    Step::new(
+        "firmware: release build and size budget",
+        elf_size::check_firmware,
+    )
+}
+
+/// The core on an emulated Cortex-M4F: digest against the host, step budget.
+pub fn qemu() -> Step {
+    Step::new(
+        "qemu: core on an emulated Cortex-M4F (digest vs host, instruction budget)",
+        qemu::check,
+    )
+}

@@ -14,11 +14,16 @@ use anyhow::{bail, Context as _, Result};
 
 use crate::steps::{run_command, Context, TARGET};
 
-/// Runs the three checks; each fixes what it can.
+/// Runs the three checks (all of them); each fixes what it can. The error lists every
+/// tool still missing.
 pub fn ensure_all(ctx: &Context) -> Result<()> {
-    ensure_target(ctx)?;
-    ensure_flip_link(ctx)?;
-    ensure_qemu()?;
+    let problems: Vec<String> = [ensure_target(ctx), ensure_flip_link(ctx), ensure_qemu()]
+        .into_iter()
+        .filter_map(|r| r.err().map(|e| format!("{e:#}")))
+        .collect();
+    if !problems.is_empty() {
+        bail!("{}", problems.join("\n    "));
+    }
     Ok(())
 }
 
@@ -124,15 +129,7 @@ fn ensure_qemu() -> Result<()> {
         );
     }
     println!("qemu-system-arm: missing, installing Debian's package qemu-system-arm");
-    for args in [
-        &["update"][..],
-        &[
-            "install",
-            "-y",
-            "--no-install-recommends",
-            "qemu-system-arm",
-        ][..],
-    ] {
+    for args in [&["update"][..], &["install", "-y", "qemu-system-arm"][..]] {
         run_command(
             Command::new("apt-get")
                 .args(args)

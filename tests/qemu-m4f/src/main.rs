@@ -70,11 +70,14 @@ fn main() -> ! {
     );
 
     // Every step a steering step.
-    let full = timing::per_call_tenths(&calibration, &controller(&scenario, 1), &recorded);
+    let every_step = controller(&scenario, 1);
+    expect_steering(&every_step, &recorded, true);
+    let full = timing::per_call_tenths(&calibration, &every_step, &recorded);
     // The law runs at step 0 only (then not for 2³² − 1 steps): run step 0 untimed, then
     // every timed step is a wheel step.
     let mut wheel_only = controller(&scenario, u32::MAX);
     wheel_only.step(TickDeltas::default());
+    expect_steering(&wheel_only, &recorded, false);
     let wheel = timing::per_call_tenths(&calibration, &wheel_only, &recorded);
     report("control step", full);
     report("wheel step", wheel);
@@ -90,6 +93,30 @@ fn controller(scenario: &Scenario, steering_divider: u32) -> Controller {
     s.controller()
         .unwrap_or_else(|e| fail_with(format_args!("timing setup: {e}")))
         .0
+}
+
+/// Checks, untimed, on a copy of `controller`, that the steps about to be timed are all
+/// steering steps (`steering`) or all wheel-only steps, so the labels printed are true.
+fn expect_steering(controller: &Controller, ticks: &[[i8; 2]], steering: bool) {
+    let mut c = controller.clone();
+    for (i, pair) in ticks.iter().enumerate() {
+        let out = c.step(TickDeltas {
+            left: i32::from(pair[0]),
+            right: i32::from(pair[1]),
+        });
+        if out.telemetry.steering_updated != steering {
+            fail_with(format_args!(
+                "timed step {i}: steering_updated = {}, expected {steering}",
+                out.telemetry.steering_updated
+            ));
+        }
+        if out.telemetry.faults.any() {
+            fail_with(format_args!(
+                "timed step {i}: fault {:?}",
+                out.telemetry.faults
+            ));
+        }
+    }
 }
 
 fn report(what: &str, tenths: u64) {

@@ -1,0 +1,60 @@
+//! Puts the chip's `memory.x` where the linker finds it, adds the linker scripts of
+//! `cortex-m-rt` (`link.x`) and `defmt` (`defmt.x`) for this crate's binary only, and
+//! makes `info` this crate's default defmt log level.
+//!
+//! The scripts are passed here rather than in `.cargo/config.toml` because another
+//! `no_std` program in the workspace (in `tests/`) is built for the same target without
+//! defmt.
+
+use std::env;
+use std::fs;
+use std::path::PathBuf;
+
+/// `memory.x` of the port examples (the F411's is the workspace's top-level `memory.x`).
+const MEMORY_F401: &str = "/* STM32F401CC: 256 KiB flash, 64 KiB SRAM. */
+MEMORY
+{
+  FLASH : ORIGIN = 0x08000000, LENGTH = 256K
+  RAM   : ORIGIN = 0x20000000, LENGTH = 64K
+}
+";
+const MEMORY_F446: &str = "/* STM32F446RE: 512 KiB flash, 128 KiB SRAM (SRAM1 + SRAM2). */
+MEMORY
+{
+  FLASH : ORIGIN = 0x08000000, LENGTH = 512K
+  RAM   : ORIGIN = 0x20000000, LENGTH = 128K
+}
+";
+
+fn main() {
+    let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets it"));
+    let top_level = manifest.join("..").join("memory.x");
+
+    let memory = if env::var_os("CARGO_FEATURE_STM32F401").is_some() {
+        MEMORY_F401.to_owned()
+    } else if env::var_os("CARGO_FEATURE_STM32F446").is_some() {
+        MEMORY_F446.to_owned()
+    } else {
+        println!("cargo:rerun-if-changed={}", top_level.display());
+        fs::read_to_string(&top_level).expect("read the workspace's memory.x")
+    };
+    fs::write(out.join("memory.x"), memory).expect("write memory.x to OUT_DIR");
+
+    // Telemetry is logged at `info`; defmt's own default is `error` only. Default this
+    // crate (only) to `info`; an explicit DEFMT_LOG wins.
+    println!("cargo:rerun-if-env-changed=DEFMT_LOG");
+    if env::var_os("DEFMT_LOG").is_none() {
+        println!("cargo:rustc-env=DEFMT_LOG=info");
+    }
+
+    println!("cargo:rustc-link-search={}", out.display());
+    println!("cargo:rerun-if-changed=build.rs");
+    // Only when building for the MCU: a host `cargo check` of the crate must not ask the
+    // host linker for these scripts.
+    if env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
+        println!("cargo:rustc-link-arg-bins=--nmagic");
+        println!("cargo:rustc-link-arg-bins=-Tlink.x");
+        println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+    }
+}

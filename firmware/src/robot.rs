@@ -1,0 +1,116 @@
+//! The robot: parameters, the built-in paths and the safety settings. The one place to edit
+//! for another robot (geometry, encoders, gains) or another run.
+//!
+//! | Parameter                  | Value                               | Where            |
+//! |----------------------------|-------------------------------------|------------------|
+//! | Geometry, encoders, gains  | `RobotConfig::REFERENCE_ROBOT`      | [`ROBOT`]        |
+//! | Wheel loop / steering rate | 1 kHz / 100 Hz                      | [`ROBOT`]        |
+//! | Steering law               | `LawKind::Tracking`                 | [`LAW`]          |
+//! | Built-in path              | paper's circle (feature `path-line`: line) | [`PATH`]  |
+//! | Reference speed v_r        | 0.25 m/s                            | [`REFERENCE_SPEED_M_S`] |
+//! | Bring-up hold speeds       | 5 rad/s both wheels                 | [`HOLD_SPEEDS`]  |
+//! | Mode after reset           | path following (feature `bring-up`: hold) | [`supervisor_config`] |
+//! | Auto-arm                   | off (feature `auto-arm`: 2 s after power-on) | [`supervisor_config`] |
+//! | Run time limit             | 2 min armed, then disarm            | [`supervisor_config`] |
+//! | Telemetry rate             | 20 Hz                               | [`TELEMETRY_HZ`] |
+
+use core::f32::consts::FRAC_PI_3;
+
+use controller_core::kinematics::{Point, Pose, WheelSpeeds};
+use controller_core::law::LawKind;
+use controller_core::params::RobotConfig;
+use controller_core::path::{Path, PathError};
+use controller_core::reference::ReferenceMode;
+use controller_core::supervisor::{RunMode, SupervisorConfig};
+
+/// The robot's geometry, encoders, rates, limits and gains (the core validates them at
+/// boot). The reference robot: 65 mm wheels, 150 mm track, 12-line encoders behind a 1:30
+/// gearbox (1440 ticks per wheel turn), gains tuned in `host-sim`.
+pub const ROBOT: RobotConfig = RobotConfig::REFERENCE_ROBOT;
+
+/// The steering law.
+pub const LAW: LawKind = LawKind::Tracking;
+
+/// Reference speed along the path, m/s.
+pub const REFERENCE_SPEED_M_S: f32 = 0.25;
+
+/// Wheel speeds held in bring-up mode, rad/s (5 rad/s ≈ 0.16 m/s of rim speed).
+pub const HOLD_SPEEDS: WheelSpeeds = WheelSpeeds::new(5.0, 5.0);
+
+/// Telemetry lines per second, Hz (10–50; each line is one defmt frame of ≈ 150 bytes).
+pub const TELEMETRY_HZ: u32 = 20;
+const _: () = assert!(TELEMETRY_HZ >= 10 && TELEMETRY_HZ <= 50);
+
+/// A path built into the firmware.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
+pub enum BuiltInPath {
+    /// The paper's experiment: circle x² + y² = 1.25² (m), counter-clockwise, the robot
+    /// starting at (−1, −1.2) m heading 2π/3. Needs a 3 m × 3 m floor.
+    Circle,
+    /// A 2 m straight line along +x from the origin; the robot starts 0.2 m to its right
+    /// (at (0, −0.2) m), heading along it.
+    Line,
+}
+
+/// The path this build follows.
+pub const PATH: BuiltInPath = if cfg!(feature = "path-line") {
+    BuiltInPath::Line
+} else {
+    BuiltInPath::Circle
+};
+
+/// The paper's start pose for the circle (world frame, m and rad).
+const CIRCLE_START: Pose = Pose {
+    x_m: -1.0,
+    y_m: -1.2,
+    theta_rad: 2.0 * FRAC_PI_3,
+};
+/// Start pose for the line (world frame, m and rad).
+const LINE_START: Pose = Pose {
+    x_m: 0.0,
+    y_m: -0.2,
+    theta_rad: 0.0,
+};
+
+impl BuiltInPath {
+    /// Where the robot is put down before arming (world frame, m and rad).
+    pub const fn start_pose(self) -> Pose {
+        match self {
+            BuiltInPath::Circle => CIRCLE_START,
+            BuiltInPath::Line => LINE_START,
+        }
+    }
+
+    /// The path, and how its reference point moves: the paper's time-indexed virtual
+    /// robot, starting at the path point nearest the start pose.
+    pub fn build(self) -> Result<(Path, ReferenceMode), PathError> {
+        let mode = ReferenceMode::TimeIndexed {
+            start_offset_m: 0.0,
+        };
+        let path = match self {
+            BuiltInPath::Circle => {
+                let start = CIRCLE_START;
+                let angle = controller_core::math::atan2(start.y_m, start.x_m);
+                Path::circle(Point::new(0.0, 0.0), 1.25, angle, true)?
+            }
+            BuiltInPath::Line => Path::line(Point::new(0.0, 0.0), 0.0, 2.0)?,
+        };
+        Ok((path, mode))
+    }
+}
+
+/// Arming, timeouts and fault thresholds for this robot.
+pub const fn supervisor_config() -> SupervisorConfig {
+    let mut config =
+        SupervisorConfig::at_rate(ROBOT.control_rate_hz, PATH.start_pose(), HOLD_SPEEDS);
+    if cfg!(feature = "bring-up") {
+        config.initial_mode = RunMode::HoldWheelSpeeds;
+    }
+    if cfg!(feature = "auto-arm") {
+        // 2 s after a power-on or pin reset; never after a watchdog or software reset.
+        config.auto_arm_after_steps = Some(2 * ROBOT.control_rate_hz);
+    }
+    // Stop by itself after 2 minutes armed (four laps of the circle).
+    config.max_armed_steps = Some(120 * ROBOT.control_rate_hz);
+    config
+}

@@ -173,7 +173,8 @@ pub fn ci() -> Vec<Step> {
             clippy_for_target(ctx, "qemu-m4f")
         }),
         Step::new("tests: host crates", |ctx| {
-            let mut args = vec!["test", "--workspace"];
+            // --no-fail-fast: one failing crate must not hide the others' results.
+            let mut args = vec!["test", "--workspace", "--no-fail-fast"];
             for package in TARGET_ONLY_PACKAGES {
                 args.extend(["--exclude", package]);
             }

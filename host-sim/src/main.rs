@@ -1,1 +1,322 @@
-fn main() {}
+//! `host-sim`: run the paper's experiments and your own scenarios against a simulated
+//! robot. `host-sim --help` lists the commands.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand, ValueEnum};
+use controller_core::law::LawKind;
+use host_sim::output::{self, settle_text};
+use host_sim::run::{run_scenario, wheel_step_response};
+use host_sim::scenario::BUILTIN;
+use host_sim::{plot, sweep, Scenario};
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// Differential-drive robot simulator for the Jin & Tack (2011) path-following stack.
+#[derive(Parser)]
+#[command(name = "host-sim", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// Steering law (see controller_core::law).
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum Law {
+    /// The paper's polar law (33)–(34), as published: trails a moving reference by ≈ v_r/γ.
+    Paper,
+    /// The paper's Lyapunov design redone for a moving reference: zero steady error.
+    Tracking,
+    /// Kanayama et al. (1990), the classic baseline.
+    Kanayama,
+}
+
+impl From<Law> for LawKind {
+    fn from(law: Law) -> Self {
+        match law {
+            Law::Paper => LawKind::Paper,
+            Law::Tracking => LawKind::Tracking,
+            Law::Kanayama => LawKind::Kanayama,
+        }
+    }
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run one scenario: writes trace.csv, summary.json and Figs. 5–7 (SVG) into --out.
+    Run {
+        /// Built-in scenario name (see `list`) or a path to a .toml file.
+        scenario: String,
+        #[arg(long, value_enum, default_value_t = Law::Tracking)]
+        law: Law,
+        /// Output directory [default: host-sim-out/<scenario>/<law>].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Trace row every N control steps (1 = every step).
+        #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]
+        trace_every: u32,
+    },
+    /// Every law on the same plant: a table on stdout and compare.svg in --out.
+    Compare {
+        /// Built-in scenario name or a path to a .toml file.
+        scenario: String,
+        /// Output directory [default: host-sim-out/<scenario>/compare].
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Monte-Carlo over mismatch, noise and start pose (the scenario's [sweep] spreads),
+    /// on every core.
+    Sweep {
+        /// Built-in scenario name or a path to a .toml file.
+        scenario: String,
+        /// Number of runs.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+        runs: u32,
+        #[arg(long, value_enum, default_value_t = Law::Tracking)]
+        law: Law,
+        /// Seed of the draws.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Also write sweep.json (every run's draws and results) into this directory.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Wheel-speed loop alone: a set-point step from rest, to tune the wheel PID.
+    StepResponse {
+        /// Built-in scenario name or a path to a .toml file (its robot and plant are used).
+        #[arg(default_value = "paper-circle")]
+        scenario: String,
+        /// Set-point, rad/s (wheel).
+        #[arg(long, default_value_t = 15.0, allow_negative_numbers = true)]
+        setpoint_rad_s: f64,
+        /// Duration, s.
+        #[arg(long, default_value_t = 1.0)]
+        duration_s: f64,
+        /// Output directory for step_response.svg [default: host-sim-out/<scenario>/step].
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// List the built-in scenarios.
+    List,
+    /// Print a built-in scenario's TOML (a starting point for your own).
+    Show {
+        /// Built-in scenario name.
+        name: String,
+    },
+}
+
+fn default_dir(scenario: &Scenario, leaf: &str) -> PathBuf {
+    // A file path as scenario name would nest oddly: keep only safe characters.
+    let name: String = scenario
+        .name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    PathBuf::from("host-sim-out").join(name).join(leaf)
+}
+
+fn load(name: &str) -> Result<Scenario> {
+    Ok(Scenario::load(name)?)
+}
+
+fn cmd_run(scenario: &str, law: Law, out: Option<PathBuf>, trace_every: u32) -> Result<()> {
+    let scenario = load(scenario)?;
+    let law = LawKind::from(law);
+    let options = host_sim::RunOptions {
+        trace_every_steps: trace_every,
+    };
+    let result = host_sim::run_scenario_with(&scenario, law, options)?;
+    let dir = out.unwrap_or_else(|| default_dir(&scenario, law.name()));
+    let files = output::write_run(&dir, &scenario, &result)?;
+    print!("{}", output::human_summary(&scenario, &result));
+    println!("  wrote {} files to {}", files.len(), dir.display());
+    Ok(())
+}
+
+fn cmd_compare(scenario: &str, out: Option<PathBuf>) -> Result<()> {
+    let scenario = load(scenario)?;
+    let mut results = Vec::new();
+    for law in LawKind::ALL {
+        results.push((law, run_scenario(&scenario, law)?));
+    }
+    println!(
+        "{}: every law on the same plant ({} s)\n",
+        scenario.name, scenario.duration_s
+    );
+    println!(
+        "{:<9} {:>12} {:>11} {:>12} {:>11} {:>11} {:>10} {:>6}",
+        "law", "settle", "final e/m", "final θe/°", "rms10 e/m", "max10 e/m", "ω_w max", "duty"
+    );
+    for (law, r) in &results {
+        let s = &r.summary;
+        println!(
+            "{:<9} {:>12} {:>11.4} {:>12.2} {:>11.4} {:>11.4} {:>10.1} {:>6.2}",
+            law.name(),
+            settle_text(s.settle_time_s),
+            s.final_position_error_m,
+            s.final_heading_error_rad.to_degrees(),
+            s.rms_position_error_m,
+            s.max_position_error_m,
+            s.max_wheel_speed_rad_s,
+            s.max_duty
+        );
+    }
+    let dir = out.unwrap_or_else(|| default_dir(&scenario, "compare"));
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let file = dir.join("compare.svg");
+    let runs: Vec<(&str, &[host_sim::run::TraceRow])> = results
+        .iter()
+        .map(|(law, r)| (law.name(), r.trace.as_slice()))
+        .collect();
+    plot::compare(&file, &scenario.name, &scenario.path, &runs)?;
+    println!("\nwrote {}", file.display());
+    Ok(())
+}
+
+fn cmd_sweep(scenario: &str, runs: u32, law: Law, seed: u64, out: Option<PathBuf>) -> Result<()> {
+    let scenario = load(scenario)?;
+    let law = LawKind::from(law);
+    let bar = ProgressBar::new(u64::from(runs));
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} (eta {eta})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let progress = || bar.inc(1);
+    let report = sweep::sweep(&scenario, law, runs, seed, &progress)?;
+    bar.finish_and_clear();
+    let s = scenario.sweep;
+    println!(
+        "{} with the {} law: {} runs on {} threads in {:.1} s",
+        report.scenario,
+        report.law,
+        report.runs,
+        rayon::current_num_threads(),
+        report.wall_time_s
+    );
+    println!(
+        "  spreads: radius ±{}%, left/right ±{}%, track ±{}%, supply ±{}%, Coulomb ±{}%, \
+slip 0…{}, encoder jitter 0…{} ticks, start ±{} m / ±{} rad",
+        s.wheel_radius_pct,
+        s.wheel_radius_left_right_pct,
+        s.track_width_pct,
+        s.supply_pct,
+        s.coulomb_friction_pct,
+        s.slip_max,
+        s.encoder_noise_ticks_rms_max,
+        s.start_position_m,
+        s.start_heading_rad
+    );
+    println!(
+        "  success (the controller's own error settles to 1 cm / 1°, no fault): {:.1} %",
+        report.success_rate * 100.0
+    );
+    match report.settle_time_s {
+        Some(p) => println!(
+            "  settle time: p50 {:.2} s, p90 {:.2} s, p95 {:.2} s, max {:.2} s",
+            p.p50, p.p90, p.p95, p.max
+        ),
+        None => println!("  settle time: no run settled"),
+    }
+    if let Some(p) = report.final_true_position_error_m {
+        println!(
+            "  true final position error (odometry drift included): p50 {:.3} m, p90 {:.3} m, \
+max {:.3} m; true error settled in {:.1} % of runs",
+            p.p50,
+            p.p90,
+            p.max,
+            report.true_settle_rate * 100.0
+        );
+    }
+    if let Some(dir) = out {
+        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        let file = dir.join("sweep.json");
+        let json = serde_json::to_string_pretty(&report).context("serialising the sweep")?;
+        std::fs::write(&file, json).with_context(|| format!("writing {}", file.display()))?;
+        println!("  wrote {}", file.display());
+    }
+    Ok(())
+}
+
+fn cmd_step(scenario: &str, setpoint: f64, duration: f64, out: Option<PathBuf>) -> Result<()> {
+    let scenario = load(scenario)?;
+    if !(setpoint.is_finite() && duration > 0.0 && duration <= 60.0) {
+        anyhow::bail!("--setpoint-rad-s must be finite and --duration-s in (0, 60]");
+    }
+    let r = wheel_step_response(&scenario, setpoint, duration)?;
+    let pid = scenario.robot.wheel_pid;
+    println!(
+        "wheel-speed step 0 → {setpoint} rad/s from rest, K_p = {} duty/(rad/s), T_i = {} s, \
+T_d = {} s, K_ff = {} duty/(rad/s):",
+        pid.kp_duty_per_rad_s, pid.ti_s, pid.td_s, pid.feed_forward_duty_per_rad_s
+    );
+    let opt = |v: Option<f64>| v.map_or("never".to_string(), |t| format!("{:.0} ms", t * 1e3));
+    println!(
+        "  rise (10→90 %) {}, overshoot {:.1} %, settling (±5 %) {}, steady-state error {:+.3} rad/s",
+        opt(r.rise_time_s),
+        r.overshoot_pct,
+        opt(r.settling_time_s),
+        r.steady_state_error_rad_s
+    );
+    let dir = out.unwrap_or_else(|| default_dir(&scenario, "step"));
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let file = dir.join("step_response.svg");
+    plot::step_response(&file, &scenario.name, &r)?;
+    println!("  wrote {}", file.display());
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run {
+            scenario,
+            law,
+            out,
+            trace_every,
+        } => cmd_run(&scenario, law, out, trace_every),
+        Command::Compare { scenario, out } => cmd_compare(&scenario, out),
+        Command::Sweep {
+            scenario,
+            runs,
+            law,
+            seed,
+            out,
+        } => cmd_sweep(&scenario, runs, law, seed, out),
+        Command::StepResponse {
+            scenario,
+            setpoint_rad_s,
+            duration_s,
+            out,
+        } => cmd_step(&scenario, setpoint_rad_s, duration_s, out),
+        Command::List => {
+            for (name, text) in BUILTIN {
+                let description = Scenario::from_toml(text, name)
+                    .map(|s| s.description)
+                    .unwrap_or_default();
+                println!("{name:<18} {description}");
+            }
+            Ok(())
+        }
+        Command::Show { name } => match BUILTIN.iter().find(|(n, _)| *n == name) {
+            Some((_, text)) => {
+                print!("{text}");
+                Ok(())
+            }
+            None => Err(anyhow::anyhow!(host_sim::ScenarioError::Unknown(name))),
+        },
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

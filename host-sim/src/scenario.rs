@@ -1,0 +1,1147 @@
+//! Scenarios: a TOML file that says what to follow, where the robot starts, what the
+//! controller believes about the robot and what the robot really is.
+//!
+//! Every quantity is in SI units named in its key (`_m`, `_m_s`, `_rad`, `_rad_s`, `_s`,
+//! `_hz`, `_v`, `_ohm`, …); percentages end in `_pct`. Only `[path]`, `[reference]` and
+//! `[start]` are required; everything else has a documented default. The built-in
+//! scenarios in `host-sim/scenarios/` are commented examples of every section:
+//!
+//! ```toml
+//! name = "my-run"
+//! description = "free text"
+//!
+//! [sim]
+//! duration_s = 30.0          # simulated time, s
+//! plant_rate_hz = 10000      # RK4 rate of the plant; a multiple of, and ≥ 10 ×, the control rate
+//! seed = 1                   # noise seed
+//!
+//! [path]
+//! kind = "circle"            # circle | line | polyline | figure-eight
+//! center_m = [0.0, 0.0]      # circle, figure-eight
+//! radius_m = 1.25            # circle
+//! start_angle_rad = 0.0      # circle: polar angle of the path's start about the centre
+//! counter_clockwise = true   # circle
+//! # start_m, heading_rad, length_m           (line)
+//! # waypoints_m = [[x, y], …], corner_radius_m, closed   (polyline)
+//! # lobe_radius_m                             (figure-eight)
+//!
+//! [reference]
+//! speed_m_s = 0.25           # v_r
+//! mode = "time-indexed"      # or "path-following"
+//! start_offset_m = 0.0       # time-indexed: arc length of the reference at t = 0
+//! lookahead_m = 0.0          # path-following: reference this far ahead of the projection
+//!
+//! [start]                    # the TRUE initial state (the controller is told the same pose)
+//! x_m = -1.0
+//! y_m = -1.2
+//! theta_rad = 2.0943951
+//! v_m_s = 0.4                # already moving: wheels spun up accordingly
+//! omega_rad_s = 0.3
+//!
+//! [robot]                    # overrides of controller_core's RobotConfig::REFERENCE_ROBOT
+//! wheel_radius_m = 0.0325    # … every field, same names, nested tables for
+//!                            # [robot.limits], [robot.wheel_pid], [robot.law.paper|tracking|kanayama]
+//!
+//! [plant]                    # the simulated robot (defaults: see `plant`)
+//! supply_v = 6.0
+//! pwm_levels = 1000
+//! dead_band_duty = 0.02
+//! encoder_noise_ticks_rms = 0.0
+//! [plant.motor]              # resistance_ohm, torque_constant_nm_per_a, …
+//! [plant.body]               # mass_kg, yaw_inertia_kg_m2, wheel_inertia_kg_m2
+//! [plant.mismatch]           # wheel_radius_pct, wheel_radius_left_right_pct, track_width_pct
+//! [plant.slip]               # left, right (slip ratios in [0, 1))
+//!
+//! [sweep]                    # Monte-Carlo spreads for `host-sim sweep` (see SweepSpec)
+//! ```
+//!
+//! A bad file gets an error naming the key and the problem, e.g.
+//! `robot.wheel_radius_m must be > 0, got -0.03`; nothing in here panics on input.
+
+use std::fmt;
+use std::path::Path as FsPath;
+
+use controller_core::law::{KanayamaGains, PaperGains, TrackingGains};
+use controller_core::params::{ParamError, Params, RobotConfig};
+use controller_core::path::{Path, PathError};
+use controller_core::prelude::Point;
+use controller_core::reference::ReferenceMode;
+use serde::Deserialize;
+
+use crate::plant::{BodyParams, DriverParams, MotorParams};
+
+/// The built-in scenarios: (name, TOML text).
+pub const BUILTIN: [(&str, &str); 4] = [
+    (
+        "paper-circle",
+        include_str!("../scenarios/paper-circle.toml"),
+    ),
+    ("paper-line", include_str!("../scenarios/paper-line.toml")),
+    (
+        "square-waypoints",
+        include_str!("../scenarios/square-waypoints.toml"),
+    ),
+    (
+        "figure-eight",
+        include_str!("../scenarios/figure-eight.toml"),
+    ),
+];
+
+/// Why a scenario could not be loaded. [`fmt::Display`] gives a one-line message that
+/// names the key, for example `robot.wheel_radius_m must be > 0, got -0.03`.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The text is not valid TOML, or a key is unknown or of the wrong type (the TOML
+    /// parser's message names the key and line).
+    #[error("{origin}: {message}")]
+    Syntax {
+        /// File name or built-in name.
+        origin: String,
+        /// The parser's message.
+        message: String,
+    },
+    /// A value is out of range.
+    #[error("{key} {problem}")]
+    Invalid {
+        /// Dotted TOML key, e.g. `robot.wheel_radius_m`.
+        key: String,
+        /// What is wrong with it, with the value, e.g. `must be > 0, got -0.03`.
+        problem: String,
+    },
+    /// Neither a file nor a built-in scenario.
+    #[error("no scenario file or built-in scenario named `{0}` (built in: paper-circle, paper-line, square-waypoints, figure-eight)")]
+    Unknown(String),
+}
+
+impl ScenarioError {
+    fn invalid(key: impl Into<String>, problem: impl Into<String>) -> Self {
+        ScenarioError::Invalid {
+            key: key.into(),
+            problem: problem.into(),
+        }
+    }
+
+    /// The dotted key of an [`ScenarioError::Invalid`] error.
+    pub fn key(&self) -> Option<&str> {
+        match self {
+            ScenarioError::Invalid { key, .. } => Some(key),
+            _ => None,
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// The file's schema. Every table denies unknown keys, so a typo is an error, not a silent
+// default.
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileSim {
+    duration_s: Option<f64>,
+    plant_rate_hz: Option<u32>,
+    seed: Option<u64>,
+}
+
+#[derive(Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+enum PathKind {
+    Circle,
+    Line,
+    Polyline,
+    FigureEight,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FilePath {
+    kind: PathKind,
+    center_m: Option<[f64; 2]>,
+    radius_m: Option<f64>,
+    start_angle_rad: Option<f64>,
+    counter_clockwise: Option<bool>,
+    start_m: Option<[f64; 2]>,
+    heading_rad: Option<f64>,
+    length_m: Option<f64>,
+    waypoints_m: Option<Vec<[f64; 2]>>,
+    corner_radius_m: Option<f64>,
+    closed: Option<bool>,
+    lobe_radius_m: Option<f64>,
+}
+
+#[derive(Deserialize, Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[serde(rename_all = "kebab-case")]
+enum ModeName {
+    #[default]
+    TimeIndexed,
+    PathFollowing,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileReference {
+    speed_m_s: f64,
+    #[serde(default)]
+    mode: ModeName,
+    start_offset_m: Option<f64>,
+    lookahead_m: Option<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileStart {
+    x_m: f64,
+    y_m: f64,
+    theta_rad: f64,
+    #[serde(default)]
+    v_m_s: f64,
+    #[serde(default)]
+    omega_rad_s: f64,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileLimits {
+    max_rim_speed_m_s: Option<f32>,
+    max_linear_accel_m_s2: Option<f32>,
+    max_angular_accel_rad_s2: Option<f32>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileWheelPid {
+    kp_duty_per_rad_s: Option<f32>,
+    ti_s: Option<f32>,
+    td_s: Option<f32>,
+    d_filter_tau_s: Option<f32>,
+    feed_forward_duty_per_rad_s: Option<f32>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FilePaperGains {
+    gamma: Option<f32>,
+    k: Option<f32>,
+    h: Option<f32>,
+    lambda: Option<f32>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileTrackingGains {
+    lambda: Option<f32>,
+    k_x: Option<f32>,
+    k_theta: Option<f32>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileKanayamaGains {
+    k_x: Option<f32>,
+    k_y: Option<f32>,
+    k_theta: Option<f32>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileLaw {
+    #[serde(default)]
+    paper: FilePaperGains,
+    #[serde(default)]
+    tracking: FileTrackingGains,
+    #[serde(default)]
+    kanayama: FileKanayamaGains,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileRobot {
+    wheel_radius_m: Option<f32>,
+    track_width_m: Option<f32>,
+    encoder_lines_per_motor_rev: Option<u32>,
+    gear_ratio: Option<f32>,
+    control_rate_hz: Option<u32>,
+    steering_divider: Option<u32>,
+    speed_window_steps: Option<u32>,
+    max_plausible_wheel_speed_rad_s: Option<f32>,
+    #[serde(default)]
+    limits: FileLimits,
+    #[serde(default)]
+    wheel_pid: FileWheelPid,
+    #[serde(default)]
+    law: FileLaw,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileMotor {
+    resistance_ohm: Option<f64>,
+    torque_constant_nm_per_a: Option<f64>,
+    back_emf_v_s_per_rad: Option<f64>,
+    rotor_inertia_kg_m2: Option<f64>,
+    gear_efficiency: Option<f64>,
+    viscous_friction_nm_s_per_rad: Option<f64>,
+    coulomb_friction_nm: Option<f64>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileBody {
+    mass_kg: Option<f64>,
+    yaw_inertia_kg_m2: Option<f64>,
+    wheel_inertia_kg_m2: Option<f64>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileMismatch {
+    wheel_radius_pct: Option<f64>,
+    wheel_radius_left_right_pct: Option<f64>,
+    track_width_pct: Option<f64>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileSlip {
+    left: Option<f64>,
+    right: Option<f64>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FilePlant {
+    supply_v: Option<f64>,
+    pwm_levels: Option<u32>,
+    dead_band_duty: Option<f64>,
+    encoder_noise_ticks_rms: Option<f64>,
+    #[serde(default)]
+    motor: FileMotor,
+    #[serde(default)]
+    body: FileBody,
+    #[serde(default)]
+    mismatch: FileMismatch,
+    #[serde(default)]
+    slip: FileSlip,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileSweep {
+    wheel_radius_pct: Option<f64>,
+    wheel_radius_left_right_pct: Option<f64>,
+    track_width_pct: Option<f64>,
+    supply_pct: Option<f64>,
+    coulomb_friction_pct: Option<f64>,
+    slip_max: Option<f64>,
+    encoder_noise_ticks_rms_max: Option<f64>,
+    start_position_m: Option<f64>,
+    start_heading_rad: Option<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ScenarioFile {
+    name: Option<String>,
+    #[serde(default)]
+    description: String,
+    #[serde(default)]
+    sim: FileSim,
+    path: FilePath,
+    reference: FileReference,
+    start: FileStart,
+    #[serde(default)]
+    robot: FileRobot,
+    #[serde(default)]
+    plant: FilePlant,
+    #[serde(default)]
+    sweep: FileSweep,
+}
+
+// ---------------------------------------------------------------------------------------
+// The validated scenario.
+
+/// The robot's true initial state, world frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StartState {
+    /// x, m.
+    pub x_m: f64,
+    /// y, m.
+    pub y_m: f64,
+    /// Heading θ, rad (counter-clockwise from x).
+    pub theta_rad: f64,
+    /// Forward speed at t = 0, m/s.
+    pub v_m_s: f64,
+    /// Yaw rate at t = 0, rad/s.
+    pub omega_rad_s: f64,
+}
+
+/// How the true robot differs from the controller's [`RobotConfig`], in percent.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Mismatch {
+    /// Both true wheel radii are (1 + p/100) × the believed radius, %.
+    pub wheel_radius_pct: f64,
+    /// Left wheel a further +p/200, right −p/200 of the believed radius, % (unequal wheels
+    /// make a robot that believes it drives straight curve).
+    pub wheel_radius_left_right_pct: f64,
+    /// True track width is (1 + p/100) × the believed one, %.
+    pub track_width_pct: f64,
+}
+
+/// The simulated robot's own parameters (what the controller does not see).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlantSpec {
+    /// Motor and gearbox of each wheel.
+    pub motor: MotorParams,
+    /// H-bridge and supply.
+    pub driver: DriverParams,
+    /// Chassis mass properties.
+    pub body: BodyParams,
+    /// True geometry against believed geometry.
+    pub mismatch: Mismatch,
+    /// Longitudinal slip ratios [left, right], in [0, 1).
+    pub slip: [f64; 2],
+    /// Encoder edge jitter, ticks RMS (0 = ideal).
+    pub encoder_noise_ticks_rms: f64,
+}
+
+impl Default for PlantSpec {
+    fn default() -> Self {
+        Self {
+            motor: MotorParams::DEFAULT,
+            driver: DriverParams::DEFAULT,
+            body: BodyParams::DEFAULT,
+            mismatch: Mismatch::default(),
+            slip: [0.0; 2],
+            encoder_noise_ticks_rms: 0.0,
+        }
+    }
+}
+
+/// Monte-Carlo spreads for `host-sim sweep`: each run draws every quantity uniformly in
+/// the stated range, on top of the scenario's own values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SweepSpec {
+    /// Wheel radius mismatch (both wheels), ± %.
+    pub wheel_radius_pct: f64,
+    /// Left/right radius difference, ± %.
+    pub wheel_radius_left_right_pct: f64,
+    /// Track width mismatch, ± %.
+    pub track_width_pct: f64,
+    /// Supply voltage, ± % (battery state of charge).
+    pub supply_pct: f64,
+    /// Coulomb friction, ± %.
+    pub coulomb_friction_pct: f64,
+    /// Slip ratio of each wheel, drawn in [0, slip_max].
+    pub slip_max: f64,
+    /// Encoder edge jitter, drawn in [0, max] ticks RMS.
+    pub encoder_noise_ticks_rms_max: f64,
+    /// Start position offset in x and in y, ± m.
+    pub start_position_m: f64,
+    /// Start heading offset, ± rad.
+    pub start_heading_rad: f64,
+}
+
+impl SweepSpec {
+    /// ±1 % radius, ±0.5 % left/right, ±2 % track, ±10 % supply, ±50 % Coulomb friction,
+    /// up to 2 % slip, up to 0.5 tick jitter, ±0.1 m and ±0.2 rad of start pose.
+    pub const DEFAULT: SweepSpec = SweepSpec {
+        wheel_radius_pct: 1.0,
+        wheel_radius_left_right_pct: 0.5,
+        track_width_pct: 2.0,
+        supply_pct: 10.0,
+        coulomb_friction_pct: 50.0,
+        slip_max: 0.02,
+        encoder_noise_ticks_rms_max: 0.5,
+        start_position_m: 0.1,
+        start_heading_rad: 0.2,
+    };
+}
+
+impl Default for SweepSpec {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// A validated scenario (see the module doc for the file format).
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    /// Name (the file's `name`, else its stem).
+    pub name: String,
+    /// Free-text description.
+    pub description: String,
+    /// Simulated time, s.
+    pub duration_s: f64,
+    /// Plant (RK4) rate, Hz: an integer multiple ≥ 10 of the control rate.
+    pub plant_rate_hz: u32,
+    /// Seed of every random draw in the run.
+    pub seed: u64,
+    /// The path, world frame.
+    pub path: Path,
+    /// Reference speed v_r, m/s.
+    pub reference_speed_m_s: f32,
+    /// How the reference moves.
+    pub reference_mode: ReferenceMode,
+    /// True initial state.
+    pub start: StartState,
+    /// What the controller believes (validated by [`Params::new`]).
+    pub robot: RobotConfig,
+    /// What the robot really is.
+    pub plant: PlantSpec,
+    /// Monte-Carlo spreads.
+    pub sweep: SweepSpec,
+}
+
+impl Scenario {
+    /// The built-in scenario `name`, if there is one.
+    pub fn builtin(name: &str) -> Option<Result<Scenario, ScenarioError>> {
+        BUILTIN
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(n, text)| Scenario::from_toml(text, n))
+    }
+
+    /// A built-in scenario's name, or a path to a `.toml` file.
+    pub fn load(name_or_path: &str) -> Result<Scenario, ScenarioError> {
+        let fs = FsPath::new(name_or_path);
+        if fs.is_file() {
+            let text = std::fs::read_to_string(fs).map_err(|source| ScenarioError::Io {
+                path: name_or_path.to_string(),
+                source,
+            })?;
+            let stem = fs
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| name_or_path.to_string());
+            return parse(&text, name_or_path, &stem);
+        }
+        match Scenario::builtin(name_or_path) {
+            Some(result) => result,
+            None if name_or_path.ends_with(".toml") => Err(ScenarioError::Io {
+                path: name_or_path.to_string(),
+                source: std::io::Error::from(std::io::ErrorKind::NotFound),
+            }),
+            None => Err(ScenarioError::Unknown(name_or_path.to_string())),
+        }
+    }
+
+    /// Parses and validates TOML `text`; `origin` (a file name or built-in name) is used
+    /// in syntax errors and as the default name.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Scenario, ScenarioError> {
+        parse(text, origin, origin)
+    }
+
+    /// Validated controller parameters.
+    pub fn params(&self) -> Result<Params, ScenarioError> {
+        Params::new(self.robot).map_err(|e| param_error(&self.robot, e))
+    }
+}
+
+impl fmt::Display for Scenario {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.name)
+    }
+}
+
+fn parse(text: &str, origin: &str, default_name: &str) -> Result<Scenario, ScenarioError> {
+    let file: ScenarioFile = toml::from_str(text).map_err(|e| ScenarioError::Syntax {
+        origin: origin.to_string(),
+        message: e.to_string().trim_end().to_string(),
+    })?;
+    build(file, default_name)
+}
+
+// ---------------------------------------------------------------------------------------
+// Validation helpers. Each returns the dotted key and the problem with the value.
+
+fn check(ok: bool, key: &str, rule: &str, value: impl fmt::Display) -> Result<(), ScenarioError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(ScenarioError::invalid(key, format!("{rule}, got {value}")))
+    }
+}
+
+fn positive(key: &str, v: f64) -> Result<f64, ScenarioError> {
+    check(v > 0.0 && v.is_finite(), key, "must be > 0", v)?;
+    Ok(v)
+}
+
+fn non_negative(key: &str, v: f64) -> Result<f64, ScenarioError> {
+    check(v >= 0.0 && v.is_finite(), key, "must be ≥ 0", v)?;
+    Ok(v)
+}
+
+fn finite(key: &str, v: f64) -> Result<f64, ScenarioError> {
+    check(v.is_finite(), key, "must be finite", v)?;
+    Ok(v)
+}
+
+fn in_range(key: &str, v: f64, lo: f64, hi: f64, rule: &str) -> Result<f64, ScenarioError> {
+    check(v >= lo && v < hi && v.is_finite(), key, rule, v)?;
+    Ok(v)
+}
+
+fn required<T: Copy>(value: Option<T>, key: &str, kind: &str) -> Result<T, ScenarioError> {
+    value.ok_or_else(|| ScenarioError::invalid(key, format!("is required for kind = \"{kind}\"")))
+}
+
+fn point(key: &str, p: [f64; 2]) -> Result<Point, ScenarioError> {
+    finite(&format!("{key}[0]"), p[0])?;
+    finite(&format!("{key}[1]"), p[1])?;
+    Ok(Point::new(p[0] as f32, p[1] as f32))
+}
+
+/// The f32 value of a RobotConfig field named as in [`ParamError`].
+fn config_value(c: &RobotConfig, name: &str) -> String {
+    let v: f64 = match name {
+        "limits.max_rim_speed_m_s" => c.limits.max_rim_speed_m_s.into(),
+        "limits.max_linear_accel_m_s2" => c.limits.max_linear_accel_m_s2.into(),
+        "limits.max_angular_accel_rad_s2" => c.limits.max_angular_accel_rad_s2.into(),
+        "max_plausible_wheel_speed_rad_s" => c.max_plausible_wheel_speed_rad_s.into(),
+        "wheel_pid.kp_duty_per_rad_s" => c.wheel_pid.kp_duty_per_rad_s.into(),
+        "wheel_pid.ti_s" => c.wheel_pid.ti_s.into(),
+        "wheel_pid.td_s" => c.wheel_pid.td_s.into(),
+        "wheel_pid.d_filter_tau_s" => c.wheel_pid.d_filter_tau_s.into(),
+        "wheel_pid.feed_forward_duty_per_rad_s" => c.wheel_pid.feed_forward_duty_per_rad_s.into(),
+        "paper.gamma" => c.law.paper.gamma.into(),
+        "paper.k" => c.law.paper.k.into(),
+        "paper.h" => c.law.paper.h.into(),
+        "paper.lambda" => c.law.paper.lambda.into(),
+        "tracking.lambda" => c.law.tracking.lambda.into(),
+        "tracking.k_x" => c.law.tracking.k_x.into(),
+        "tracking.k_theta" => c.law.tracking.k_theta.into(),
+        "kanayama.k_x" => c.law.kanayama.k_x.into(),
+        "kanayama.k_y" => c.law.kanayama.k_y.into(),
+        "kanayama.k_theta" => c.law.kanayama.k_theta.into(),
+        _ => return "an out-of-range value".to_string(),
+    };
+    format!("{v}")
+}
+
+/// Turns the core's [`ParamError`] into an error naming the TOML key and the value.
+fn param_error(c: &RobotConfig, e: ParamError) -> ScenarioError {
+    let (key, problem) = match e {
+        ParamError::NonPositiveWheelRadius => (
+            "robot.wheel_radius_m".to_string(),
+            format!("must be > 0, got {}", c.wheel_radius_m),
+        ),
+        ParamError::NonPositiveTrackWidth => (
+            "robot.track_width_m".to_string(),
+            format!("must be > 0, got {}", c.track_width_m),
+        ),
+        ParamError::NonPositiveCountsPerRev if c.encoder_lines_per_motor_rev == 0 => (
+            "robot.encoder_lines_per_motor_rev".to_string(),
+            "must be > 0, got 0".to_string(),
+        ),
+        ParamError::NonPositiveCountsPerRev => (
+            "robot.gear_ratio".to_string(),
+            format!("must be > 0, got {}", c.gear_ratio),
+        ),
+        ParamError::ZeroControlRate => (
+            "robot.control_rate_hz".to_string(),
+            "must be > 0, got 0".to_string(),
+        ),
+        ParamError::ZeroSteeringDivider => (
+            "robot.steering_divider".to_string(),
+            "must be > 0, got 0".to_string(),
+        ),
+        ParamError::SpeedWindowOutOfRange => (
+            "robot.speed_window_steps".to_string(),
+            format!(
+                "must be in 1..={}, got {}",
+                controller_core::encoder::MAX_SPEED_WINDOW_STEPS,
+                c.speed_window_steps
+            ),
+        ),
+        ParamError::NonPositiveLimit(name) => (
+            format!("robot.{name}"),
+            format!("must be > 0, got {}", config_value(c, name)),
+        ),
+        ParamError::NonFiniteGain(name) => {
+            let key = if name.starts_with("wheel_pid") {
+                format!("robot.{name}")
+            } else {
+                format!("robot.law.{name}")
+            };
+            let rule = match name {
+                "wheel_pid.kp_duty_per_rad_s" | "wheel_pid.feed_forward_duty_per_rad_s" => {
+                    "must be finite"
+                }
+                "wheel_pid.ti_s" | "wheel_pid.td_s" | "wheel_pid.d_filter_tau_s" => "must be ≥ 0",
+                "wheel_pid" => "gives non-finite discrete gains",
+                _ => "must be > 0",
+            };
+            let problem = if name == "wheel_pid" {
+                rule.to_string()
+            } else {
+                format!("{rule}, got {}", config_value(c, name))
+            };
+            (key, problem)
+        }
+    };
+    ScenarioError::Invalid { key, problem }
+}
+
+fn path_error(e: PathError) -> ScenarioError {
+    let problem = match e {
+        PathError::NonFinite => "has a coordinate, length or radius that is not finite",
+        PathError::NonPositiveSize => "has a radius or length ≤ 0",
+        PathError::TooFewPoints => "needs at least 2 waypoints (3 when closed)",
+        PathError::DuplicatePoint => "has two consecutive waypoints that coincide",
+        PathError::TooManySegments => "has too many waypoints (at most 16 for a closed polyline)",
+        _ => "is not a valid path (corner_radius_m too large for the waypoints' spacing?)",
+    };
+    ScenarioError::invalid("path", problem)
+}
+
+fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
+    let used: &[&str] = match p.kind {
+        PathKind::Circle => &[
+            "center_m",
+            "radius_m",
+            "start_angle_rad",
+            "counter_clockwise",
+        ],
+        PathKind::Line => &["start_m", "heading_rad", "length_m"],
+        PathKind::Polyline => &["waypoints_m", "corner_radius_m", "closed"],
+        PathKind::FigureEight => &["center_m", "lobe_radius_m"],
+    };
+    let present = [
+        ("center_m", p.center_m.is_some()),
+        ("radius_m", p.radius_m.is_some()),
+        ("start_angle_rad", p.start_angle_rad.is_some()),
+        ("counter_clockwise", p.counter_clockwise.is_some()),
+        ("start_m", p.start_m.is_some()),
+        ("heading_rad", p.heading_rad.is_some()),
+        ("length_m", p.length_m.is_some()),
+        ("waypoints_m", p.waypoints_m.is_some()),
+        ("corner_radius_m", p.corner_radius_m.is_some()),
+        ("closed", p.closed.is_some()),
+        ("lobe_radius_m", p.lobe_radius_m.is_some()),
+    ];
+    let kind_name = match p.kind {
+        PathKind::Circle => "circle",
+        PathKind::Line => "line",
+        PathKind::Polyline => "polyline",
+        PathKind::FigureEight => "figure-eight",
+    };
+    if let Some((name, _)) = present.iter().find(|(n, set)| *set && !used.contains(n)) {
+        return Err(ScenarioError::invalid(
+            format!("path.{name}"),
+            format!(
+                "is not used by kind = \"{kind_name}\" (it takes {})",
+                used.join(", ")
+            ),
+        ));
+    }
+    let path = match p.kind {
+        PathKind::Circle => {
+            let center = point("path.center_m", p.center_m.unwrap_or([0.0, 0.0]))?;
+            let r = positive(
+                "path.radius_m",
+                required(p.radius_m, "path.radius_m", kind_name)?,
+            )?;
+            let a = finite("path.start_angle_rad", p.start_angle_rad.unwrap_or(0.0))?;
+            Path::circle(
+                center,
+                r as f32,
+                a as f32,
+                p.counter_clockwise.unwrap_or(true),
+            )
+        }
+        PathKind::Line => {
+            let start = point(
+                "path.start_m",
+                required(p.start_m, "path.start_m", kind_name)?,
+            )?;
+            let h = finite("path.heading_rad", p.heading_rad.unwrap_or(0.0))?;
+            let l = positive(
+                "path.length_m",
+                required(p.length_m, "path.length_m", kind_name)?,
+            )?;
+            Path::line(start, h as f32, l as f32)
+        }
+        PathKind::Polyline => {
+            let raw = p.waypoints_m.as_deref().ok_or_else(|| {
+                ScenarioError::invalid("path.waypoints_m", "is required for kind = \"polyline\"")
+            })?;
+            let mut points = Vec::with_capacity(raw.len());
+            for (i, w) in raw.iter().enumerate() {
+                points.push(point(&format!("path.waypoints_m[{i}]"), *w)?);
+            }
+            let r = non_negative("path.corner_radius_m", p.corner_radius_m.unwrap_or(0.0))?;
+            Path::polyline(&points, r as f32, p.closed.unwrap_or(false))
+        }
+        PathKind::FigureEight => {
+            let center = point("path.center_m", p.center_m.unwrap_or([0.0, 0.0]))?;
+            let r = positive(
+                "path.lobe_radius_m",
+                required(p.lobe_radius_m, "path.lobe_radius_m", kind_name)?,
+            )?;
+            Path::figure_eight(center, r as f32)
+        }
+    };
+    path.map_err(path_error)
+}
+
+fn apply_robot(r: &FileRobot) -> RobotConfig {
+    let mut c = RobotConfig::REFERENCE_ROBOT;
+    fn set<T: Copy>(dst: &mut T, v: Option<T>) {
+        if let Some(v) = v {
+            *dst = v;
+        }
+    }
+    set(&mut c.wheel_radius_m, r.wheel_radius_m);
+    set(&mut c.track_width_m, r.track_width_m);
+    set(
+        &mut c.encoder_lines_per_motor_rev,
+        r.encoder_lines_per_motor_rev,
+    );
+    set(&mut c.gear_ratio, r.gear_ratio);
+    set(&mut c.control_rate_hz, r.control_rate_hz);
+    set(&mut c.steering_divider, r.steering_divider);
+    set(&mut c.speed_window_steps, r.speed_window_steps);
+    set(
+        &mut c.max_plausible_wheel_speed_rad_s,
+        r.max_plausible_wheel_speed_rad_s,
+    );
+    set(&mut c.limits.max_rim_speed_m_s, r.limits.max_rim_speed_m_s);
+    set(
+        &mut c.limits.max_linear_accel_m_s2,
+        r.limits.max_linear_accel_m_s2,
+    );
+    set(
+        &mut c.limits.max_angular_accel_rad_s2,
+        r.limits.max_angular_accel_rad_s2,
+    );
+    let p = &r.wheel_pid;
+    set(&mut c.wheel_pid.kp_duty_per_rad_s, p.kp_duty_per_rad_s);
+    set(&mut c.wheel_pid.ti_s, p.ti_s);
+    set(&mut c.wheel_pid.td_s, p.td_s);
+    set(&mut c.wheel_pid.d_filter_tau_s, p.d_filter_tau_s);
+    set(
+        &mut c.wheel_pid.feed_forward_duty_per_rad_s,
+        p.feed_forward_duty_per_rad_s,
+    );
+    let l = &r.law;
+    let PaperGains {
+        gamma,
+        k,
+        h,
+        lambda,
+    } = &mut c.law.paper;
+    set(gamma, l.paper.gamma);
+    set(k, l.paper.k);
+    set(h, l.paper.h);
+    set(lambda, l.paper.lambda);
+    let TrackingGains {
+        lambda,
+        k_x,
+        k_theta,
+    } = &mut c.law.tracking;
+    set(lambda, l.tracking.lambda);
+    set(k_x, l.tracking.k_x);
+    set(k_theta, l.tracking.k_theta);
+    let KanayamaGains { k_x, k_y, k_theta } = &mut c.law.kanayama;
+    set(k_x, l.kanayama.k_x);
+    set(k_y, l.kanayama.k_y);
+    set(k_theta, l.kanayama.k_theta);
+    c
+}
+
+fn build_plant(p: &FilePlant) -> Result<PlantSpec, ScenarioError> {
+    let d = PlantSpec::default();
+    let m = &p.motor;
+    let motor = MotorParams {
+        resistance_ohm: positive(
+            "plant.motor.resistance_ohm",
+            m.resistance_ohm.unwrap_or(d.motor.resistance_ohm),
+        )?,
+        torque_constant_nm_per_a: positive(
+            "plant.motor.torque_constant_nm_per_a",
+            m.torque_constant_nm_per_a
+                .unwrap_or(d.motor.torque_constant_nm_per_a),
+        )?,
+        back_emf_v_s_per_rad: positive(
+            "plant.motor.back_emf_v_s_per_rad",
+            m.back_emf_v_s_per_rad
+                .unwrap_or(d.motor.back_emf_v_s_per_rad),
+        )?,
+        rotor_inertia_kg_m2: non_negative(
+            "plant.motor.rotor_inertia_kg_m2",
+            m.rotor_inertia_kg_m2.unwrap_or(d.motor.rotor_inertia_kg_m2),
+        )?,
+        gear_efficiency: {
+            let v = m.gear_efficiency.unwrap_or(d.motor.gear_efficiency);
+            check(
+                v > 0.0 && v <= 1.0,
+                "plant.motor.gear_efficiency",
+                "must be in (0, 1]",
+                v,
+            )?;
+            v
+        },
+        viscous_friction_nm_s_per_rad: non_negative(
+            "plant.motor.viscous_friction_nm_s_per_rad",
+            m.viscous_friction_nm_s_per_rad
+                .unwrap_or(d.motor.viscous_friction_nm_s_per_rad),
+        )?,
+        coulomb_friction_nm: non_negative(
+            "plant.motor.coulomb_friction_nm",
+            m.coulomb_friction_nm.unwrap_or(d.motor.coulomb_friction_nm),
+        )?,
+    };
+    let pwm_levels = p.pwm_levels.unwrap_or(d.driver.pwm_levels);
+    check(
+        pwm_levels > 0,
+        "plant.pwm_levels",
+        "must be > 0",
+        pwm_levels,
+    )?;
+    let driver = DriverParams {
+        supply_v: positive("plant.supply_v", p.supply_v.unwrap_or(d.driver.supply_v))?,
+        pwm_levels,
+        dead_band_duty: in_range(
+            "plant.dead_band_duty",
+            p.dead_band_duty.unwrap_or(d.driver.dead_band_duty),
+            0.0,
+            1.0,
+            "must be in [0, 1)",
+        )?,
+    };
+    let b = &p.body;
+    let body = BodyParams {
+        mass_kg: positive("plant.body.mass_kg", b.mass_kg.unwrap_or(d.body.mass_kg))?,
+        yaw_inertia_kg_m2: non_negative(
+            "plant.body.yaw_inertia_kg_m2",
+            b.yaw_inertia_kg_m2.unwrap_or(d.body.yaw_inertia_kg_m2),
+        )?,
+        wheel_inertia_kg_m2: non_negative(
+            "plant.body.wheel_inertia_kg_m2",
+            b.wheel_inertia_kg_m2.unwrap_or(d.body.wheel_inertia_kg_m2),
+        )?,
+    };
+    let pct = |key: &str, v: Option<f64>| {
+        in_range(
+            key,
+            v.unwrap_or(0.0),
+            -50.0,
+            50.0 + f64::EPSILON,
+            "must be in [-50, 50] %",
+        )
+    };
+    let mismatch = Mismatch {
+        wheel_radius_pct: pct(
+            "plant.mismatch.wheel_radius_pct",
+            p.mismatch.wheel_radius_pct,
+        )?,
+        wheel_radius_left_right_pct: pct(
+            "plant.mismatch.wheel_radius_left_right_pct",
+            p.mismatch.wheel_radius_left_right_pct,
+        )?,
+        track_width_pct: pct("plant.mismatch.track_width_pct", p.mismatch.track_width_pct)?,
+    };
+    let slip = [
+        in_range(
+            "plant.slip.left",
+            p.slip.left.unwrap_or(0.0),
+            0.0,
+            1.0,
+            "must be in [0, 1)",
+        )?,
+        in_range(
+            "plant.slip.right",
+            p.slip.right.unwrap_or(0.0),
+            0.0,
+            1.0,
+            "must be in [0, 1)",
+        )?,
+    ];
+    let encoder_noise_ticks_rms = non_negative(
+        "plant.encoder_noise_ticks_rms",
+        p.encoder_noise_ticks_rms.unwrap_or(0.0),
+    )?;
+    Ok(PlantSpec {
+        motor,
+        driver,
+        body,
+        mismatch,
+        slip,
+        encoder_noise_ticks_rms,
+    })
+}
+
+fn build_sweep(s: &FileSweep) -> Result<SweepSpec, ScenarioError> {
+    let d = SweepSpec::DEFAULT;
+    let spread = |key: &str, v: Option<f64>, default: f64, max: f64| {
+        let v = v.unwrap_or(default);
+        check(
+            v >= 0.0 && v <= max,
+            key,
+            &format!("must be in [0, {max}]"),
+            v,
+        )?;
+        Ok::<f64, ScenarioError>(v)
+    };
+    Ok(SweepSpec {
+        wheel_radius_pct: spread(
+            "sweep.wheel_radius_pct",
+            s.wheel_radius_pct,
+            d.wheel_radius_pct,
+            20.0,
+        )?,
+        wheel_radius_left_right_pct: spread(
+            "sweep.wheel_radius_left_right_pct",
+            s.wheel_radius_left_right_pct,
+            d.wheel_radius_left_right_pct,
+            20.0,
+        )?,
+        track_width_pct: spread(
+            "sweep.track_width_pct",
+            s.track_width_pct,
+            d.track_width_pct,
+            20.0,
+        )?,
+        supply_pct: spread("sweep.supply_pct", s.supply_pct, d.supply_pct, 50.0)?,
+        coulomb_friction_pct: spread(
+            "sweep.coulomb_friction_pct",
+            s.coulomb_friction_pct,
+            d.coulomb_friction_pct,
+            100.0,
+        )?,
+        slip_max: spread("sweep.slip_max", s.slip_max, d.slip_max, 0.5)?,
+        encoder_noise_ticks_rms_max: spread(
+            "sweep.encoder_noise_ticks_rms_max",
+            s.encoder_noise_ticks_rms_max,
+            d.encoder_noise_ticks_rms_max,
+            10.0,
+        )?,
+        start_position_m: spread(
+            "sweep.start_position_m",
+            s.start_position_m,
+            d.start_position_m,
+            10.0,
+        )?,
+        start_heading_rad: spread(
+            "sweep.start_heading_rad",
+            s.start_heading_rad,
+            d.start_heading_rad,
+            core::f64::consts::PI,
+        )?,
+    })
+}
+
+/// Longest simulated time accepted, s (keeps step counts far from `u32` overflow).
+pub const MAX_DURATION_S: f64 = 3600.0;
+
+fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioError> {
+    let robot = apply_robot(&file.robot);
+    // The core is the single source of truth for what a valid RobotConfig is.
+    Params::new(robot).map_err(|e| param_error(&robot, e))?;
+
+    let duration_s = file.sim.duration_s.unwrap_or(30.0);
+    check(
+        duration_s > 0.0 && duration_s <= MAX_DURATION_S,
+        "sim.duration_s",
+        &format!("must be in (0, {MAX_DURATION_S}]"),
+        duration_s,
+    )?;
+    let control = robot.control_rate_hz;
+    let plant_rate_hz = file.sim.plant_rate_hz.unwrap_or(control.saturating_mul(10));
+    check(
+        plant_rate_hz % control == 0 && plant_rate_hz / control >= 10,
+        "sim.plant_rate_hz",
+        &format!("must be a multiple of robot.control_rate_hz ({control}) and at least 10× it"),
+        plant_rate_hz,
+    )?;
+
+    let path = build_path(&file.path)?;
+
+    let r = &file.reference;
+    let speed = positive("reference.speed_m_s", r.speed_m_s)?;
+    let reference_mode = match r.mode {
+        ModeName::TimeIndexed => {
+            if r.lookahead_m.is_some() {
+                return Err(ScenarioError::invalid(
+                    "reference.lookahead_m",
+                    "is only used with mode = \"path-following\"",
+                ));
+            }
+            ReferenceMode::TimeIndexed {
+                start_offset_m: non_negative(
+                    "reference.start_offset_m",
+                    r.start_offset_m.unwrap_or(0.0),
+                )? as f32,
+            }
+        }
+        ModeName::PathFollowing => {
+            if r.start_offset_m.is_some() {
+                return Err(ScenarioError::invalid(
+                    "reference.start_offset_m",
+                    "is only used with mode = \"time-indexed\"",
+                ));
+            }
+            ReferenceMode::PathFollowing {
+                lookahead_m: non_negative("reference.lookahead_m", r.lookahead_m.unwrap_or(0.0))?
+                    as f32,
+            }
+        }
+    };
+
+    let s = &file.start;
+    let start = StartState {
+        x_m: finite("start.x_m", s.x_m)?,
+        y_m: finite("start.y_m", s.y_m)?,
+        theta_rad: finite("start.theta_rad", s.theta_rad)?,
+        v_m_s: finite("start.v_m_s", s.v_m_s)?,
+        omega_rad_s: finite("start.omega_rad_s", s.omega_rad_s)?,
+    };
+    // The initial wheel speeds must be within what the encoder check accepts.
+    let half = 0.5 * start.omega_rad_s.abs() * f64::from(robot.track_width_m);
+    let fastest = (start.v_m_s.abs() + half) / f64::from(robot.wheel_radius_m);
+    check(
+        fastest < f64::from(robot.max_plausible_wheel_speed_rad_s),
+        "start.v_m_s",
+        &format!(
+            "with start.omega_rad_s needs a wheel speed below robot.max_plausible_wheel_speed_rad_s ({})",
+            robot.max_plausible_wheel_speed_rad_s
+        ),
+        start.v_m_s,
+    )?;
+
+    Ok(Scenario {
+        name: file.name.unwrap_or_else(|| default_name.to_string()),
+        description: file.description,
+        duration_s,
+        plant_rate_hz,
+        seed: file.sim.seed.unwrap_or(1),
+        path,
+        reference_speed_m_s: speed as f32,
+        reference_mode,
+        start,
+        robot,
+        plant: build_plant(&file.plant)?,
+        sweep: build_sweep(&file.sweep)?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_builtin_parses() {
+        for (name, _) in BUILTIN {
+            let s = Scenario::builtin(name).unwrap().unwrap();
+            assert_eq!(s.name, name);
+        }
+    }
+}

@@ -130,8 +130,6 @@ impl Pins {
         use stm32f4xx_hal::gpio::PinState::Low;
         use stm32f4xx_hal::gpio::Pull;
 
-        // Silence unused-port warnings on boards that take nothing from a port.
-        let _ = &gpioc;
         #[cfg(not(feature = "nucleo"))]
         let (button, led) = (
             gpioa.pa0.into_pull_up_input(),

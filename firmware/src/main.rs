@@ -294,6 +294,9 @@ mod app {
     }
 }
 
+/// Set by the first panic.
+static PANICKING: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBool::new(false);
+
 /// Panic: motors off first (PWM outputs forced low, driver inputs and STBY low), then the
 /// message over defmt, then stop (`udf`: probe-rs prints a backtrace; without a probe the
 /// watchdog resets the chip, which comes back disarmed).
@@ -302,6 +305,10 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     cortex_m::interrupt::disable();
     // SAFETY: interrupts are off and nothing runs after this handler.
     unsafe { board::force_motors_off() };
+    // A panic inside the logger (or while logging this one) must not recurse.
+    if PANICKING.swap(true, core::sync::atomic::Ordering::Relaxed) {
+        cortex_m::asm::udf()
+    }
     let message = info.message().as_str().unwrap_or("(formatted message)");
     match info.location() {
         Some(at) => defmt::error!(

@@ -14,7 +14,7 @@
 //! [`Controller::clear_faults`].
 
 use crate::encoder::SpeedEstimator;
-use crate::kinematics::{tracking_error, BodyVelocity, Pose, TrackingError, WheelSpeeds};
+use crate::kinematics::{BodyVelocity, Pose, TrackingError, WheelSpeeds};
 use crate::law::{self, LawKind, LawOutput};
 use crate::limits::{CommandLimiter, LimitFlags};
 use crate::math;
@@ -93,7 +93,7 @@ pub struct Telemetry {
     pub pose: Pose,
     /// Reference at the last steering update.
     pub reference: ReferenceState,
-    /// Tracking error (9) of the pose against the reference, robot frame.
+    /// Tracking error (9) at the last steering update, robot frame (a copy of `law.error`).
     pub error: TrackingError,
     /// The steering law's last output (command before limits, V, V̇, polar error).
     pub law: LawOutput,
@@ -273,14 +273,14 @@ impl Controller {
         // Phase the steering loop on the path clock, so the law runs on the very first step
         // after path following (re)starts.
         let steering_due = self.path_clock.steps() % self.params.config().steering_divider == 0;
-        let mut t = self.telemetry;
+        // Telemetry is updated in place: it is the state carried between steps, and copying
+        // it costs more than the arithmetic on a Cortex-M4F.
+        let t = &mut self.telemetry;
         t.step = self.steps;
         t.steering_updated = false;
 
-        let limit = self.params.max_ticks_per_step();
-        if ticks.left.unsigned_abs() > limit.unsigned_abs()
-            || ticks.right.unsigned_abs() > limit.unsigned_abs()
-        {
+        let limit = self.params.max_ticks_per_step().unsigned_abs();
+        if ticks.left.unsigned_abs() > limit || ticks.right.unsigned_abs() > limit {
             t.faults.encoder_jump = true;
         }
 
@@ -290,11 +290,21 @@ impl Controller {
                 self.speed[0].update(ticks.left),
                 self.speed[1].update(ticks.right),
             );
-            if self.mode == Mode::FollowPath {
-                if steering_due {
-                    self.steer(&mut t);
-                }
-                t.error = tracking_error(&t.pose, &t.reference.pose);
+            if self.mode == Mode::FollowPath && steering_due {
+                // The outer loop: reference, law, limits, inverse kinematics → set-points.
+                let geometry = self.params.geometry();
+                t.steering_updated = true;
+                t.reference = self.reference.sample(&self.path_clock, &t.pose);
+                t.law = law::steer(self.law, &self.params.config().law, &t.pose, &t.reference);
+                t.error = t.law.error;
+                let (command, flags) = self.limiter.apply(
+                    t.law.command,
+                    self.params.steering_period_s(),
+                    geometry.track_width_m(),
+                );
+                t.command = command;
+                t.limit_flags = flags;
+                t.wheel_setpoint = geometry.inverse(command);
             }
             t.duty = match self.mode {
                 Mode::Idle => MotorCommand::STOP,
@@ -318,30 +328,14 @@ impl Controller {
             t.wheel_setpoint = WheelSpeeds::default();
         }
 
-        self.telemetry = t;
         self.steps = self.steps.wrapping_add(1);
         if self.mode == Mode::FollowPath {
             self.path_clock.tick();
         }
         StepOutput {
-            duty: t.duty,
-            telemetry: t,
+            duty: self.telemetry.duty,
+            telemetry: self.telemetry,
         }
-    }
-
-    /// The outer loop: reference, law, limits, inverse kinematics → wheel set-points.
-    fn steer(&mut self, t: &mut Telemetry) {
-        t.steering_updated = true;
-        t.reference = self.reference.sample(&self.path_clock, &t.pose);
-        t.law = law::steer(self.law, &self.params.config().law, &t.pose, &t.reference);
-        let (command, flags) = self.limiter.apply(
-            t.law.command,
-            self.params.steering_period_s(),
-            self.params.geometry().track_width_m(),
-        );
-        t.command = command;
-        t.limit_flags = flags;
-        t.wheel_setpoint = self.params.geometry().inverse(command);
     }
 }
 

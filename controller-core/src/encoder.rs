@@ -54,8 +54,12 @@ pub struct SpeedEstimator {
     window: usize,
     head: usize,
     filled: usize,
-    sum: i64,
+    /// Σ ring. Exact in i32: |ticks| per step is bounded by the encoder-jump fault
+    /// ([`crate::params::Params::max_ticks_per_step`] ≤ 2²⁴), times ≤ 64 steps.
+    sum: i32,
     rad_per_tick_per_s: f32,
+    /// rad_per_tick_per_s / filled: turns the tick sum into rad/s without a division.
+    scale: f32,
 }
 
 impl SpeedEstimator {
@@ -70,26 +74,31 @@ impl SpeedEstimator {
             filled: 0,
             sum: 0,
             rad_per_tick_per_s: rad_per_tick * steps_per_s,
+            scale: 0.0,
         }
     }
 
     /// Adds one step's tick delta and returns the wheel speed estimate, rad/s.
     pub fn update(&mut self, ticks: i32) -> f32 {
-        self.sum += i64::from(ticks) - i64::from(self.ring[self.head]);
+        self.sum = self
+            .sum
+            .wrapping_add(ticks)
+            .wrapping_sub(self.ring[self.head]);
         self.ring[self.head] = ticks;
-        self.head = (self.head + 1) % self.window;
+        self.head += 1;
+        if self.head == self.window {
+            self.head = 0;
+        }
         if self.filled < self.window {
             self.filled += 1;
+            self.scale = self.rad_per_tick_per_s / self.filled as f32;
         }
         self.speed_rad_s()
     }
 
     /// The current estimate, rad/s (0 before the first update).
     pub fn speed_rad_s(&self) -> f32 {
-        if self.filled == 0 {
-            return 0.0;
-        }
-        self.sum as f32 * self.rad_per_tick_per_s / self.filled as f32
+        self.sum as f32 * self.scale
     }
 
     /// Forgets the history (after a fault or a mode change).
@@ -98,6 +107,7 @@ impl SpeedEstimator {
         self.head = 0;
         self.filled = 0;
         self.sum = 0;
+        self.scale = 0.0;
     }
 }
 

@@ -39,6 +39,10 @@ fn round_to_i32(x: f32) -> i32 {
     }
 }
 
+/// 1.5 · 2²³: adding and subtracting it rounds an `f32` of magnitude < 2²² to the nearest
+/// integer (ties to even) in two additions, the same on every IEEE-754 machine.
+const ROUNDING_SHIFTER: f32 = 12_582_912.0;
+
 /// Sine and cosine of `r` for |r| ≤ π/4 (minimax polynomials, Cephes `sinf`/`cosf`).
 #[inline]
 fn sin_cos_kernel(r: f32) -> (f32, f32) {
@@ -51,16 +55,14 @@ fn sin_cos_kernel(r: f32) -> (f32, f32) {
 /// Sine and cosine of an angle in radians, computed together (one range reduction).
 ///
 /// Accurate to ~2e-7 for |x| ≤ 8π and to 1e-5 up to |x| = 1e4; angles in the core are
-/// wrapped to (−π, π] first. Non-finite input gives NaN, never a panic.
+/// wrapped to (−π, π] first. Non-finite input gives NaN (and |x| ≥ 2²² garbage), never
+/// a panic.
 pub fn sin_cos(x: f32) -> (f32, f32) {
-    if !x.is_finite() {
-        return (f32::NAN, f32::NAN);
-    }
-    let k = round_to_i32(x * FRAC_2_PI);
-    let kf = k as f32;
+    // Quadrant k = round(x·2/π). For non-finite x, kf is not finite either and r is NaN.
+    let kf = (x * FRAC_2_PI + ROUNDING_SHIFTER) - ROUNDING_SHIFTER;
     let r = ((x - kf * PIO2_HI) - kf * PIO2_MID) - kf * PIO2_LO;
     let (s, c) = sin_cos_kernel(r);
-    match k & 3 {
+    match (kf as i32) & 3 {
         0 => (s, c),
         1 => (c, -s),
         2 => (-s, -c),
@@ -84,12 +86,19 @@ pub fn cos(x: f32) -> f32 {
 ///
 /// This is the factor of the paper's eq. (34), (cos θ_e sin θ_e / θ_e).
 pub fn sinc(x: f32) -> f32 {
+    sinc_with_sin(x, sin(x))
+}
+
+/// sin(x)/x when sin(x) is already known (`sin_x`): saves a second evaluation of the sine.
+/// Near 0 the series is used and `sin_x` is ignored.
+#[inline]
+pub fn sinc_with_sin(x: f32, sin_x: f32) -> f32 {
     let z = x * x;
     if z < 1e-4 {
         // sin x / x = 1 − x²/6 + x⁴/120 − …; the next term is < 2e-13 here.
         1.0 - z * (1.0 / 6.0) + z * z * (1.0 / 120.0)
     } else {
-        sin(x) / x
+        sin_x / x
     }
 }
 

@@ -13,6 +13,10 @@ use crate::law::{KanayamaGains, LawGains, PaperGains, TrackingGains};
 use crate::limits::Limits;
 use crate::pid::PidGains;
 
+/// Upper bound of [`Params::max_ticks_per_step`]: 2²⁴, exact in `f32`, and 64 of them fit
+/// an `i32` sum.
+pub const MAX_TICKS_PER_STEP: i32 = 1 << 24;
+
 /// Continuous-time gains of the per-wheel speed PID. Error in rad/s, output in duty
 /// (−1…1 of the supply voltage).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -256,8 +260,9 @@ impl Params {
         // Ticks in one step at the fastest plausible speed, with a factor-2 margin, at
         // least 2 so a single noisy edge is never a fault.
         let max_ticks = 2.0 * config.max_plausible_wheel_speed_rad_s * period_s / rad_per_tick;
-        let max_ticks_per_step = if max_ticks >= i32::MAX as f32 {
-            i32::MAX
+        // Capped at 2²⁴ so that tick sums stay exact in i32 and in f32.
+        let max_ticks_per_step = if max_ticks >= MAX_TICKS_PER_STEP as f32 {
+            MAX_TICKS_PER_STEP
         } else {
             (max_ticks as i32).max(2)
         };

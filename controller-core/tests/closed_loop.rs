@@ -36,7 +36,7 @@ fn unicycle(p: Pose, cmd: BodyVelocity, dt: f32) -> Pose {
 }
 
 struct Run {
-    /// (time s, position error m, |heading error| rad, r_e m) per steering step.
+    /// (time s, position error m, |heading error| rad, distance r_e m) per steering step.
     samples: Vec<(f32, f32, f32, f32)>,
 }
 
@@ -67,7 +67,7 @@ fn run(law: LawKind, mode: ReferenceMode, seconds: u32) -> Run {
             clock.elapsed_s(),
             e.position_m(),
             e.theta_e_rad.abs(),
-            out.polar.r_e_m,
+            out.error.position_m(),
         ));
         pose = unicycle(pose, cmd, period);
         clock.tick();

@@ -8,7 +8,7 @@
 //! V = ½(x_e² + y_e²) + (1 − cos θ_e)/K_y, with V̇ = −K_x x_e² − v_r K_θ sin²θ_e / K_y ≤ 0.
 
 use crate::kinematics::{tracking_error, BodyVelocity, Pose};
-use crate::law::{paper, LawOutput};
+use crate::law::LawOutput;
 use crate::math;
 use crate::reference::ReferenceState;
 
@@ -36,7 +36,8 @@ pub fn steer(gains: &KanayamaGains, robot: &Pose, reference: &ReferenceState) ->
         lyapunov: 0.5 * (e.x_e_m * e.x_e_m + e.y_e_m * e.y_e_m) + (1.0 - cos_e) / gains.k_y,
         lyapunov_rate: -gains.k_x * e.x_e_m * e.x_e_m
             - reference.v_m_s * gains.k_theta * sin_e * sin_e / gains.k_y,
-        polar: paper::polar_error(robot, &reference.pose),
+        error: e,
+        polar: None,
     }
 }
 

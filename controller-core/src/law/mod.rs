@@ -15,7 +15,7 @@ pub mod kanayama;
 pub mod paper;
 pub mod tracking;
 
-use crate::kinematics::{BodyVelocity, Pose};
+use crate::kinematics::{BodyVelocity, Pose, TrackingError};
 use crate::reference::ReferenceState;
 
 pub use kanayama::KanayamaGains;
@@ -96,8 +96,11 @@ pub struct LawOutput {
     pub lyapunov: f32,
     /// V̇ predicted by the law's proof along its closed-loop error dynamics, per s (≤ 0).
     pub lyapunov_rate: f32,
-    /// Polar error (r_e, α, β) of the paper's law (computed for every law, for telemetry).
-    pub polar: PolarError,
+    /// Tracking error (9) of the robot against the reference, robot frame (every law).
+    pub error: TrackingError,
+    /// Polar error (r_e, α, β): `Some` for the paper's law, which is built on it; the
+    /// other laws do not compute it (it costs an atan2 and a sqrt per steering step).
+    pub polar: Option<PolarError>,
 }
 
 /// Runs law `kind` with `gains` for a robot at `robot` chasing `reference`.

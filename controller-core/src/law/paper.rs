@@ -21,7 +21,7 @@
 //! that moves at v_r, it can only produce v = v_r while r_e = v_r/(γ cos α) > 0, so the
 //! robot trails the reference by ≈ v_r/γ forever.
 
-use crate::kinematics::{BodyVelocity, Pose};
+use crate::kinematics::{tracking_error, BodyVelocity, Pose};
 use crate::law::LawOutput;
 use crate::math;
 
@@ -104,17 +104,21 @@ pub fn lyapunov_rate(gains: &PaperGains, e: &PolarError, command: BodyVelocity) 
 /// V̇ (35).
 pub fn steer(gains: &PaperGains, robot: &Pose, target: &Pose) -> LawOutput {
     let e = polar_error(robot, target);
-    let cos_a = math::cos(e.alpha_rad);
+    let (sin_a, cos_a) = math::sin_cos(e.alpha_rad);
     let v = gains.gamma * e.r_e_m * cos_a;
     let omega = gains.k * e.alpha_rad
-        + gains.gamma * cos_a * math::sinc(e.alpha_rad) * (e.alpha_rad + gains.h * e.beta_rad);
+        + gains.gamma
+            * cos_a
+            * math::sinc_with_sin(e.alpha_rad, sin_a)
+            * (e.alpha_rad + gains.h * e.beta_rad);
     let radial = e.r_e_m * cos_a;
     LawOutput {
         command: BodyVelocity::new(v, omega),
         lyapunov: lyapunov(gains, &e),
         lyapunov_rate: -gains.lambda * gains.gamma * radial * radial
             - gains.k * e.alpha_rad * e.alpha_rad,
-        polar: e,
+        error: tracking_error(robot, target),
+        polar: Some(e),
     }
 }
 
@@ -219,7 +223,7 @@ mod tests {
             let robot = Pose::new(x, y, th);
             let target = Pose::new(0.0, 0.0, tth);
             let out = steer(&GAINS, &robot, &target);
-            let general = lyapunov_rate(&GAINS, &out.polar, out.command);
+            let general = lyapunov_rate(&GAINS, &polar_error(&robot, &target), out.command);
             prop_assert!((general - out.lyapunov_rate).abs() < 1e-3 * (1.0 + general.abs()));
         }
 

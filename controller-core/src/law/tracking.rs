@@ -36,7 +36,7 @@
 //! V uses (1 − cos θ_e)/K_y instead of ½θ_e²; the quadratic form is the one the paper uses.
 
 use crate::kinematics::{tracking_error, BodyVelocity, Pose};
-use crate::law::{paper, LawOutput};
+use crate::law::LawOutput;
 use crate::math;
 use crate::reference::ReferenceState;
 
@@ -55,10 +55,10 @@ pub struct TrackingGains {
 /// The tracking law for a robot at `robot` and a moving `reference`, with V and V̇.
 pub fn steer(gains: &TrackingGains, robot: &Pose, reference: &ReferenceState) -> LawOutput {
     let e = tracking_error(robot, &reference.pose);
-    let cos_e = math::cos(e.theta_e_rad);
+    let (sin_e, cos_e) = math::sin_cos(e.theta_e_rad);
     let v = reference.v_m_s * cos_e + gains.k_x * e.x_e_m;
     let omega = reference.omega_rad_s
-        + gains.lambda * reference.v_m_s * e.y_e_m * math::sinc(e.theta_e_rad)
+        + gains.lambda * reference.v_m_s * e.y_e_m * math::sinc_with_sin(e.theta_e_rad, sin_e)
         + gains.k_theta * e.theta_e_rad;
     LawOutput {
         command: BodyVelocity::new(v, omega),
@@ -66,7 +66,8 @@ pub fn steer(gains: &TrackingGains, robot: &Pose, reference: &ReferenceState) ->
             + 0.5 * e.theta_e_rad * e.theta_e_rad,
         lyapunov_rate: -gains.lambda * gains.k_x * e.x_e_m * e.x_e_m
             - gains.k_theta * e.theta_e_rad * e.theta_e_rad,
-        polar: paper::polar_error(robot, &reference.pose),
+        error: e,
+        polar: None,
     }
 }
 

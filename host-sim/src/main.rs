@@ -106,6 +106,15 @@ enum Command {
     },
 }
 
+/// `println!` that returns an error instead of panicking when stdout is closed (for
+/// example `host-sim list | head -1`); `main` treats a broken pipe as a normal exit.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout(), $($arg)*)?
+    }};
+}
+
 fn default_dir(scenario: &Scenario, leaf: &str) -> PathBuf {
     // A file path as scenario name would nest oddly: keep only safe characters.
     let name: String = scenario
@@ -135,8 +144,8 @@ fn cmd_run(scenario: &str, law: Law, out: Option<PathBuf>, trace_every: u32) -> 
     let result = host_sim::run_scenario_with(&scenario, law, options)?;
     let dir = out.unwrap_or_else(|| default_dir(&scenario, law.name()));
     let files = output::write_run(&dir, &scenario, &result)?;
-    print!("{}", output::human_summary(&scenario, &result));
-    println!("  wrote {} files to {}", files.len(), dir.display());
+    say!("{}", output::human_summary(&scenario, &result).trim_end());
+    say!("  wrote {} files to {}", files.len(), dir.display());
     Ok(())
 }
 
@@ -146,18 +155,27 @@ fn cmd_compare(scenario: &str, out: Option<PathBuf>) -> Result<()> {
     for law in LawKind::ALL {
         results.push((law, run_scenario(&scenario, law)?));
     }
-    println!(
+    say!(
         "{}: every law on the same plant ({} s)\n",
-        scenario.name, scenario.duration_s
+        scenario.name,
+        scenario.duration_s
     );
-    println!(
-        "{:<9} {:>12} {:>11} {:>12} {:>11} {:>11} {:>10} {:>6}",
-        "law", "settle", "final e/m", "final θe/°", "rms10 e/m", "max10 e/m", "ω_w max", "duty"
+    say!(
+        "{:<9} {:>12} {:>11} {:>12} {:>11} {:>11} {:>10} {:>6} {:>10}",
+        "law",
+        "settle",
+        "final e/m",
+        "final θe/°",
+        "rms10 e/m",
+        "max10 e/m",
+        "ω_w max",
+        "duty",
+        "driven/m"
     );
     for (law, r) in &results {
         let s = &r.summary;
-        println!(
-            "{:<9} {:>12} {:>11.4} {:>12.2} {:>11.4} {:>11.4} {:>10.1} {:>6.2}",
+        say!(
+            "{:<9} {:>12} {:>11.4} {:>12.2} {:>11.4} {:>11.4} {:>10.1} {:>6.2} {:>10.2}",
             law.name(),
             settle_text(s.settle_time_s),
             s.final_position_error_m,
@@ -165,7 +183,22 @@ fn cmd_compare(scenario: &str, out: Option<PathBuf>) -> Result<()> {
             s.rms_position_error_m,
             s.max_position_error_m,
             s.max_wheel_speed_rad_s,
-            s.max_duty
+            s.max_duty,
+            r.distance_travelled_m
+        );
+    }
+    let expected = f64::from(scenario.reference_speed_m_s) * scenario.duration_s;
+    say!(
+        "\n(e: true position error — to the reference point, or to the path when \
+path-following; rms10/max10: last 10 s; the reference covers {expected:.2} m)"
+    );
+    if let controller_core::reference::ReferenceMode::PathFollowing { lookahead_m } =
+        scenario.reference_mode
+    {
+        say!(
+            "note: path-following with lookahead {lookahead_m} m. The paper's law is a \
+regulation law (EQUATIONS.md note 3): it drives to the reference point and stops there, so \
+with the reference at the robot's own projection it stalls on the path (see driven/m)."
         );
     }
     let dir = out.unwrap_or_else(|| default_dir(&scenario, "compare"));
@@ -176,7 +209,7 @@ fn cmd_compare(scenario: &str, out: Option<PathBuf>) -> Result<()> {
         .map(|(law, r)| (law.name(), r.trace.as_slice()))
         .collect();
     plot::compare(&file, &scenario.name, &scenario.path, &runs)?;
-    println!("\nwrote {}", file.display());
+    say!("\nwrote {}", file.display());
     Ok(())
 }
 
@@ -192,7 +225,7 @@ fn cmd_sweep(scenario: &str, runs: u32, law: Law, seed: u64, out: Option<PathBuf
     let report = sweep::sweep(&scenario, law, runs, seed, &progress)?;
     bar.finish_and_clear();
     let s = scenario.sweep;
-    println!(
+    say!(
         "{} with the {} law: {} runs on {} threads in {:.1} s",
         report.scenario,
         report.law,
@@ -200,7 +233,7 @@ fn cmd_sweep(scenario: &str, runs: u32, law: Law, seed: u64, out: Option<PathBuf
         rayon::current_num_threads(),
         report.wall_time_s
     );
-    println!(
+    say!(
         "  spreads: radius ±{}%, left/right ±{}%, track ±{}%, supply ±{}%, Coulomb ±{}%, \
 slip 0…{}, encoder jitter 0…{} ticks, start ±{} m / ±{} rad",
         s.wheel_radius_pct,
@@ -213,19 +246,22 @@ slip 0…{}, encoder jitter 0…{} ticks, start ±{} m / ±{} rad",
         s.start_position_m,
         s.start_heading_rad
     );
-    println!(
+    say!(
         "  success (the controller's own error settles to 1 cm / 1°, no fault): {:.1} %",
         report.success_rate * 100.0
     );
     match report.settle_time_s {
-        Some(p) => println!(
+        Some(p) => say!(
             "  settle time: p50 {:.2} s, p90 {:.2} s, p95 {:.2} s, max {:.2} s",
-            p.p50, p.p90, p.p95, p.max
+            p.p50,
+            p.p90,
+            p.p95,
+            p.max
         ),
-        None => println!("  settle time: no run settled"),
+        None => say!("  settle time: no run settled"),
     }
     if let Some(p) = report.final_true_position_error_m {
-        println!(
+        say!(
             "  true final position error (odometry drift included): p50 {:.3} m, p90 {:.3} m, \
 max {:.3} m; true error settled in {:.1} % of runs",
             p.p50,
@@ -239,7 +275,7 @@ max {:.3} m; true error settled in {:.1} % of runs",
         let file = dir.join("sweep.json");
         let json = serde_json::to_string_pretty(&report).context("serialising the sweep")?;
         std::fs::write(&file, json).with_context(|| format!("writing {}", file.display()))?;
-        println!("  wrote {}", file.display());
+        say!("  wrote {}", file.display());
     }
     Ok(())
 }
@@ -251,13 +287,16 @@ fn cmd_step(scenario: &str, setpoint: f64, duration: f64, out: Option<PathBuf>) 
     }
     let r = wheel_step_response(&scenario, setpoint, duration)?;
     let pid = scenario.robot.wheel_pid;
-    println!(
+    say!(
         "wheel-speed step 0 → {setpoint} rad/s from rest, K_p = {} duty/(rad/s), T_i = {} s, \
 T_d = {} s, K_ff = {} duty/(rad/s):",
-        pid.kp_duty_per_rad_s, pid.ti_s, pid.td_s, pid.feed_forward_duty_per_rad_s
+        pid.kp_duty_per_rad_s,
+        pid.ti_s,
+        pid.td_s,
+        pid.feed_forward_duty_per_rad_s
     );
     let opt = |v: Option<f64>| v.map_or("never".to_string(), |t| format!("{:.0} ms", t * 1e3));
-    println!(
+    say!(
         "  rise (10→90 %) {}, overshoot {:.1} %, settling (±5 %) {}, steady-state error {:+.3} rad/s",
         opt(r.rise_time_s),
         r.overshoot_pct,
@@ -268,7 +307,7 @@ T_d = {} s, K_ff = {} duty/(rad/s):",
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let file = dir.join("step_response.svg");
     plot::step_response(&file, &scenario.name, &r)?;
-    println!("  wrote {}", file.display());
+    say!("  wrote {}", file.display());
     Ok(())
 }
 
@@ -295,20 +334,20 @@ fn main() -> ExitCode {
             duration_s,
             out,
         } => cmd_step(&scenario, setpoint_rad_s, duration_s, out),
-        Command::List => {
+        Command::List => (|| {
             for (name, text) in BUILTIN {
                 let description = Scenario::from_toml(text, name)
                     .map(|s| s.description)
                     .unwrap_or_default();
-                println!("{name:<18} {description}");
+                say!("{name:<18} {description}");
             }
             Ok(())
-        }
+        })(),
         Command::Show { name } => match BUILTIN.iter().find(|(n, _)| *n == name) {
-            Some((_, text)) => {
-                print!("{text}");
+            Some((_, text)) => (|| {
+                say!("{}", text.trim_end());
                 Ok(())
-            }
+            })(),
             None => Err(anyhow::anyhow!(host_sim::ScenarioError::Unknown(name))),
         },
     };

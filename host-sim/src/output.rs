@@ -106,6 +106,13 @@ pub fn human_summary(scenario: &Scenario, result: &RunResult) -> String {
             result.estimated.final_position_error_m
         );
     }
+    let expected = f64::from(scenario.reference_speed_m_s) * s.sim_time_s;
+    if result.distance_travelled_m < 0.5 * expected {
+        text += &format!(
+            "  note: the robot drove only {:.2} m of the reference's {:.2} m\n",
+            result.distance_travelled_m, expected
+        );
+    }
     if result.faults.any() {
         text += &format!("  FAULT latched: {:?} (motors stopped)\n", result.faults);
     }

@@ -38,10 +38,9 @@ fn path_points(path: &Path) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// A square range (equal scale on both axes on a square plot) around `points`, m.
-fn square_range(
-    points: impl Iterator<Item = (f64, f64)>,
-) -> (std::ops::Range<f64>, std::ops::Range<f64>) {
+/// Bounding box (x0, x1, y0, y1) of the finite `points`, m; a 2 m box at the origin if
+/// there are none.
+fn bbox(points: impl Iterator<Item = (f64, f64)>) -> (f64, f64, f64, f64) {
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for (x, y) in points.filter(|(x, y)| x.is_finite() && y.is_finite()) {
         x0 = x0.min(x);
@@ -50,11 +49,36 @@ fn square_range(
         y1 = y1.max(y);
     }
     if x0 > x1 {
-        return (-1.0..1.0, -1.0..1.0);
+        (-1.0, 1.0, -1.0, 1.0)
+    } else {
+        (x0, x1, y0, y1)
     }
-    let half = 0.5 * (x1 - x0).max(y1 - y0).max(0.1) * 1.2;
-    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    (cx - half..cx + half, cy - half..cy + half)
+}
+
+/// Pixels the chart decorations take from a path plot: (horizontal, vertical).
+const PATH_DECOR_PX: (u32, u32) = (55 + 2 * 12, 40 + 2 * 12 + 30);
+
+/// Canvas height (px) for a path plot `width` px wide showing `b` at equal scale.
+fn path_canvas_height(b: (f64, f64, f64, f64), width: u32) -> u32 {
+    let (dx, dy) = ((b.1 - b.0).max(0.1), (b.3 - b.2).max(0.1));
+    let plot_w = f64::from(width - PATH_DECOR_PX.0);
+    let plot_h = (plot_w * dy / dx).clamp(0.45 * plot_w, 1.2 * plot_w);
+    plot_h as u32 + PATH_DECOR_PX.1
+}
+
+/// Ranges around `b` (with a margin for the legend) at equal scale on a plotting area of
+/// `pixels` (width, height).
+fn equal_scale_ranges(
+    b: (f64, f64, f64, f64),
+    pixels: (u32, u32),
+) -> (std::ops::Range<f64>, std::ops::Range<f64>) {
+    let plot_w = f64::from(pixels.0.saturating_sub(PATH_DECOR_PX.0).max(1));
+    let plot_h = f64::from(pixels.1.saturating_sub(PATH_DECOR_PX.1).max(1));
+    let (cx, cy) = (0.5 * (b.0 + b.1), 0.5 * (b.2 + b.3));
+    // Metres per pixel: enough for both extents, plus 20 % for the legend.
+    let scale = ((b.1 - b.0).max(0.1) / plot_w).max((b.3 - b.2).max(0.1) / plot_h) * 1.2;
+    let (hw, hh) = (0.5 * scale * plot_w, 0.5 * scale * plot_h);
+    (cx - hw..cx + hw, cy - hh..cy + hh)
 }
 
 /// A range around `values` with 5 % margin (never empty).
@@ -77,6 +101,16 @@ fn svg_root(file: &FsPath, size: (u32, u32)) -> Result<DrawingArea<SVGBackend<'_
     Ok(root)
 }
 
+/// Bounding box of the reference path and every robot path, m.
+fn path_bbox(path: &Path, runs: &[(&str, RGBColor, &[TraceRow])]) -> (f64, f64, f64, f64) {
+    bbox(
+        path_points(path).into_iter().chain(
+            runs.iter()
+                .flat_map(|(_, _, t)| t.iter().map(|r| (r.true_pose.x_m, r.true_pose.y_m))),
+        ),
+    )
+}
+
 /// Draws the reference path and one robot path per `(label, colour, trace)` on `area`.
 fn draw_paths(
     area: &DrawingArea<SVGBackend<'_>, Shift>,
@@ -86,11 +120,7 @@ fn draw_paths(
     links: bool,
 ) -> Result<()> {
     let reference = path_points(path);
-    let all = reference.iter().copied().chain(
-        runs.iter()
-            .flat_map(|(_, _, t)| t.iter().map(|r| (r.true_pose.x_m, r.true_pose.y_m))),
-    );
-    let (xr, yr) = square_range(all);
+    let (xr, yr) = equal_scale_ranges(path_bbox(path, runs), area.dim_in_pixel());
     let mut chart = ChartBuilder::on(area)
         .caption(caption, ("sans-serif", 18))
         .margin(12)
@@ -175,7 +205,8 @@ fn draw_paths(
 
 /// Fig. 5: the true path of the robot against the reference path. `title` names the run.
 pub fn fig5_path(file: &FsPath, title: &str, path: &Path, trace: &[TraceRow]) -> Result<()> {
-    let root = svg_root(file, (760, 760))?;
+    let b = path_bbox(path, &[("", BLUE, trace)]);
+    let root = svg_root(file, (760, path_canvas_height(b, 760)))?;
     draw_paths(
         &root,
         &format!("Fig. 5 — path, {title}"),
@@ -425,13 +456,14 @@ pub fn compare(
     path: &Path,
     runs: &[(&str, &[TraceRow])],
 ) -> Result<()> {
-    let root = svg_root(file, (800, 1150))?;
-    let (top, bottom) = root.split_vertically(780);
     let coloured: Vec<(&str, RGBColor, &[TraceRow])> = runs
         .iter()
         .zip(PALETTE.iter().cycle())
         .map(|((name, trace), colour)| (*name, *colour, *trace))
         .collect();
+    let top_height = path_canvas_height(path_bbox(path, &coloured), 800);
+    let root = svg_root(file, (800, top_height + 370))?;
+    let (top, bottom) = root.split_vertically(top_height);
     draw_paths(
         &top,
         &format!("{title}: every law on the same plant"),

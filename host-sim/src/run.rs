@@ -168,6 +168,8 @@ pub struct RunResult {
     pub faults: FaultFlags,
     /// Largest |armature current| of either motor, A.
     pub max_current_a: f64,
+    /// Length of the true path driven (sampled at the steering rate), m.
+    pub distance_travelled_m: f64,
     /// Trace rows (empty if not requested).
     pub trace: Vec<TraceRow>,
 }
@@ -316,6 +318,8 @@ pub fn run_scenario_with(
     let mut true_samples = Vec::with_capacity(samples_cap);
     let mut est_samples = Vec::with_capacity(samples_cap);
     let (mut max_wheel, mut max_duty, mut max_current) = (0.0f64, 0.0f64, 0.0f64);
+    let mut travelled = 0.0;
+    let mut last_position = (start_true.x_m, start_true.y_m);
 
     let wall = Instant::now();
     for k in 0..total_steps {
@@ -334,6 +338,8 @@ pub fn run_scenario_with(
             let sample = true_error(t_s, &pose, &tel.reference, &scenario.path, path_following);
             if tel.steering_updated {
                 true_samples.push(sample);
+                travelled += (pose.x_m - last_position.0).hypot(pose.y_m - last_position.1);
+                last_position = (pose.x_m, pose.y_m);
                 let est = TruePose {
                     x_m: f64::from(tel.pose.x_m),
                     y_m: f64::from(tel.pose.y_m),
@@ -398,6 +404,7 @@ pub fn run_scenario_with(
         estimated: ErrorMetrics::from_samples(&est_samples),
         faults: controller.faults(),
         max_current_a: max_current,
+        distance_travelled_m: travelled,
         trace,
     })
 }

@@ -450,14 +450,14 @@ pub struct SweepSpec {
 
 impl SweepSpec {
     /// ±1 % radius, ±0.5 % left/right, ±2 % track, ±10 % supply, ±50 % Coulomb friction,
-    /// up to 2 % slip, up to 0.5 tick jitter, ±0.1 m and ±0.2 rad of start pose.
+    /// up to 1 % slip per wheel, up to 0.5 tick jitter, ±0.1 m and ±0.2 rad of start pose.
     pub const DEFAULT: SweepSpec = SweepSpec {
         wheel_radius_pct: 1.0,
         wheel_radius_left_right_pct: 0.5,
         track_width_pct: 2.0,
         supply_pct: 10.0,
         coulomb_friction_pct: 50.0,
-        slip_max: 0.02,
+        slip_max: 0.01,
         encoder_noise_ticks_rms_max: 0.5,
         start_position_m: 0.1,
         start_heading_rad: 0.2,
@@ -589,38 +589,50 @@ fn in_range(key: &str, v: f64, lo: f64, hi: f64, rule: &str) -> Result<f64, Scen
     Ok(v)
 }
 
+/// `v` as the f32 the controller uses; an error naming `key` if it does not fit.
+fn as_f32(key: &str, v: f64) -> Result<f32, ScenarioError> {
+    let f = v as f32;
+    check(
+        f.is_finite() || !v.is_finite(),
+        key,
+        "is beyond the f32 range of the controller (±3.4e38)",
+        v,
+    )?;
+    Ok(f)
+}
+
 fn required<T: Copy>(value: Option<T>, key: &str, kind: &str) -> Result<T, ScenarioError> {
     value.ok_or_else(|| ScenarioError::invalid(key, format!("is required for kind = \"{kind}\"")))
 }
 
 fn point(key: &str, p: [f64; 2]) -> Result<Point, ScenarioError> {
-    finite(&format!("{key}[0]"), p[0])?;
-    finite(&format!("{key}[1]"), p[1])?;
-    Ok(Point::new(p[0] as f32, p[1] as f32))
+    let x = as_f32(&format!("{key}[0]"), finite(&format!("{key}[0]"), p[0])?)?;
+    let y = as_f32(&format!("{key}[1]"), finite(&format!("{key}[1]"), p[1])?)?;
+    Ok(Point::new(x, y))
 }
 
-/// The f32 value of a RobotConfig field named as in [`ParamError`].
+/// The value of a RobotConfig field named as in [`ParamError`], as written (f32).
 fn config_value(c: &RobotConfig, name: &str) -> String {
-    let v: f64 = match name {
-        "limits.max_rim_speed_m_s" => c.limits.max_rim_speed_m_s.into(),
-        "limits.max_linear_accel_m_s2" => c.limits.max_linear_accel_m_s2.into(),
-        "limits.max_angular_accel_rad_s2" => c.limits.max_angular_accel_rad_s2.into(),
-        "max_plausible_wheel_speed_rad_s" => c.max_plausible_wheel_speed_rad_s.into(),
-        "wheel_pid.kp_duty_per_rad_s" => c.wheel_pid.kp_duty_per_rad_s.into(),
-        "wheel_pid.ti_s" => c.wheel_pid.ti_s.into(),
-        "wheel_pid.td_s" => c.wheel_pid.td_s.into(),
-        "wheel_pid.d_filter_tau_s" => c.wheel_pid.d_filter_tau_s.into(),
-        "wheel_pid.feed_forward_duty_per_rad_s" => c.wheel_pid.feed_forward_duty_per_rad_s.into(),
-        "paper.gamma" => c.law.paper.gamma.into(),
-        "paper.k" => c.law.paper.k.into(),
-        "paper.h" => c.law.paper.h.into(),
-        "paper.lambda" => c.law.paper.lambda.into(),
-        "tracking.lambda" => c.law.tracking.lambda.into(),
-        "tracking.k_x" => c.law.tracking.k_x.into(),
-        "tracking.k_theta" => c.law.tracking.k_theta.into(),
-        "kanayama.k_x" => c.law.kanayama.k_x.into(),
-        "kanayama.k_y" => c.law.kanayama.k_y.into(),
-        "kanayama.k_theta" => c.law.kanayama.k_theta.into(),
+    let v: f32 = match name {
+        "limits.max_rim_speed_m_s" => c.limits.max_rim_speed_m_s,
+        "limits.max_linear_accel_m_s2" => c.limits.max_linear_accel_m_s2,
+        "limits.max_angular_accel_rad_s2" => c.limits.max_angular_accel_rad_s2,
+        "max_plausible_wheel_speed_rad_s" => c.max_plausible_wheel_speed_rad_s,
+        "wheel_pid.kp_duty_per_rad_s" => c.wheel_pid.kp_duty_per_rad_s,
+        "wheel_pid.ti_s" => c.wheel_pid.ti_s,
+        "wheel_pid.td_s" => c.wheel_pid.td_s,
+        "wheel_pid.d_filter_tau_s" => c.wheel_pid.d_filter_tau_s,
+        "wheel_pid.feed_forward_duty_per_rad_s" => c.wheel_pid.feed_forward_duty_per_rad_s,
+        "paper.gamma" => c.law.paper.gamma,
+        "paper.k" => c.law.paper.k,
+        "paper.h" => c.law.paper.h,
+        "paper.lambda" => c.law.paper.lambda,
+        "tracking.lambda" => c.law.tracking.lambda,
+        "tracking.k_x" => c.law.tracking.k_x,
+        "tracking.k_theta" => c.law.tracking.k_theta,
+        "kanayama.k_x" => c.law.kanayama.k_x,
+        "kanayama.k_y" => c.law.kanayama.k_y,
+        "kanayama.k_theta" => c.law.kanayama.k_theta,
         _ => return "an out-of-range value".to_string(),
     };
     format!("{v}")
@@ -767,7 +779,11 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
                 "path.length_m",
                 required(p.length_m, "path.length_m", kind_name)?,
             )?;
-            Path::line(start, h as f32, l as f32)
+            Path::line(
+                start,
+                as_f32("path.heading_rad", h)?,
+                as_f32("path.length_m", l)?,
+            )
         }
         PathKind::Polyline => {
             let raw = p.waypoints_m.as_deref().ok_or_else(|| {
@@ -778,7 +794,11 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
                 points.push(point(&format!("path.waypoints_m[{i}]"), *w)?);
             }
             let r = non_negative("path.corner_radius_m", p.corner_radius_m.unwrap_or(0.0))?;
-            Path::polyline(&points, r as f32, p.closed.unwrap_or(false))
+            Path::polyline(
+                &points,
+                as_f32("path.corner_radius_m", r)?,
+                p.closed.unwrap_or(false),
+            )
         }
         PathKind::FigureEight => {
             let center = point("path.center_m", p.center_m.unwrap_or([0.0, 0.0]))?;
@@ -786,7 +806,7 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
                 "path.lobe_radius_m",
                 required(p.lobe_radius_m, "path.lobe_radius_m", kind_name)?,
             )?;
-            Path::figure_eight(center, r as f32)
+            Path::figure_eight(center, as_f32("path.lobe_radius_m", r)?)
         }
     };
     path.map_err(path_error)
@@ -1066,7 +1086,10 @@ fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioErr
     let path = build_path(&file.path)?;
 
     let r = &file.reference;
-    let speed = positive("reference.speed_m_s", r.speed_m_s)?;
+    let speed = as_f32(
+        "reference.speed_m_s",
+        positive("reference.speed_m_s", r.speed_m_s)?,
+    )?;
     let reference_mode = match r.mode {
         ModeName::TimeIndexed => {
             if r.lookahead_m.is_some() {
@@ -1076,10 +1099,10 @@ fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioErr
                 ));
             }
             ReferenceMode::TimeIndexed {
-                start_offset_m: non_negative(
+                start_offset_m: as_f32(
                     "reference.start_offset_m",
-                    r.start_offset_m.unwrap_or(0.0),
-                )? as f32,
+                    non_negative("reference.start_offset_m", r.start_offset_m.unwrap_or(0.0))?,
+                )?,
             }
         }
         ModeName::PathFollowing => {
@@ -1090,13 +1113,18 @@ fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioErr
                 ));
             }
             ReferenceMode::PathFollowing {
-                lookahead_m: non_negative("reference.lookahead_m", r.lookahead_m.unwrap_or(0.0))?
-                    as f32,
+                lookahead_m: as_f32(
+                    "reference.lookahead_m",
+                    non_negative("reference.lookahead_m", r.lookahead_m.unwrap_or(0.0))?,
+                )?,
             }
         }
     };
 
     let s = &file.start;
+    for (key, v) in [("start.x_m", s.x_m), ("start.y_m", s.y_m)] {
+        as_f32(key, v)?;
+    }
     let start = StartState {
         x_m: finite("start.x_m", s.x_m)?,
         y_m: finite("start.y_m", s.y_m)?,
@@ -1124,7 +1152,7 @@ fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioErr
         plant_rate_hz,
         seed: file.sim.seed.unwrap_or(1),
         path,
-        reference_speed_m_s: speed as f32,
+        reference_speed_m_s: speed,
         reference_mode,
         start,
         robot,

@@ -1,0 +1,201 @@
+//! A bad scenario file gets an error that names the key and the problem, and never
+//! panics.
+
+use host_sim::scenario::BUILTIN;
+use host_sim::{run_scenario_with, RunOptions, Scenario};
+
+/// The paper-circle scenario with `table` appended (TOML tables can be re-opened only
+/// once, so the tests use keys the built-in does not set).
+fn with(extra: &str) -> Result<Scenario, String> {
+    let base = BUILTIN[0].1;
+    Scenario::from_toml(&format!("{base}\n{extra}\n"), "test.toml").map_err(|e| e.to_string())
+}
+
+fn error(extra: &str) -> String {
+    match with(extra) {
+        Ok(_) => panic!("accepted: {extra}"),
+        Err(e) => e,
+    }
+}
+
+#[test]
+fn robot_values_are_checked_with_their_key_and_value() {
+    assert_eq!(
+        error("[robot]\nwheel_radius_m = -0.03"),
+        "robot.wheel_radius_m must be > 0, got -0.03"
+    );
+    assert_eq!(
+        error("[robot]\ntrack_width_m = 0.0"),
+        "robot.track_width_m must be > 0, got 0"
+    );
+    assert_eq!(
+        error("[robot]\nspeed_window_steps = 65"),
+        "robot.speed_window_steps must be in 1..=64, got 65"
+    );
+    assert_eq!(
+        error("[robot.limits]\nmax_rim_speed_m_s = -1.0"),
+        "robot.limits.max_rim_speed_m_s must be > 0, got -1"
+    );
+    assert_eq!(
+        error("[robot.law.paper]\ngamma = 0.0"),
+        "robot.law.paper.gamma must be > 0, got 0"
+    );
+    assert_eq!(
+        error("[robot.wheel_pid]\nti_s = -0.1"),
+        "robot.wheel_pid.ti_s must be ≥ 0, got -0.1"
+    );
+    assert_eq!(
+        error("[robot]\nencoder_lines_per_motor_rev = 0"),
+        "robot.encoder_lines_per_motor_rev must be > 0, got 0"
+    );
+}
+
+#[test]
+fn plant_and_sim_values_are_checked_with_their_key_and_value() {
+    assert_eq!(
+        error("[plant.motor]\nresistance_ohm = 0.0"),
+        "plant.motor.resistance_ohm must be > 0, got 0"
+    );
+    assert_eq!(
+        error("[plant.slip]\nleft = 1.5"),
+        "plant.slip.left must be in [0, 1), got 1.5"
+    );
+    assert_eq!(
+        error("[plant]\nsupply_v = nan"),
+        "plant.supply_v must be > 0, got NaN"
+    );
+    assert_eq!(
+        error("[plant.mismatch]\ntrack_width_pct = 80.0"),
+        "plant.mismatch.track_width_pct must be in [-50, 50] %, got 80"
+    );
+    assert_eq!(
+        error("[sweep]\nslip_max = 0.9"),
+        "sweep.slip_max must be in [0, 0.5], got 0.9"
+    );
+    // [sim] is set by the built-in, so use a scenario of our own for it.
+    let text = BUILTIN[0]
+        .1
+        .replace("plant_rate_hz = 10000", "plant_rate_hz = 5000");
+    let e = Scenario::from_toml(&text, "t").unwrap_err().to_string();
+    assert!(
+        e.starts_with("sim.plant_rate_hz must be a multiple of robot.control_rate_hz (1000)"),
+        "{e}"
+    );
+    assert!(e.ends_with("got 5000"), "{e}");
+}
+
+#[test]
+fn path_reference_and_start_errors_name_the_key() {
+    let circle = BUILTIN[0].1;
+    let e = Scenario::from_toml(&circle.replace("radius_m = 1.25", "radius_m = -1.25"), "t");
+    assert_eq!(
+        e.unwrap_err().to_string(),
+        "path.radius_m must be > 0, got -1.25"
+    );
+    let e = Scenario::from_toml(&circle.replace("speed_m_s = 0.25", "speed_m_s = 0.0"), "t");
+    assert_eq!(
+        e.unwrap_err().to_string(),
+        "reference.speed_m_s must be > 0, got 0"
+    );
+    let e = Scenario::from_toml(&circle.replace("kind = \"circle\"", "kind = \"line\""), "t");
+    let e = e.unwrap_err().to_string();
+    assert!(
+        e.starts_with("path.center_m is not used by kind = \"line\""),
+        "{e}"
+    );
+    let e = Scenario::from_toml(&circle.replace("x_m = -1.0", "x_m = inf"), "t");
+    assert_eq!(
+        e.unwrap_err().to_string(),
+        "start.x_m must be finite, got inf"
+    );
+    let e = Scenario::from_toml(&circle.replace("v_m_s = 0.4", "v_m_s = 40.0"), "t");
+    assert!(e
+        .unwrap_err()
+        .to_string()
+        .starts_with("start.v_m_s with start.omega_rad_s"));
+    let e = Scenario::from_toml(
+        &circle.replace("start_offset_m = 0.0", "lookahead_m = 0.1"),
+        "t",
+    );
+    assert_eq!(
+        e.unwrap_err().to_string(),
+        "reference.lookahead_m is only used with mode = \"path-following\""
+    );
+}
+
+#[test]
+fn syntax_unknown_keys_and_wrong_types_name_the_key() {
+    // A typo is an error, not a silently ignored key.
+    let e = error("[robot]\nwheel_radius = 0.03");
+    assert!(e.contains("unknown field `wheel_radius`"), "{e}");
+    assert!(e.starts_with("test.toml:"), "{e}");
+    let e = error("[robot]\nwheel_radius_m = \"big\"");
+    assert!(
+        e.contains("wheel_radius_m") && e.contains("invalid type"),
+        "{e}"
+    );
+    let e = Scenario::from_toml("name = \"x\"\n[path]\nkind = \"circle\"\n", "t").unwrap_err();
+    assert!(e.to_string().contains("missing field `reference`"), "{e}");
+    let e = Scenario::from_toml("this is = not toml", "t").unwrap_err();
+    assert!(e.to_string().starts_with("t:"), "{e}");
+    let e = Scenario::load("no-such-scenario").unwrap_err().to_string();
+    assert!(
+        e.contains("no-such-scenario") && e.contains("paper-circle"),
+        "{e}"
+    );
+}
+
+/// Every float in every built-in scenario replaced, one at a time, by values that are out
+/// of range, absurd or not numbers: loading returns `Ok` or `Err`, never panics, and a
+/// scenario that loads also runs (briefly) without panicking.
+#[test]
+fn no_bad_value_panics() {
+    let bad = [
+        "-1.0", "0.0", "1e40", "-1e-40", "nan", "inf", "-inf", "3.0e9",
+    ];
+    let mut loaded = 0;
+    let mut rejected = 0;
+    for (name, text) in BUILTIN {
+        let lines: Vec<&str> = text.lines().collect();
+        for (i, line) in lines.iter().enumerate() {
+            let Some((key, value)) = line.split_once('=') else {
+                continue;
+            };
+            let value = value.split('#').next().unwrap_or("").trim();
+            if key.trim_start().starts_with('#') || !value.contains('.') || value.contains('"') {
+                continue;
+            }
+            for replacement in bad {
+                let mut mutated = lines.clone();
+                let new_line = format!("{} = {replacement}", key.trim_end());
+                mutated[i] = &new_line;
+                match Scenario::from_toml(&mutated.join("\n"), name) {
+                    Err(e) => {
+                        // The message names the key, or (for arrays) the path table.
+                        let key = key.trim();
+                        let text = e.to_string();
+                        assert!(
+                            text.contains(key) || text.starts_with("path"),
+                            "{name}: {key} = {replacement}: {text}"
+                        );
+                        rejected += 1;
+                    }
+                    Ok(mut s) => {
+                        s.duration_s = 0.05;
+                        let r = run_scenario_with(
+                            &s,
+                            controller_core::law::LawKind::Tracking,
+                            RunOptions::default(),
+                        );
+                        assert!(r.is_ok(), "{name}: {key} = {replacement}");
+                        loaded += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        rejected > 50 && loaded > 10,
+        "rejected {rejected}, loaded {loaded}"
+    );
+}

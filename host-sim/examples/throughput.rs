@@ -1,12 +1,23 @@
 //! Simulation speed: simulated seconds per wall second for the paper's circle with the
-//! tracking law, 1 kHz control and a 10 kHz RK4 plant, on one core, no trace.
+//! tracking law, 1 kHz control and a 10 kHz RK4 plant, on one core, no trace; and where
+//! the time goes (the plant alone, the controller alone).
 //!
 //! ```text
 //! cargo run --release -p host-sim --example throughput
 //! ```
+//!
+//! Best of five runs each, to keep other processes on the machine out of the figure.
 
-use controller_core::law::LawKind;
+use std::time::Instant;
+
+use controller_core::prelude::*;
+use host_sim::plant::{Plant, TruePose};
+use host_sim::run::plant_params;
 use host_sim::{run_scenario_with, RunOptions, Scenario};
+
+fn best_of<F: FnMut() -> f64>(runs: usize, mut f: F) -> f64 {
+    (0..runs).map(|_| f()).fold(f64::INFINITY, f64::min)
+}
 
 fn main() -> anyhow::Result<()> {
     let mut scenario = Scenario::load("paper-circle")?;
@@ -14,33 +25,81 @@ fn main() -> anyhow::Result<()> {
     let options = RunOptions {
         trace_every_steps: 0,
     };
-    // Warm up caches and the branch predictor, then take the best of five runs.
-    run_scenario_with(&scenario, LawKind::Tracking, options)?;
-    let mut best = f64::INFINITY;
-    let mut steps = 0;
-    for _ in 0..5 {
-        let r = run_scenario_with(&scenario, LawKind::Tracking, options)?;
-        best = best.min(r.summary.wall_time_s);
-        steps = r.summary.steps;
-    }
     let control_hz = scenario.robot.control_rate_hz;
+    let substeps = scenario.plant_rate_hz / control_hz;
+    let steps = (scenario.duration_s * f64::from(control_hz)) as u32;
+
+    // The whole loop: encoders, controller, PWM, plant, metrics.
+    run_scenario_with(&scenario, LawKind::Tracking, options)?;
+    let mut failed = None;
+    let full = best_of(5, || {
+        match run_scenario_with(&scenario, LawKind::Tracking, options) {
+            Ok(r) => r.summary.wall_time_s,
+            Err(e) => {
+                failed = Some(e);
+                f64::INFINITY
+            }
+        }
+    });
+    if let Some(e) = failed {
+        return Err(e.into());
+    }
+
+    // The plant alone: the same number of control periods of RK4 substeps.
+    let mut plant = Plant::new(plant_params(&scenario))?;
+    let dt = 1.0 / f64::from(scenario.plant_rate_hz);
+    let plant_only = best_of(5, || {
+        plant.reset(TruePose::default(), [7.0, 8.0]);
+        let t = Instant::now();
+        for k in 0..steps {
+            plant.set_duty(0.25 + 0.001 * (k % 7) as f32, 0.28);
+            plant.advance(dt, substeps);
+        }
+        t.elapsed().as_secs_f64()
+    });
+
+    // The controller alone, fed plausible tick deltas.
+    let params = scenario.params()?;
+    let controller_only = best_of(5, || {
+        let reference = match Reference::new(
+            scenario.path.clone(),
+            scenario.reference_speed_m_s,
+            scenario.reference_mode,
+        ) {
+            Ok(r) => r,
+            Err(_) => return f64::INFINITY,
+        };
+        let mut c = Controller::new(params, reference, LawKind::Tracking, Pose::default());
+        c.set_mode(Mode::FollowPath);
+        let t = Instant::now();
+        let mut sink = 0.0f32;
+        for k in 0..steps {
+            let ticks = TickDeltas {
+                left: 1 + (k % 3) as i32,
+                right: 2,
+            };
+            sink += c.step(ticks).duty.left;
+        }
+        std::hint::black_box(sink);
+        t.elapsed().as_secs_f64()
+    });
+
+    let per_step = |s: f64| s / f64::from(steps) * 1e9;
     println!(
-        "scenario {}: {} control steps at {} Hz, plant RK4 at {} Hz ({} substeps per step)",
-        scenario.name,
-        steps,
-        control_hz,
-        scenario.plant_rate_hz,
-        scenario.plant_rate_hz / control_hz
+        "scenario {}: {steps} control steps at {control_hz} Hz, plant RK4 at {} Hz ({substeps} substeps per step)",
+        scenario.name, scenario.plant_rate_hz
     );
     println!(
-        "wall time {:.4} s for {:.0} simulated s ({:.0} ns per control step)",
-        best,
-        scenario.duration_s,
-        best / steps as f64 * 1e9
+        "whole loop {:.0} ns/step = plant {:.0} ns ({:.1} ns per RK4 substep with the pose) \
++ controller {:.0} ns + the rest",
+        per_step(full),
+        per_step(plant_only),
+        per_step(plant_only) / f64::from(substeps),
+        per_step(controller_only)
     );
     println!(
         "simulated seconds per wall second: {:.0}",
-        scenario.duration_s / best
+        scenario.duration_s / full
     );
     Ok(())
 }

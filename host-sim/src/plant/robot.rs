@@ -328,31 +328,24 @@ impl Plant {
         (next, dphi)
     }
 
-    /// The same RK4 step from `w` in closed form, valid while both wheels turn and keep their
-    /// direction (then the dynamics are affine, ω̇ = Aω + b, with constant b over the
-    /// step). `None` when a wheel is at rest or would reverse: use [`Plant::rk4_step`].
-    #[inline]
-    fn rk4_step_affine(&self, w: [f64; 2]) -> Option<([f64; 2], [f64; 2])> {
-        if w[0] == 0.0 || w[1] == 0.0 {
-            return None;
-        }
-        // b = M⁻¹ (k_V · V − τ_c · sgn ω): the speed-independent torque.
+    /// The constant terms (S b, T b) of the closed-form RK4 step ([`Propagator`]) for the
+    /// present voltages and wheel directions `signs` (±1 each): b = M⁻¹ (k_V · V − τ_c ·
+    /// sgn ω) is the speed-independent part of ω̇, constant while neither wheel reverses.
+    fn forcing(&self, signs: [f64; 2]) -> ([f64; 2], [f64; 2]) {
         let c = self.drive.coulomb_nm;
-        let tl = self.drive.torque_per_volt * self.volts[0] - c.copysign(w[0]);
-        let tr = self.drive.torque_per_volt * self.volts[1] - c.copysign(w[1]);
+        let tl = self.drive.torque_per_volt * self.volts[0] - c * signs[0];
+        let tr = self.drive.torque_per_volt * self.volts[1] - c * signs[1];
         let b = [
             self.inv_p * tl + self.inv_q * tr,
             self.inv_q * tl + self.inv_p * tr,
         ];
-        let (next, dphi) = self.propagator.step(w, b);
-        if next[0] * w[0] <= 0.0 || next[1] * w[1] <= 0.0 {
-            return None;
-        }
-        Some((next, dphi))
+        (
+            mat_vec(&self.propagator.s, b),
+            mat_vec(&self.propagator.t, b),
+        )
     }
 
     /// Advances `steps` RK4 steps of `dt_s` seconds each with the duties last set.
-    #[inline(never)]
     pub fn advance(&mut self, dt_s: f64, steps: u32) {
         if self.propagator.dt_s != dt_s {
             self.propagator = Propagator::new(
@@ -367,8 +360,23 @@ impl Plant {
         let (mut x, mut y, mut theta) = (self.x_m, self.y_m, self.theta_rad);
         let (mut w, mut angle) = (self.speed, self.angle);
         let inv_l = 1.0 / self.params.geometry.track_width_m;
+        // The closed-form RK4 step (see `Propagator`) while both wheels turn and keep
+        // their direction; stage by stage otherwise (static friction, reversal).
+        let mut signs = [w[0].signum(), w[1].signum()];
+        let (mut sb, mut tb) = self.forcing(signs);
         for _ in 0..steps {
-            let (next, dphi) = match self.rk4_step_affine(w) {
+            let mut closed_form = None;
+            if w[0] != 0.0 && w[1] != 0.0 {
+                if w[0].signum() != signs[0] || w[1].signum() != signs[1] {
+                    signs = [w[0].signum(), w[1].signum()];
+                    (sb, tb) = self.forcing(signs);
+                }
+                let (next, dphi) = self.propagator.step(w, sb, tb);
+                if next[0] * w[0] > 0.0 && next[1] * w[1] > 0.0 {
+                    closed_form = Some((next, dphi));
+                }
+            }
+            let (next, dphi) = match closed_form {
                 Some(step) => step,
                 None => self.rk4_step(w, dt_s),
             };
@@ -533,13 +541,11 @@ impl Propagator {
         }
     }
 
-    /// (ω⁺, Δφ) from ω and the constant forcing b.
+    /// (ω⁺, Δφ) from ω and the forcing terms S b, T b.
     #[inline]
-    fn step(&self, w: [f64; 2], b: [f64; 2]) -> ([f64; 2], [f64; 2]) {
+    fn step(&self, w: [f64; 2], sb: [f64; 2], tb: [f64; 2]) -> ([f64; 2], [f64; 2]) {
         let pw = mat_vec(&self.p_w, w);
-        let sb = mat_vec(&self.s, b);
         let qw = mat_vec(&self.q_w, w);
-        let tb = mat_vec(&self.t, b);
         (
             [pw[0] + sb[0], pw[1] + sb[1]],
             [qw[0] + tb[0], qw[1] + tb[1]],
@@ -548,14 +554,16 @@ impl Propagator {
 }
 
 /// (sin a, cos a) for the tiny angles of one plant step (Taylor to a⁵ / a⁴: error < 1e-16
-/// for |a| < 2e-3), falling back to the library for larger ones.
+/// for |a| < 2e-3), falling back to the library for larger ones. Constants are
+/// multiplied, not divided: a division by 6 is not exact, so the compiler keeps it a
+/// (slow) division.
 #[inline]
 fn small_sin_cos(a: f64) -> (f64, f64) {
     let z = a * a;
     if z < 4e-6 {
         (
-            a * (1.0 - z / 6.0 * (1.0 - z / 20.0)),
-            1.0 - z / 2.0 * (1.0 - z / 12.0),
+            a * (1.0 - z * (1.0 / 6.0) * (1.0 - z * (1.0 / 20.0))),
+            1.0 - z * 0.5 * (1.0 - z * (1.0 / 12.0)),
         )
     } else {
         a.sin_cos()
@@ -567,7 +575,7 @@ fn small_sin_cos(a: f64) -> (f64, f64) {
 fn sin_h_over_h(a: f64) -> f64 {
     let z = a * a;
     if z < 4e-6 {
-        1.0 - z / 6.0 * (1.0 - z / 20.0)
+        1.0 - z * (1.0 / 6.0) * (1.0 - z * (1.0 / 20.0))
     } else {
         a.sin() / a
     }
@@ -674,7 +682,10 @@ mod tests {
             let w = [rng.symmetric(40.0), rng.symmetric(40.0)];
             p.set_duty(rng.symmetric(1.0) as f32, rng.symmetric(1.0) as f32);
             let (w_ref, phi_ref) = p.rk4_step(w, 1e-4);
-            if let Some((w_fast, phi_fast)) = p.rk4_step_affine(w) {
+            let (sb, tb) = p.forcing([w[0].signum(), w[1].signum()]);
+            let (w_fast, phi_fast) = p.propagator.step(w, sb, tb);
+            // Where neither wheel reverses, the two are the same arithmetic.
+            if w_ref[0] * w[0] > 0.0 && w_ref[1] * w[1] > 0.0 {
                 for i in 0..2 {
                     assert!((w_fast[i] - w_ref[i]).abs() < 1e-11, "{w_fast:?} {w_ref:?}");
                     assert!(
@@ -684,8 +695,11 @@ mod tests {
                 }
             }
         }
-        // At rest the closed form declines (static friction needs the stage-by-stage step).
-        assert!(p.rk4_step_affine([0.0, 5.0]).is_none());
+        // At rest, stage by stage (static friction): a small duty does not move the wheel.
+        p.reset(TruePose::default(), [0.0, 0.0]);
+        p.set_duty(0.03, 0.03);
+        p.advance(1e-4, 10);
+        assert_eq!(p.wheel_speeds(), [0.0, 0.0]);
     }
 
     #[test]

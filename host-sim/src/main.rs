@@ -132,7 +132,11 @@ fn default_dir(scenario: &Scenario, leaf: &str) -> PathBuf {
 }
 
 fn load(name: &str) -> Result<Scenario> {
-    Ok(Scenario::load(name)?)
+    Scenario::load(name).map_err(|e| match e {
+        // Say which file a value error is in (syntax errors already do).
+        host_sim::ScenarioError::Invalid { .. } => anyhow::Error::new(e).context(name.to_string()),
+        other => other.into(),
+    })
 }
 
 fn cmd_run(scenario: &str, law: Law, out: Option<PathBuf>, trace_every: u32) -> Result<()> {

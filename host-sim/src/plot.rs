@@ -58,27 +58,32 @@ fn bbox(points: impl Iterator<Item = (f64, f64)>) -> (f64, f64, f64, f64) {
 /// Pixels the chart decorations take from a path plot: (horizontal, vertical).
 const PATH_DECOR_PX: (u32, u32) = (55 + 2 * 12, 40 + 2 * 12 + 30);
 
+/// Pixels kept free above a path plot's data for the legend.
+const LEGEND_PX: u32 = 95;
+
 /// Canvas height (px) for a path plot `width` px wide showing `b` at equal scale.
 fn path_canvas_height(b: (f64, f64, f64, f64), width: u32) -> u32 {
     let (dx, dy) = ((b.1 - b.0).max(0.1), (b.3 - b.2).max(0.1));
     let plot_w = f64::from(width - PATH_DECOR_PX.0);
-    let plot_h = (plot_w * dy / dx).clamp(0.45 * plot_w, 1.2 * plot_w);
-    plot_h as u32 + PATH_DECOR_PX.1
+    let plot_h = (plot_w * dy / dx).clamp(0.3 * plot_w, 1.2 * plot_w);
+    plot_h as u32 + PATH_DECOR_PX.1 + LEGEND_PX
 }
 
-/// Ranges around `b` (with a margin for the legend) at equal scale on a plotting area of
-/// `pixels` (width, height).
+/// Ranges around `b` at equal scale on a drawing area of `pixels` (width, height), with
+/// [`LEGEND_PX`] free above the data for the legend.
 fn equal_scale_ranges(
     b: (f64, f64, f64, f64),
     pixels: (u32, u32),
 ) -> (std::ops::Range<f64>, std::ops::Range<f64>) {
     let plot_w = f64::from(pixels.0.saturating_sub(PATH_DECOR_PX.0).max(1));
-    let plot_h = f64::from(pixels.1.saturating_sub(PATH_DECOR_PX.1).max(1));
+    let plot_h = f64::from(pixels.1.saturating_sub(PATH_DECOR_PX.1).max(2));
+    let data_h = (plot_h - f64::from(LEGEND_PX)).max(0.5 * plot_h);
     let (cx, cy) = (0.5 * (b.0 + b.1), 0.5 * (b.2 + b.3));
-    // Metres per pixel: enough for both extents, plus 20 % for the legend.
-    let scale = ((b.1 - b.0).max(0.1) / plot_w).max((b.3 - b.2).max(0.1) / plot_h) * 1.2;
-    let (hw, hh) = (0.5 * scale * plot_w, 0.5 * scale * plot_h);
-    (cx - hw..cx + hw, cy - hh..cy + hh)
+    // Metres per pixel: enough for both extents, plus 10 % of margin.
+    let scale = ((b.1 - b.0).max(0.1) / plot_w).max((b.3 - b.2).max(0.1) / data_h) * 1.1;
+    let hw = 0.5 * scale * plot_w;
+    let bottom = cy - 0.5 * scale * data_h;
+    (cx - hw..cx + hw, bottom..bottom + scale * plot_h)
 }
 
 /// A range around `values` with 5 % margin (never empty).

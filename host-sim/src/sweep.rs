@@ -1,6 +1,6 @@
 //! Monte-Carlo: the same scenario many times over a spread of robots and starts.
 //!
-//! Each run draws, uniformly within the scenario's [`SweepSpec`] and on top of its own
+//! Each run draws, uniformly within the scenario's [`SweepSpec`](crate::scenario::SweepSpec) and on top of its own
 //! values: wheel-radius and track-width mismatch, a left/right radius difference, supply
 //! voltage, Coulomb friction, wheel slip, encoder jitter, and an offset of the start pose.
 //! Runs are independent (each has its own random stream, derived from the sweep seed and

@@ -21,7 +21,7 @@
 //! with gearbox efficiency η, viscous friction b and Coulomb friction τ_c, both referred to
 //! the wheel shaft. At rest (ω = 0) Coulomb friction is static friction: it cancels any
 //! drive torque up to τ_c, so a wheel does not creep under a small duty
-//! ([`MotorParams::wheel_torque_nm`]).
+//! ([`WheelDrive::wheel_torque_nm`]).
 
 /// Motor and gearbox constants of one wheel, SI units.
 ///

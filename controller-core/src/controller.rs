@@ -9,7 +9,8 @@
 //! ```
 //!
 //! [`Controller::step`] is the whole of it: call it once per period T with the signed tick
-//! deltas of that period. It never panics and always returns duties in [−1, 1]. Faults
+//! deltas of that period, apply the duties it returns, and read [`Controller::telemetry`]
+//! when you want to log or plot. It never panics and always returns duties in [−1, 1]. Faults
 //! (an implausible tick jump, a non-finite value anywhere) latch: both duties are 0 until
 //! [`Controller::clear_faults`].
 
@@ -109,16 +110,6 @@ pub struct Telemetry {
     pub duty: MotorCommand,
     /// Latched faults.
     pub faults: FaultFlags,
-}
-
-/// Output of one [`Controller::step`].
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct StepOutput {
-    /// Motor commands to apply now, each in [−1, 1].
-    pub duty: MotorCommand,
-    /// What the step computed.
-    pub telemetry: Telemetry,
 }
 
 /// The whole control stack for one robot (see the module doc).
@@ -268,8 +259,10 @@ impl Controller {
     }
 
     /// One control period: `ticks` counted since the last call. Returns the duties to
-    /// apply (in [−1, 1], 0 on any fault) and the step's telemetry.
-    pub fn step(&mut self, ticks: TickDeltas) -> StepOutput {
+    /// apply (in [−1, 1], 0 on any fault). What the step computed is in
+    /// [`Controller::telemetry`], borrowed rather than copied out (on a Cortex-M4F the copy
+    /// cost more than the wheel loop's arithmetic).
+    pub fn step(&mut self, ticks: TickDeltas) -> MotorCommand {
         // Phase the steering loop on the path clock, so the law runs on the very first step
         // after path following (re)starts.
         let steering_due = self.path_clock.steps() % self.params.config().steering_divider == 0;
@@ -332,10 +325,7 @@ impl Controller {
         if self.mode == Mode::FollowPath {
             self.path_clock.tick();
         }
-        StepOutput {
-            duty: self.telemetry.duty,
-            telemetry: self.telemetry,
-        }
+        self.telemetry.duty
     }
 }
 
@@ -366,10 +356,7 @@ mod tests {
     fn idle_commands_nothing() {
         let mut c = controller();
         for _ in 0..100 {
-            assert_eq!(
-                c.step(TickDeltas { left: 1, right: 1 }).duty,
-                MotorCommand::STOP
-            );
+            assert_eq!(c.step(TickDeltas { left: 1, right: 1 }), MotorCommand::STOP);
         }
         // Odometry still runs while idle.
         assert!(c.pose().x_m > 0.0);
@@ -379,13 +366,16 @@ mod tests {
     fn follow_path_drives_forward() {
         let mut c = controller();
         c.set_mode(Mode::FollowPath);
-        let out = c.step(TickDeltas::default());
-        assert!(out.telemetry.steering_updated);
-        assert!(out.duty.left > 0.0 && out.duty.right > 0.0);
-        assert!(!out.telemetry.faults.any());
+        let duty = c.step(TickDeltas::default());
+        assert!(c.telemetry().steering_updated);
+        assert!(duty.left > 0.0 && duty.right > 0.0);
+        assert!(!c.faults().any());
         // The steering law runs every `steering_divider` (10) steps, the PIDs every step.
         let pattern: Vec<bool> = (1..=20)
-            .map(|_| c.step(TickDeltas::default()).telemetry.steering_updated)
+            .map(|_| {
+                c.step(TickDeltas::default());
+                c.telemetry().steering_updated
+            })
             .collect();
         let expected: Vec<bool> = (1..=20).map(|k| k % 10 == 0).collect();
         assert_eq!(pattern, expected);
@@ -395,29 +385,29 @@ mod tests {
     fn encoder_jump_latches_a_stop_until_cleared() {
         let mut c = controller();
         c.set_mode(Mode::HoldWheelSpeeds(WheelSpeeds::new(5.0, 5.0)));
-        assert!(c.step(TickDeltas::default()).duty.left > 0.0);
-        let out = c.step(TickDeltas {
+        assert!(c.step(TickDeltas::default()).left > 0.0);
+        let duty = c.step(TickDeltas {
             left: 10_000,
             right: 0,
         });
-        assert!(out.telemetry.faults.encoder_jump);
-        assert_eq!(out.duty, MotorCommand::STOP);
+        assert!(c.faults().encoder_jump);
+        assert_eq!(duty, MotorCommand::STOP);
         // Latched, even with sane input.
-        assert_eq!(c.step(TickDeltas::default()).duty, MotorCommand::STOP);
+        assert_eq!(c.step(TickDeltas::default()), MotorCommand::STOP);
         c.clear_faults();
-        let out = c.step(TickDeltas::default());
-        assert!(!out.telemetry.faults.any());
-        assert!(out.duty.left > 0.0);
+        let duty = c.step(TickDeltas::default());
+        assert!(!c.faults().any());
+        assert!(duty.left > 0.0);
     }
 
     #[test]
     fn hold_mode_caps_set_points_at_the_rim_speed_limit() {
         let mut c = controller();
         c.set_mode(Mode::HoldWheelSpeeds(WheelSpeeds::new(1000.0, -1000.0)));
-        let out = c.step(TickDeltas::default());
+        c.step(TickDeltas::default());
         let max = 1.0 / 0.0325;
-        assert!((out.telemetry.wheel_setpoint.left_rad_s - max).abs() < 1e-3);
-        assert!((out.telemetry.wheel_setpoint.right_rad_s + max).abs() < 1e-3);
+        assert!((c.telemetry().wheel_setpoint.left_rad_s - max).abs() < 1e-3);
+        assert!((c.telemetry().wheel_setpoint.right_rad_s + max).abs() < 1e-3);
     }
 
     proptest! {
@@ -445,13 +435,13 @@ mod tests {
             }
             for pair in ticks.chunks(2) {
                 let t = TickDeltas { left: pair[0], right: *pair.last().unwrap_or(&0) };
-                let out = c.step(t);
-                for d in [out.duty.left, out.duty.right] {
+                let duty = c.step(t);
+                for d in [duty.left, duty.right] {
                     prop_assert!(d.is_finite() && (-1.0..=1.0).contains(&d));
                 }
-                if !out.telemetry.pose.is_finite() {
-                    prop_assert!(out.telemetry.faults.non_finite);
-                    prop_assert_eq!(out.duty, MotorCommand::STOP);
+                if !c.telemetry().pose.is_finite() {
+                    prop_assert!(c.faults().non_finite);
+                    prop_assert_eq!(duty, MotorCommand::STOP);
                 }
             }
         }

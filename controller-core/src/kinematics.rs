@@ -118,6 +118,15 @@ pub enum GeometryError {
     NonPositiveTrackWidth,
 }
 
+impl core::fmt::Display for GeometryError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            GeometryError::NonPositiveWheelRadius => "the wheel radius must be > 0 m",
+            GeometryError::NonPositiveTrackWidth => "the track width must be > 0 m",
+        })
+    }
+}
+
 impl DiffDrive {
     /// Geometry with wheel radius R = `wheel_radius_m` and track width L = `track_width_m`
     /// (distance between the wheels' contact points), both in m and > 0.

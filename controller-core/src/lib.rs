@@ -27,7 +27,7 @@
 //!    output clamp with anti-windup, feed-forward and a D filter.
 //! 9. [`controller`] — the cascade that composes all of the above: call
 //!    [`controller::Controller::step`] once per period with the tick deltas, apply the two
-//!    duties it returns.
+//!    duties it returns, read [`controller::Controller::telemetry`] to log or plot.
 //!
 //! [`supervisor`] holds the firmware's safety logic (arming, faults, watchdog feeding)
 //! so that host tests can exercise it.
@@ -55,9 +55,9 @@
 //! let mut controller =
 //!     Controller::new(params, reference, LawKind::Tracking, Pose::new(1.25, 0.0, 1.57));
 //! controller.set_mode(Mode::FollowPath);
-//! let out = controller.step(TickDeltas { left: 0, right: 0 });
-//! assert!(out.duty.left > 0.0 && out.duty.right > 0.0);
-//! assert!(!out.telemetry.faults.any());
+//! let duty = controller.step(TickDeltas { left: 0, right: 0 });
+//! assert!(duty.left > 0.0 && duty.right > 0.0);
+//! assert!(!controller.telemetry().faults.any());
 //! ```
 
 #![cfg_attr(not(test), no_std)]
@@ -81,7 +81,7 @@ pub mod time;
 /// The types needed to build and run a controller.
 pub mod prelude {
     pub use crate::controller::{
-        Controller, FaultFlags, Mode, MotorCommand, StepOutput, Telemetry, TickDeltas,
+        Controller, FaultFlags, Mode, MotorCommand, Telemetry, TickDeltas,
     };
     pub use crate::kinematics::{BodyVelocity, DiffDrive, Point, Pose, TrackingError, WheelSpeeds};
     pub use crate::law::{LawGains, LawKind};

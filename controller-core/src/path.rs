@@ -164,6 +164,21 @@ pub enum PathError {
     TooManySegments,
 }
 
+impl core::fmt::Display for PathError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            PathError::NonFinite => "a coordinate, length or radius is not finite",
+            PathError::NonPositiveSize => "a radius or length is ≤ 0 (a corner radius < 0)",
+            PathError::TooFewPoints => "a polyline needs at least 2 waypoints (3 when closed)",
+            PathError::DuplicatePoint => "two consecutive waypoints coincide",
+            PathError::CornerTooTight => {
+                "a corner fillet does not fit between its waypoints, or the path turns back"
+            }
+            PathError::TooManySegments => "the path needs more than 32 segments",
+        })
+    }
+}
+
 /// A path: a chain of [`Segment`]s parameterised by arc length, open or closed.
 #[derive(Clone, Debug)]
 pub struct Path {

@@ -51,6 +51,17 @@ pub enum ReferenceError {
     BadDistance,
 }
 
+impl core::fmt::Display for ReferenceError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            ReferenceError::NonPositiveSpeed => "the reference speed must be > 0 m/s",
+            ReferenceError::BadDistance => {
+                "the start offset or look-ahead distance must be ≥ 0 m and finite"
+            }
+        })
+    }
+}
+
 /// The reference at one instant: pose (world frame), its body velocity and progress.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -87,7 +87,7 @@
 //! assert_eq!(state, State::Armed);
 //! ```
 
-use crate::controller::{Controller, FaultFlags, Mode, MotorCommand, StepOutput, TickDeltas};
+use crate::controller::{Controller, FaultFlags, Mode, MotorCommand, Telemetry, TickDeltas};
 use crate::kinematics::{Pose, WheelSpeeds};
 use crate::math;
 
@@ -402,8 +402,9 @@ pub struct Supervised {
     pub overruns_total: u32,
     /// The state change of this step, if any.
     pub event: Option<Event>,
-    /// The controller's output of this step (before the supervisor zeroed anything).
-    pub core: StepOutput,
+    /// The controller's duties of this step, before the supervisor zeroed anything (its
+    /// telemetry is [`Controller::telemetry`]).
+    pub controller_duty: MotorCommand,
 }
 
 /// What the debounced button did in one step.
@@ -556,11 +557,11 @@ impl Supervisor {
             (State::Disarmed | State::Faulted, _) => Mode::Idle,
         };
         controller.set_mode(mode);
-        let core = controller.step(input.ticks);
+        let controller_duty = controller.step(input.ticks);
 
         // 3. Faults, whatever the state.
-        self.faults.core = core.telemetry.faults;
-        let duty_ok = [core.duty.left, core.duty.right]
+        self.faults.core = controller.faults();
+        let duty_ok = [controller_duty.left, controller_duty.right]
             .iter()
             .all(|d| d.is_finite() && math::abs(*d) <= 1.0);
         if !duty_ok {
@@ -570,7 +571,7 @@ impl Supervisor {
             self.faults.overrun = true;
         }
         if self.state == State::Armed {
-            self.check_stall(&core);
+            self.check_stall(controller_duty, controller.telemetry());
         } else {
             self.stall_steps = [0; 2];
         }
@@ -582,7 +583,11 @@ impl Supervisor {
 
         // 4. Outputs.
         let armed = self.state == State::Armed;
-        let duty = if armed { core.duty } else { MotorCommand::STOP };
+        let duty = if armed {
+            controller_duty
+        } else {
+            MotorCommand::STOP
+        };
         Supervised {
             duty,
             driver_enabled: armed,
@@ -592,7 +597,7 @@ impl Supervisor {
             faults: self.faults,
             overruns_total: self.overruns_total,
             event,
-            core,
+            controller_duty,
         }
     }
 
@@ -700,11 +705,11 @@ impl Supervisor {
         controller.set_mode(Mode::Idle);
     }
 
-    fn check_stall(&mut self, core: &StepOutput) {
+    fn check_stall(&mut self, duty: MotorCommand, telemetry: &Telemetry) {
         let check = self.config.stall;
         let wheels = [
-            (core.duty.left, core.telemetry.wheel_speed.left_rad_s),
-            (core.duty.right, core.telemetry.wheel_speed.right_rad_s),
+            (duty.left, telemetry.wheel_speed.left_rad_s),
+            (duty.right, telemetry.wheel_speed.right_rad_s),
         ];
         for (count, (duty, speed)) in self.stall_steps.iter_mut().zip(wheels) {
             let driven = math::abs(duty) >= check.min_duty;
@@ -889,7 +894,7 @@ mod tests {
         assert_eq!(r.ctl.mode(), Mode::FollowPath);
         // The line is ahead: the robot drives forward.
         assert!(last.duty.left > 0.0 && last.duty.right > 0.0);
-        assert_eq!(last.duty, last.core.duty);
+        assert_eq!(last.duty, last.controller_duty);
     }
 
     #[test]
@@ -1069,6 +1074,8 @@ mod tests {
     #[test]
     fn starved_background_stops_the_feeding_but_not_the_motors() {
         let mut r = rig();
+        // Hold mode, where the fake world turns the wheels at the held speed.
+        r.long_press_to_hold();
         r.press(30);
         r.moving = true;
         r.background_alive = false;
@@ -1077,7 +1084,7 @@ mod tests {
         assert!(outs[..499].iter().all(|o| o.feed_watchdog));
         assert!(outs[499..].iter().all(|o| !o.feed_watchdog));
         // The watchdog, not the supervisor, deals with it: the motors still run until reset.
-        assert_eq!(outs[599].state, State::Armed);
+        assert_eq!(outs[599].state, State::Armed, "{:?}", outs[599].faults);
         r.background_alive = true;
         assert!(r.step().feed_watchdog);
     }

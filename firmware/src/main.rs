@@ -257,7 +257,8 @@ mod app {
             }
         }
         if *l.step % REPORT_EVERY == 0 {
-            let _dropped = report::spawn(Report::new(*l.step, &out, cycles, *l.max_cycles));
+            let t = l.controller.telemetry();
+            let _dropped = report::spawn(Report::new(*l.step, &out, t, cycles, *l.max_cycles));
         }
 
         *l.step = l.step.wrapping_add(1);

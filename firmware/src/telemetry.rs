@@ -4,7 +4,7 @@
 //! a low-priority task that logs it, so the 1 kHz loop never formats or waits for the
 //! probe. Supervisor events (armed, disarmed, faulted, …) are logged as they happen.
 
-use controller_core::controller::MotorCommand;
+use controller_core::controller::{MotorCommand, Telemetry};
 use controller_core::kinematics::{Pose, TrackingError, WheelSpeeds};
 use controller_core::supervisor::{Faults, RunMode, State, Supervised};
 
@@ -38,10 +38,9 @@ pub struct Report {
 }
 
 impl Report {
-    /// The report of the step `step` that produced `out`, which took `cycles` CPU cycles
-    /// (longest so far: `max_cycles`).
-    pub fn new(step: u32, out: &Supervised, cycles: u32, max_cycles: u32) -> Self {
-        let t = &out.core.telemetry;
+    /// The report of the step `step` that produced `out` and the controller telemetry `t`,
+    /// which took `cycles` CPU cycles (longest so far: `max_cycles`).
+    pub fn new(step: u32, out: &Supervised, t: &Telemetry, cycles: u32, max_cycles: u32) -> Self {
         Self {
             step,
             state: out.state,

@@ -78,7 +78,7 @@ fn main() -> anyhow::Result<()> {
                 left: 1 + (k % 3) as i32,
                 right: 2,
             };
-            sink += c.step(ticks).duty.left;
+            sink += c.step(ticks).left;
         }
         std::hint::black_box(sink);
         t.elapsed().as_secs_f64()

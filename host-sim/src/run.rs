@@ -329,8 +329,8 @@ pub fn run_scenario_with(
             left: encoders[0].read_delta(angles[0], &mut rng),
             right: encoders[1].read_delta(angles[1], &mut rng),
         };
-        let out = controller.step(ticks);
-        let tel = &out.telemetry;
+        let duty = controller.step(ticks);
+        let tel = controller.telemetry();
 
         let record = options.trace_every_steps > 0 && k % u64::from(options.trace_every_steps) == 0;
         if tel.steering_updated || record {
@@ -368,17 +368,17 @@ pub fn run_scenario_with(
                     setpoint: tel.wheel_setpoint,
                     measured: tel.wheel_speed,
                     true_wheel: plant.wheel_speeds(),
-                    duty: out.duty,
+                    duty,
                 });
             }
         }
 
-        plant.set_duty(out.duty.left, out.duty.right);
+        plant.set_duty(duty.left, duty.right);
         let [il, ir] = plant.currents_a();
         max_current = max_current.max(il.abs()).max(ir.abs());
         max_duty = max_duty
-            .max(f64::from(out.duty.left.abs()))
-            .max(f64::from(out.duty.right.abs()));
+            .max(f64::from(duty.left.abs()))
+            .max(f64::from(duty.right.abs()));
         plant.advance(dt_s, substeps);
         let [wl, wr] = plant.wheel_speeds();
         max_wheel = max_wheel.max(wl.abs()).max(wr.abs());
@@ -467,14 +467,14 @@ pub fn wheel_step_response(
             left: encoders[0].read_delta(angles[0], &mut rng),
             right: encoders[1].read_delta(angles[1], &mut rng),
         };
-        let out = controller.step(ticks);
+        let duty = controller.step(ticks);
         samples.push((
             k as f64 / f64::from(control_hz),
             plant.wheel_speeds()[0],
-            f64::from(out.telemetry.wheel_speed.left_rad_s),
-            f64::from(out.duty.left),
+            f64::from(controller.telemetry().wheel_speed.left_rad_s),
+            f64::from(duty.left),
         ));
-        plant.set_duty(out.duty.left, out.duty.right);
+        plant.set_duty(duty.left, duty.right);
         plant.advance(dt_s, substeps);
     }
     let target = setpoint_rad_s;

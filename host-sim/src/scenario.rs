@@ -540,7 +540,7 @@ impl Scenario {
 
     /// Validated controller parameters.
     pub fn params(&self) -> Result<Params, ScenarioError> {
-        Params::new(self.robot).map_err(|e| param_error(&self.robot, e))
+        Params::new(self.robot).map_err(param_error)
     }
 }
 
@@ -611,107 +611,22 @@ fn point(key: &str, p: [f64; 2]) -> Result<Point, ScenarioError> {
     Ok(Point::new(x, y))
 }
 
-/// The value of a RobotConfig field named as in [`ParamError`], as written (f32).
-fn config_value(c: &RobotConfig, name: &str) -> String {
-    let v: f32 = match name {
-        "limits.max_rim_speed_m_s" => c.limits.max_rim_speed_m_s,
-        "limits.max_linear_accel_m_s2" => c.limits.max_linear_accel_m_s2,
-        "limits.max_angular_accel_rad_s2" => c.limits.max_angular_accel_rad_s2,
-        "max_plausible_wheel_speed_rad_s" => c.max_plausible_wheel_speed_rad_s,
-        "wheel_pid.kp_duty_per_rad_s" => c.wheel_pid.kp_duty_per_rad_s,
-        "wheel_pid.ti_s" => c.wheel_pid.ti_s,
-        "wheel_pid.td_s" => c.wheel_pid.td_s,
-        "wheel_pid.d_filter_tau_s" => c.wheel_pid.d_filter_tau_s,
-        "wheel_pid.feed_forward_duty_per_rad_s" => c.wheel_pid.feed_forward_duty_per_rad_s,
-        "paper.gamma" => c.law.paper.gamma,
-        "paper.k" => c.law.paper.k,
-        "paper.h" => c.law.paper.h,
-        "paper.lambda" => c.law.paper.lambda,
-        "tracking.lambda" => c.law.tracking.lambda,
-        "tracking.k_x" => c.law.tracking.k_x,
-        "tracking.k_theta" => c.law.tracking.k_theta,
-        "kanayama.k_x" => c.law.kanayama.k_x,
-        "kanayama.k_y" => c.law.kanayama.k_y,
-        "kanayama.k_theta" => c.law.kanayama.k_theta,
-        _ => return "an out-of-range value".to_string(),
-    };
-    format!("{v}")
-}
-
-/// Turns the core's [`ParamError`] into an error naming the TOML key and the value.
-fn param_error(c: &RobotConfig, e: ParamError) -> ScenarioError {
-    let (key, problem) = match e {
-        ParamError::NonPositiveWheelRadius => (
-            "robot.wheel_radius_m".to_string(),
-            format!("must be > 0, got {}", c.wheel_radius_m),
-        ),
-        ParamError::NonPositiveTrackWidth => (
-            "robot.track_width_m".to_string(),
-            format!("must be > 0, got {}", c.track_width_m),
-        ),
-        ParamError::NonPositiveCountsPerRev if c.encoder_lines_per_motor_rev == 0 => (
-            "robot.encoder_lines_per_motor_rev".to_string(),
-            "must be > 0, got 0".to_string(),
-        ),
-        ParamError::NonPositiveCountsPerRev => (
-            "robot.gear_ratio".to_string(),
-            format!("must be > 0, got {}", c.gear_ratio),
-        ),
-        ParamError::ZeroControlRate => (
-            "robot.control_rate_hz".to_string(),
-            "must be > 0, got 0".to_string(),
-        ),
-        ParamError::ZeroSteeringDivider => (
-            "robot.steering_divider".to_string(),
-            "must be > 0, got 0".to_string(),
-        ),
-        ParamError::SpeedWindowOutOfRange => (
-            "robot.speed_window_steps".to_string(),
-            format!(
-                "must be in 1..={}, got {}",
-                controller_core::encoder::MAX_SPEED_WINDOW_STEPS,
-                c.speed_window_steps
-            ),
-        ),
-        ParamError::NonPositiveLimit(name) => (
-            format!("robot.{name}"),
-            format!("must be > 0, got {}", config_value(c, name)),
-        ),
-        ParamError::NonFiniteGain(name) => {
-            let key = if name.starts_with("wheel_pid") {
-                format!("robot.{name}")
-            } else {
-                format!("robot.law.{name}")
-            };
-            let rule = match name {
-                "wheel_pid.kp_duty_per_rad_s" | "wheel_pid.feed_forward_duty_per_rad_s" => {
-                    "must be finite"
-                }
-                "wheel_pid.ti_s" | "wheel_pid.td_s" | "wheel_pid.d_filter_tau_s" => "must be ≥ 0",
-                "wheel_pid" => "gives non-finite discrete gains",
-                _ => "must be > 0",
-            };
-            let problem = if name == "wheel_pid" {
-                rule.to_string()
-            } else {
-                format!("{rule}, got {}", config_value(c, name))
-            };
-            (key, problem)
-        }
-    };
-    ScenarioError::Invalid { key, problem }
+/// Turns the core's [`ParamError`] into an error naming the TOML key and the value: the
+/// core names the field by its path in `RobotConfig`, which is the key under `[robot]`.
+fn param_error(e: ParamError) -> ScenarioError {
+    let full = e.to_string();
+    let problem = full
+        .strip_prefix(e.field())
+        .map_or(full.as_str(), str::trim_start)
+        .to_string();
+    ScenarioError::Invalid {
+        key: format!("robot.{}", e.field()),
+        problem,
+    }
 }
 
 fn path_error(e: PathError) -> ScenarioError {
-    let problem = match e {
-        PathError::NonFinite => "has a coordinate, length or radius that is not finite",
-        PathError::NonPositiveSize => "has a radius or length ≤ 0",
-        PathError::TooFewPoints => "needs at least 2 waypoints (3 when closed)",
-        PathError::DuplicatePoint => "has two consecutive waypoints that coincide",
-        PathError::TooManySegments => "has too many waypoints (at most 16 for a closed polyline)",
-        _ => "is not a valid path (corner_radius_m too large for the waypoints' spacing?)",
-    };
-    ScenarioError::invalid("path", problem)
+    ScenarioError::invalid("path", format!("is not a valid path: {e}"))
 }
 
 fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
@@ -1065,7 +980,7 @@ pub const MAX_DURATION_S: f64 = 3600.0;
 fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioError> {
     let robot = apply_robot(&file.robot);
     // The core is the single source of truth for what a valid RobotConfig is.
-    Params::new(robot).map_err(|e| param_error(&robot, e))?;
+    Params::new(robot).map_err(param_error)?;
 
     let duration_s = file.sim.duration_s.unwrap_or(30.0);
     check(

@@ -44,9 +44,9 @@ fn the_loop_closes_without_faults() {
     let mut worst_odometry_drift = 0.0f32;
     let mut steering_steps = [0u32; 3];
     run_scenario_with(&s, |r| {
-        let t = &r.output.telemetry;
+        let t = r.telemetry;
         assert!(!t.faults.any(), "fault at step {}: {:?}", r.index, t.faults);
-        for duty in [r.output.duty.left, r.output.duty.right] {
+        for duty in [r.duty.left, r.duty.right] {
             assert!(duty.is_finite() && (-1.0..=1.0).contains(&duty));
         }
         if t.steering_updated {

@@ -16,6 +16,7 @@ pub mod paper;
 pub mod tracking;
 
 use crate::kinematics::{BodyVelocity, Pose, TrackingError};
+use crate::params::ParamError;
 use crate::reference::ReferenceState;
 
 pub use kanayama::KanayamaGains;
@@ -66,23 +67,29 @@ pub struct LawGains {
 }
 
 impl LawGains {
-    /// The name of the first gain that is not finite and > 0, if any.
-    pub fn first_invalid(&self) -> Option<&'static str> {
+    /// Checks that every gain is finite and > 0; the error names the first that is not.
+    pub fn validate(&self) -> Result<(), ParamError> {
         let all = [
-            ("paper.gamma", self.paper.gamma),
-            ("paper.k", self.paper.k),
-            ("paper.h", self.paper.h),
-            ("paper.lambda", self.paper.lambda),
-            ("tracking.lambda", self.tracking.lambda),
-            ("tracking.k_x", self.tracking.k_x),
-            ("tracking.k_theta", self.tracking.k_theta),
-            ("kanayama.k_x", self.kanayama.k_x),
-            ("kanayama.k_y", self.kanayama.k_y),
-            ("kanayama.k_theta", self.kanayama.k_theta),
+            ("law.paper.gamma", self.paper.gamma),
+            ("law.paper.k", self.paper.k),
+            ("law.paper.h", self.paper.h),
+            ("law.paper.lambda", self.paper.lambda),
+            ("law.tracking.lambda", self.tracking.lambda),
+            ("law.tracking.k_x", self.tracking.k_x),
+            ("law.tracking.k_theta", self.tracking.k_theta),
+            ("law.kanayama.k_x", self.kanayama.k_x),
+            ("law.kanayama.k_y", self.kanayama.k_y),
+            ("law.kanayama.k_theta", self.kanayama.k_theta),
         ];
-        all.into_iter()
-            .find(|(_, g)| !(g.is_finite() && *g > 0.0))
-            .map(|(name, _)| name)
+        for (field, value) in all {
+            if !value.is_finite() {
+                return Err(ParamError::NonFiniteGain { field, value });
+            }
+            if value <= 0.0 {
+                return Err(ParamError::NonPositiveGain { field, value });
+            }
+        }
+        Ok(())
     }
 }
 

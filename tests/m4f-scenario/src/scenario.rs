@@ -3,7 +3,7 @@
 use core::f32::consts::PI;
 use core::fmt;
 
-use controller_core::controller::{Controller, Mode, StepOutput, TickDeltas};
+use controller_core::controller::{Controller, Mode, MotorCommand, Telemetry, TickDeltas};
 use controller_core::kinematics::{Point, Pose};
 use controller_core::law::LawKind;
 use controller_core::math;
@@ -138,8 +138,10 @@ pub struct StepRecord<'a> {
     pub law: LawKind,
     /// The tick deltas the controller was given.
     pub ticks: TickDeltas,
-    /// What the controller returned.
-    pub output: &'a StepOutput,
+    /// The duties the controller returned.
+    pub duty: MotorCommand,
+    /// The controller's telemetry of this step.
+    pub telemetry: &'a Telemetry,
     /// The plant's true pose when the controller ran (before the duty was applied).
     pub true_pose: Pose,
 }
@@ -166,19 +168,20 @@ pub fn run_scenario_with(
     for segment in &scenario.segments {
         controller.set_law(segment.law);
         for _ in 0..segment.steps {
-            let output = controller.step(ticks);
-            hash.write_f32(output.duty.left);
-            hash.write_f32(output.duty.right);
-            hash.write_pose(&output.telemetry.pose);
+            let duty = controller.step(ticks);
+            hash.write_f32(duty.left);
+            hash.write_f32(duty.right);
+            hash.write_pose(&controller.telemetry().pose);
             hash.write_pose(&plant.pose());
             observe(&StepRecord {
                 index,
                 law: segment.law,
                 ticks,
-                output: &output,
+                duty,
+                telemetry: controller.telemetry(),
                 true_pose: plant.pose(),
             });
-            ticks = plant.advance(output.duty);
+            ticks = plant.advance(duty);
             index += 1;
         }
     }

@@ -100,21 +100,19 @@ fn controller(scenario: &Scenario, steering_divider: u32) -> Controller {
 fn expect_steering(controller: &Controller, ticks: &[[i8; 2]], steering: bool) {
     let mut c = controller.clone();
     for (i, pair) in ticks.iter().enumerate() {
-        let out = c.step(TickDeltas {
+        c.step(TickDeltas {
             left: i32::from(pair[0]),
             right: i32::from(pair[1]),
         });
-        if out.telemetry.steering_updated != steering {
+        let telemetry = c.telemetry();
+        if telemetry.steering_updated != steering {
             fail_with(format_args!(
                 "timed step {i}: steering_updated = {}, expected {steering}",
-                out.telemetry.steering_updated
+                telemetry.steering_updated
             ));
         }
-        if out.telemetry.faults.any() {
-            fail_with(format_args!(
-                "timed step {i}: fault {:?}",
-                out.telemetry.faults
-            ));
+        if telemetry.faults.any() {
+            fail_with(format_args!("timed step {i}: fault {:?}", telemetry.faults));
         }
     }
 }

@@ -88,7 +88,7 @@ pub fn empty_step(_controller: &mut Controller, _ticks: TickDeltas) -> MotorComm
 /// One control step, as the firmware calls it.
 #[inline(never)]
 pub fn controller_step(controller: &mut Controller, ticks: TickDeltas) -> MotorCommand {
-    controller.step(ticks).duty
+    controller.step(ticks)
 }
 
 /// Calls `step` once per entry of `ticks` and returns the SysTick ticks it took.

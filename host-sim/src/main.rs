@@ -8,7 +8,7 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use controller_core::law::LawKind;
 use host_sim::output::{self, settle_text};
-use host_sim::run::{run_scenario, wheel_step_response};
+use host_sim::run::{run_scenario, wheel_step_response, RunResult};
 use host_sim::scenario::BUILTIN;
 use host_sim::{plot, sweep, Scenario};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -56,6 +56,13 @@ enum Command {
         /// Trace row every N control steps (1 = every step).
         #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]
         trace_every: u32,
+    },
+    /// Reproduce the paper: its circle and line experiments with every law, Figs. 5–7 and
+    /// summary.json for each run, an overlay per experiment, a table and the verdict.
+    Paper {
+        /// Output directory [default: host-sim-out/paper].
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
     /// Every law on the same plant: a table on stdout and compare.svg in --out.
     Compare {
@@ -153,12 +160,16 @@ fn cmd_run(scenario: &str, law: Law, out: Option<PathBuf>, trace_every: u32) -> 
     Ok(())
 }
 
-fn cmd_compare(scenario: &str, out: Option<PathBuf>) -> Result<()> {
-    let scenario = load(scenario)?;
-    let mut results = Vec::new();
-    for law in LawKind::ALL {
-        results.push((law, run_scenario(&scenario, law)?));
-    }
+/// Every law on `scenario` with the default trace options.
+fn run_every_law(scenario: &Scenario) -> Result<Vec<(LawKind, RunResult)>> {
+    LawKind::ALL
+        .into_iter()
+        .map(|law| Ok((law, run_scenario(scenario, law)?)))
+        .collect()
+}
+
+/// The comparison table of `results` on stdout.
+fn print_table(scenario: &Scenario, results: &[(LawKind, RunResult)]) -> Result<()> {
     say!(
         "{}: every law on the same plant ({} s)\n",
         scenario.name,
@@ -176,7 +187,7 @@ fn cmd_compare(scenario: &str, out: Option<PathBuf>) -> Result<()> {
         "duty",
         "driven/m"
     );
-    for (law, r) in &results {
+    for (law, r) in results {
         let s = &r.summary;
         say!(
             "{:<9} {:>12} {:>11.4} {:>12.2} {:>11.4} {:>11.4} {:>10.1} {:>6.2} {:>10.2}",
@@ -205,15 +216,71 @@ regulation law (EQUATIONS.md note 3): it drives to the reference point and stops
 with the reference at the robot's own projection it stalls on the path (see driven/m)."
         );
     }
-    let dir = out.unwrap_or_else(|| default_dir(&scenario, "compare"));
-    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    Ok(())
+}
+
+/// The overlay of every law's path and error, `compare.svg` in `dir`.
+fn write_overlay(
+    dir: &std::path::Path,
+    scenario: &Scenario,
+    results: &[(LawKind, RunResult)],
+) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let file = dir.join("compare.svg");
     let runs: Vec<(&str, &[host_sim::run::TraceRow])> = results
         .iter()
         .map(|(law, r)| (law.name(), r.trace.as_slice()))
         .collect();
     plot::compare(&file, &scenario.name, &scenario.path, &runs)?;
+    Ok(file)
+}
+
+fn cmd_compare(scenario: &str, out: Option<PathBuf>) -> Result<()> {
+    let scenario = load(scenario)?;
+    let results = run_every_law(&scenario)?;
+    print_table(&scenario, &results)?;
+    let dir = out.unwrap_or_else(|| default_dir(&scenario, "compare"));
+    let file = write_overlay(&dir, &scenario, &results)?;
     say!("\nwrote {}", file.display());
+    Ok(())
+}
+
+/// The paper's experiments (section 4) with every law, and what they show.
+fn cmd_paper(out: Option<PathBuf>) -> Result<()> {
+    let root = out.unwrap_or_else(|| PathBuf::from("host-sim-out").join("paper"));
+    for name in ["paper-circle", "paper-line"] {
+        let scenario = load(name)?;
+        let results = run_every_law(&scenario)?;
+        print_table(&scenario, &results)?;
+        let dir = root.join(name);
+        for (law, result) in &results {
+            output::write_run(&dir.join(law.name()), &scenario, result)?;
+        }
+        write_overlay(&dir, &scenario, &results)?;
+        say!("wrote {}/{{paper,tracking,kanayama}}/ (Figs. 5–7, summary.json, trace.csv) and compare.svg\n", dir.display());
+
+        let gamma = f64::from(scenario.robot.law.paper.gamma);
+        let lag = f64::from(scenario.reference_speed_m_s) / gamma;
+        for (law, r) in &results {
+            let s = &r.summary;
+            match law {
+                LawKind::Paper => say!(
+                    "  paper law (33)–(34): trails the moving reference by {:.4} m; a regulation \
+law settles where v = v_r, at r_e ≈ v_r/γ = {lag:.4} m (EQUATIONS.md note 3)",
+                    s.final_position_error_m
+                ),
+                LawKind::Tracking => say!(
+                    "  tracking law: {} to |e| < 1 cm and |θ_e| < 1° (the paper reports 5–6 s), \
+final error {:.4} m",
+                    settle_text(s.settle_time_s),
+                    s.final_position_error_m
+                ),
+                LawKind::Kanayama => {}
+            }
+        }
+        say!("");
+    }
+    say!("figures and summaries: {}", root.display());
     Ok(())
 }
 
@@ -324,6 +391,7 @@ fn main() -> ExitCode {
             out,
             trace_every,
         } => cmd_run(&scenario, law, out, trace_every),
+        Command::Paper { out } => cmd_paper(out),
         Command::Compare { scenario, out } => cmd_compare(&scenario, out),
         Command::Sweep {
             scenario,

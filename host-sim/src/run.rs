@@ -245,22 +245,54 @@ fn true_error(
     }
 }
 
+/// What both run loops build from a scenario: the controller and the rates and encoder
+/// facts of its loop.
+struct Setup {
+    controller: Controller,
+    config: RobotConfig,
+    control_hz: u32,
+    /// Plant RK4 steps per control step.
+    substeps: u32,
+    /// Plant step, s.
+    dt_s: f64,
+    ticks_per_rev: f64,
+    /// Encoder edge jitter, ticks RMS.
+    noise: f64,
+}
+
+impl Setup {
+    /// The controller for `scenario` running `law`, believing the robot starts at `start`.
+    fn new(scenario: &Scenario, law: LawKind, start: Pose) -> Result<Self, RunError> {
+        let params = scenario.params()?;
+        let config = *params.config();
+        let reference = Reference::new(
+            scenario.path.clone(),
+            scenario.reference_speed_m_s,
+            scenario.reference_mode,
+        )
+        .map_err(RunError::Reference)?;
+        let control_hz = config.control_rate_hz;
+        Ok(Self {
+            controller: Controller::new(params, reference, law, start),
+            config,
+            control_hz,
+            substeps: scenario.plant_rate_hz / control_hz,
+            dt_s: 1.0 / f64::from(scenario.plant_rate_hz),
+            ticks_per_rev: f64::from(config.encoder_lines_per_motor_rev)
+                * 4.0
+                * f64::from(config.gear_ratio),
+            noise: scenario.plant.encoder_noise_ticks_rms,
+        })
+    }
+}
+
 /// Runs `scenario` with steering law `law` and `options`.
 pub fn run_scenario_with(
     scenario: &Scenario,
     law: LawKind,
     options: RunOptions,
 ) -> Result<RunResult, RunError> {
-    let params = scenario.params()?;
-    let config = *params.config();
-    let reference = Reference::new(
-        scenario.path.clone(),
-        scenario.reference_speed_m_s,
-        scenario.reference_mode,
-    )
-    .map_err(RunError::Reference)?;
     let path_following = matches!(scenario.reference_mode, ReferenceMode::PathFollowing { .. });
-
     let mut plant = Plant::new(plant_params(scenario))?;
     let s = scenario.start;
     let start_true = TruePose {
@@ -271,17 +303,18 @@ pub fn run_scenario_with(
     let start_speeds = plant.wheel_speeds_for(s.v_m_s, s.omega_rad_s);
     plant.reset(start_true, start_speeds);
 
-    let control_hz = config.control_rate_hz;
-    let period_s = 1.0 / f64::from(control_hz);
-    let substeps = scenario.plant_rate_hz / control_hz;
-    let dt_s = 1.0 / f64::from(scenario.plant_rate_hz);
-    let ticks_per_rev =
-        f64::from(config.encoder_lines_per_motor_rev) * 4.0 * f64::from(config.gear_ratio);
-    let noise = scenario.plant.encoder_noise_ticks_rms;
-    let mut rng = Rng::new(scenario.seed);
-
     let start_pose = Pose::new(s.x_m as f32, s.y_m as f32, start_true.theta_rad as f32);
-    let mut controller = Controller::new(params, reference, law, start_pose);
+    let Setup {
+        mut controller,
+        config,
+        control_hz,
+        substeps,
+        dt_s,
+        ticks_per_rev,
+        noise,
+    } = Setup::new(scenario, law, start_pose)?;
+    let period_s = 1.0 / f64::from(control_hz);
+    let mut rng = Rng::new(scenario.seed);
 
     // Pre-roll: the encoder history of a start in motion (see the module doc).
     if start_speeds != [0.0, 0.0] {
@@ -435,25 +468,19 @@ pub fn wheel_step_response(
     setpoint_rad_s: f64,
     duration_s: f64,
 ) -> Result<StepResponse, RunError> {
-    let params = scenario.params()?;
-    let config = *params.config();
-    let reference = Reference::new(
-        scenario.path.clone(),
-        scenario.reference_speed_m_s,
-        scenario.reference_mode,
-    )
-    .map_err(RunError::Reference)?;
     let mut plant = Plant::new(plant_params(scenario))?;
     plant.reset(TruePose::default(), [0.0; 2]);
-    let mut controller = Controller::new(params, reference, LawKind::Tracking, Pose::default());
+    let Setup {
+        mut controller,
+        control_hz,
+        substeps,
+        dt_s,
+        ticks_per_rev,
+        noise,
+        ..
+    } = Setup::new(scenario, LawKind::Tracking, Pose::default())?;
     let sp = setpoint_rad_s as f32;
     controller.set_mode(Mode::HoldWheelSpeeds(WheelSpeeds::new(sp, sp)));
-    let control_hz = config.control_rate_hz;
-    let substeps = scenario.plant_rate_hz / control_hz;
-    let dt_s = 1.0 / f64::from(scenario.plant_rate_hz);
-    let ticks_per_rev =
-        f64::from(config.encoder_lines_per_motor_rev) * 4.0 * f64::from(config.gear_ratio);
-    let noise = scenario.plant.encoder_noise_ticks_rms;
     let mut encoders = [
         Encoder::new(ticks_per_rev, noise, 0.0),
         Encoder::new(ticks_per_rev, noise, 0.0),

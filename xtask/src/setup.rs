@@ -1,7 +1,8 @@
 //! Makes a fresh machine ready, or says exactly what is missing:
 //!
-//! - the `thumbv7em-none-eabihf` target: listed in `rust-toolchain.toml`, so rustup
-//!   normally installs it; otherwise `rustup target add`;
+//! - the `thumbv7em-none-eabihf` target: listed in `rust-toolchain.toml`, so rustup adds
+//!   it when it installs the toolchain from that file, but not to a toolchain that is
+//!   already installed (checked with rustup 1.29): then `rustup target add`;
 //! - `flip-link` (the ARM linker in `.cargo/config.toml`): `cargo install flip-link --locked`;
 //! - `qemu-system-arm`: Debian's package, installed with apt-get when running as root,
 //!   otherwise a message naming the package.

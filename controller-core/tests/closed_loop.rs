@@ -136,7 +136,7 @@ fn tracking_law_follows_the_path_without_a_time_index() {
     );
 }
 
-/// EQUATIONS.md, "where the paper is wrong", item 3: adding feed-forward of (v_r, ω_r) to
+/// docs/paper-errata.md, item 3: adding feed-forward of (v_r, ω_r) to
 /// (33)–(34) drives r_e to zero but leaves the heading uncontrolled, because α and β are
 /// undefined at r_e = 0. This measures it, so the `tracking` law's reason to exist is a
 /// number, not a claim.

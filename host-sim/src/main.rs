@@ -212,7 +212,7 @@ path-following; rms10/max10: last 10 s; the reference covers {expected:.2} m)"
     {
         say!(
             "note: path-following with lookahead {lookahead_m} m. The paper's law is a \
-regulation law (EQUATIONS.md note 3): it drives to the reference point and stops there, so \
+regulation law (docs/paper-errata.md, item 3): it drives to the reference point and stops there, so \
 with the reference at the robot's own projection it stalls on the path (see driven/m)."
         );
     }
@@ -266,7 +266,7 @@ fn cmd_paper(out: Option<PathBuf>) -> Result<()> {
             match law {
                 LawKind::Paper => say!(
                     "  paper law (33)–(34): trails the moving reference by {:.4} m; a regulation \
-law settles where v = v_r, at r_e ≈ v_r/γ = {lag:.4} m (EQUATIONS.md note 3)",
+law settles where v = v_r, at r_e ≈ v_r/γ = {lag:.4} m (docs/paper-errata.md, item 3)",
                     s.final_position_error_m
                 ),
                 LawKind::Tracking => say!(

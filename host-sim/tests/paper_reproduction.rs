@@ -43,7 +43,7 @@ fn paper_circle_starts_in_motion() {
 
 /// The paper's law (33)–(34) trails a moving reference: its steady state on the circle
 /// is a relative equilibrium in which the robot, on (almost) the same circle, chases the
-/// reference at v = γ r_e cos α = v_r, so r_e = v_r / (γ cos α) (EQUATIONS.md, note 3).
+/// reference at v = γ r_e cos α = v_r, so r_e = v_r / (γ cos α) (docs/paper-errata.md, item 3).
 /// The line of sight is a chord of the circle, so α ≈ r_e / (2 R); with v_r = 0.25 m/s,
 /// γ = 1 /s and R = 1.25 m the fixed point of r_e = (v_r/γ) / cos(r_e / 2R) is
 /// r_e = 0.25125 m, 0.5 % above v_r/γ. (Solving the exact relative equilibrium of the

@@ -5,8 +5,10 @@
 //!   ([`m4f_scenario::run_scenario`], called right here), bit for bit;
 //! - a full control step costs at most [`CONTROL_STEP_BUDGET`] instructions.
 //!
-//! See `shared/reference/QEMU-NOTES.md` for why instruction counts under `-icount shift=0`
-//! are exact and repeatable.
+//! Instruction counts are exact and repeatable: with `-icount shift=0` QEMU advances its
+//! virtual clock by 1 ns per executed instruction, so SysTick (clocked from the processor
+//! clock) counts instructions, whatever the host machine is doing. Without `-icount` the
+//! counts would follow wall-clock time and vary 2–5×.
 
 use std::io::Read;
 use std::path::Path;

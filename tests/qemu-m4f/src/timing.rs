@@ -1,7 +1,7 @@
 //! Instructions per call of a function, measured with [`counter`](crate::counter).
 //!
-//! The method of `shared/reference/QEMU-NOTES.md`: calibrate SysTick ticks per
-//! instruction at run time against two asm loops of known length (the fixed overhead of
+//! Under `-icount shift=0` QEMU executes one instruction per virtual nanosecond, so SysTick
+//! counts instructions. The method: calibrate SysTick ticks per instruction at run time against two asm loops of known length (the fixed overhead of
 //! reading the counter cancels), then time N calls of the function under test and N calls
 //! of an empty `#[inline(never)]` function through the very same loop, and divide the
 //! difference.

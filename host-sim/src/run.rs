@@ -137,8 +137,18 @@ pub enum RunError {
     #[error(transparent)]
     Plant(#[from] PlantError),
     /// The reference could not be built (speed or distance out of range).
-    #[error("reference: {0:?}")]
+    #[error("reference: {0}")]
     Reference(ReferenceError),
+    /// An argument of a run function is out of range.
+    #[error("{name} {rule}, got {value}")]
+    Argument {
+        /// The argument.
+        name: &'static str,
+        /// What it must satisfy.
+        rule: &'static str,
+        /// Its value.
+        value: f64,
+    },
 }
 
 /// Options of one run.
@@ -316,19 +326,24 @@ pub fn run_scenario_with(
     let period_s = 1.0 / f64::from(control_hz);
     let mut rng = Rng::new(scenario.seed);
 
-    // Pre-roll: the encoder history of a start in motion (see the module doc).
-    if start_speeds != [0.0, 0.0] {
-        let divider = config.steering_divider.max(1);
-        let n = config.speed_window_steps.div_ceil(divider) * divider;
-        let angle_at = |k: u32, i: usize| -f64::from(n - k) * period_s * start_speeds[i];
-        let mut pre = [
-            Encoder::new(ticks_per_rev, noise, angle_at(0, 0)),
-            Encoder::new(ticks_per_rev, noise, angle_at(0, 1)),
-        ];
+    // Pre-roll: the encoder history of a start in motion (see the module doc). The
+    // controller sees the ticks of the window (−(n+1)T, −T]; the main loop's first step then
+    // reads (−T, 0] from the same encoders, so no interval is seen twice or skipped.
+    let n = if start_speeds == [0.0, 0.0] {
+        0
+    } else {
+        config.speed_window_steps
+    };
+    let angle_at = |k: u32, i: usize| -f64::from(n + 1 - k) * period_s * start_speeds[i];
+    let mut encoders = [
+        Encoder::new(ticks_per_rev, noise, angle_at(0, 0)),
+        Encoder::new(ticks_per_rev, noise, angle_at(0, 1)),
+    ];
+    if n > 0 {
         for k in 1..=n {
             let ticks = TickDeltas {
-                left: pre[0].read_delta(angle_at(k, 0), &mut rng),
-                right: pre[1].read_delta(angle_at(k, 1), &mut rng),
+                left: encoders[0].read_delta(angle_at(k, 0), &mut rng),
+                right: encoders[1].read_delta(angle_at(k, 1), &mut rng),
             };
             controller.step(ticks);
         }
@@ -336,10 +351,6 @@ pub fn run_scenario_with(
     }
     controller.set_mode(Mode::FollowPath);
 
-    let mut encoders = [
-        Encoder::new(ticks_per_rev, noise, 0.0),
-        Encoder::new(ticks_per_rev, noise, 0.0),
-    ];
     let total_steps = (scenario.duration_s * f64::from(control_hz)).round() as u64;
     let capacity = if options.trace_every_steps > 0 {
         (total_steps / u64::from(options.trace_every_steps)) as usize + 1
@@ -468,6 +479,21 @@ pub fn wheel_step_response(
     setpoint_rad_s: f64,
     duration_s: f64,
 ) -> Result<StepResponse, RunError> {
+    let max_s = crate::scenario::MAX_CONTROL_STEPS / f64::from(scenario.robot.control_rate_hz);
+    if !(duration_s > 0.0 && duration_s <= max_s.min(crate::scenario::MAX_DURATION_S)) {
+        return Err(RunError::Argument {
+            name: "duration_s",
+            rule: "must be > 0 and within the scenario's step and time limits",
+            value: duration_s,
+        });
+    }
+    if !setpoint_rad_s.is_finite() {
+        return Err(RunError::Argument {
+            name: "setpoint_rad_s",
+            rule: "must be finite",
+            value: setpoint_rad_s,
+        });
+    }
     let mut plant = Plant::new(plant_params(scenario))?;
     plant.reset(TruePose::default(), [0.0; 2]);
     let Setup {

@@ -974,8 +974,15 @@ fn build_sweep(s: &FileSweep) -> Result<SweepSpec, ScenarioError> {
     })
 }
 
-/// Longest simulated time accepted, s (keeps step counts far from `u32` overflow).
+/// Longest simulated time accepted, s.
 pub const MAX_DURATION_S: f64 = 3600.0;
+
+/// Most control steps one run may take (duration × control rate): bounds the memory a
+/// scenario file can ask for (the run keeps a trace and per-steering-step samples).
+pub const MAX_CONTROL_STEPS: f64 = 1e8;
+
+/// Fastest control loop accepted, Hz (the plant then runs at ≥ 10× this).
+pub const MAX_CONTROL_RATE_HZ: u32 = 100_000;
 
 fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioError> {
     let robot = apply_robot(&file.robot);
@@ -990,6 +997,20 @@ fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioErr
         duration_s,
     )?;
     let control = robot.control_rate_hz;
+    check(
+        control <= MAX_CONTROL_RATE_HZ,
+        "robot.control_rate_hz",
+        &format!("must be ≤ {MAX_CONTROL_RATE_HZ}"),
+        control,
+    )?;
+    check(
+        duration_s * f64::from(control) <= MAX_CONTROL_STEPS,
+        "sim.duration_s",
+        &format!(
+            "times robot.control_rate_hz ({control}) must be ≤ {MAX_CONTROL_STEPS:e} control steps"
+        ),
+        duration_s,
+    )?;
     let plant_rate_hz = file.sim.plant_rate_hz.unwrap_or(control.saturating_mul(10));
     check(
         plant_rate_hz % control == 0 && plant_rate_hz / control >= 10,

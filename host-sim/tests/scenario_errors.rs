@@ -199,3 +199,60 @@ fn no_bad_value_panics() {
         "rejected {rejected}, loaded {loaded}"
     );
 }
+
+/// Integer keys at zero, at the edge and absurdly large: loading returns `Ok` or an error
+/// naming the key, never panics, never asks for memory it cannot have, and a scenario that
+/// loads also runs (briefly). The built-in sets `sim.plant_rate_hz = 10000`, so the control
+/// rate is varied together with it.
+#[test]
+fn no_bad_integer_panics_or_hangs() {
+    let base = BUILTIN[0].1;
+    let cases: &[(&str, &str)] = &[
+        ("[robot]\ncontrol_rate_hz = 0", "robot.control_rate_hz"),
+        (
+            "[robot]\ncontrol_rate_hz = 100000000",
+            "robot.control_rate_hz",
+        ),
+        (
+            "[robot]\ncontrol_rate_hz = 4294967295",
+            "robot.control_rate_hz",
+        ),
+        ("[robot]\nsteering_divider = 0", "robot.steering_divider"),
+        ("[robot]\nsteering_divider = 4000000000", ""),
+        (
+            "[robot]\nspeed_window_steps = 0",
+            "robot.speed_window_steps",
+        ),
+        (
+            "[robot]\nspeed_window_steps = 4000000000",
+            "robot.speed_window_steps",
+        ),
+        ("[robot]\nencoder_lines_per_motor_rev = 4294967295", ""),
+    ];
+    for (extra, key) in cases {
+        match Scenario::from_toml(&format!("{base}\n{extra}\n"), "t.toml") {
+            Err(e) => {
+                let text = e.to_string();
+                assert!(!key.is_empty() && text.contains(key), "{extra}: {text}");
+            }
+            Ok(mut s) => {
+                assert!(key.is_empty(), "{extra}: accepted");
+                s.duration_s = 0.05;
+                let r = run_scenario_with(
+                    &s,
+                    controller_core::law::LawKind::Tracking,
+                    RunOptions::default(),
+                );
+                assert!(r.is_ok(), "{extra}");
+            }
+        }
+    }
+    // An hour at 100 kHz is 3.6e8 steps: refused by the step limit, not allocated.
+    let long = base
+        .replace("plant_rate_hz = 10000", "plant_rate_hz = 1000000")
+        .replace("duration_s = 30.0", "duration_s = 3600.0");
+    let e = Scenario::from_toml(&format!("{long}\n[robot]\ncontrol_rate_hz = 100000\n"), "t")
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("sim.duration_s"), "{e}");
+}

@@ -53,9 +53,10 @@ enum Command {
         /// Output directory [default: host-sim-out/<scenario>/<law>].
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Trace row every N control steps (1 = every step).
-        #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]
-        trace_every: u32,
+        /// Trace row every N control steps (1 = every step) [default: every steering
+        /// update, the scenario's robot.steering_divider].
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+        trace_every: Option<u32>,
     },
     /// Reproduce the paper: its circle and line experiments with every law, Figs. 5–7 and
     /// summary.json for each run, an overlay per experiment, a table and the verdict.
@@ -146,11 +147,11 @@ fn load(name: &str) -> Result<Scenario> {
     })
 }
 
-fn cmd_run(scenario: &str, law: Law, out: Option<PathBuf>, trace_every: u32) -> Result<()> {
+fn cmd_run(scenario: &str, law: Law, out: Option<PathBuf>, trace_every: Option<u32>) -> Result<()> {
     let scenario = load(scenario)?;
     let law = LawKind::from(law);
     let options = host_sim::RunOptions {
-        trace_every_steps: trace_every,
+        trace_every_steps: trace_every.unwrap_or(scenario.robot.steering_divider),
     };
     let result = host_sim::run_scenario_with(&scenario, law, options)?;
     let dir = out.unwrap_or_else(|| default_dir(&scenario, law.name()));
@@ -321,6 +322,13 @@ slip 0…{}, encoder jitter 0…{} ticks, start ±{} m / ±{} rad",
         "  success (the controller's own error settles to 1 cm / 1°, no fault): {:.1} %",
         report.success_rate * 100.0
     );
+    if report.invalid_draws > 0 {
+        say!(
+            "  {} draws gave an invalid robot or plant and did not run (counted as failures); \
+narrow the scenario's [sweep] spreads",
+            report.invalid_draws
+        );
+    }
     match report.settle_time_s {
         Some(p) => say!(
             "  settle time: p50 {:.2} s, p90 {:.2} s, p95 {:.2} s, max {:.2} s",

@@ -158,11 +158,12 @@ pub struct RunOptions {
     pub trace_every_steps: u32,
 }
 
-impl Default for RunOptions {
-    /// A row at every steering update (every 10 steps, 100 Hz, for the reference robot).
-    fn default() -> Self {
+impl RunOptions {
+    /// A trace row at every steering update of `scenario`'s robot (every
+    /// `steering_divider` control steps), so traces and plots sample the law's own rate.
+    pub fn at_steering_rate(scenario: &Scenario) -> Self {
         Self {
-            trace_every_steps: RobotConfig::REFERENCE_ROBOT.steering_divider,
+            trace_every_steps: scenario.robot.steering_divider,
         }
     }
 }
@@ -208,7 +209,7 @@ pub fn plant_params(scenario: &Scenario) -> PlantParams {
 
 /// Runs `scenario` with steering law `law`, recording a trace at every steering update.
 pub fn run_scenario(scenario: &Scenario, law: LawKind) -> Result<RunResult, RunError> {
-    run_scenario_with(scenario, law, RunOptions::default())
+    run_scenario_with(scenario, law, RunOptions::at_steering_rate(scenario))
 }
 
 /// Eq. (9) in f64: the reference seen from the true pose, robot frame: [x_e m, y_e m,

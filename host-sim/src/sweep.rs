@@ -111,7 +111,10 @@ pub struct SweepReport {
     pub law: String,
     /// Number of runs.
     pub runs: u32,
-    /// Fraction of runs whose loop closed ([`SweepRun::success`]).
+    /// Runs whose perturbed robot or plant was invalid, so they did not run (counted as
+    /// failures).
+    pub invalid_draws: u32,
+    /// Fraction of all runs whose loop closed ([`SweepRun::success`]).
     pub success_rate: f64,
     /// Settle times of the successful runs (controller's estimate), s.
     pub settle_time_s: Option<Percentiles>,
@@ -179,7 +182,9 @@ pub fn sweep(
             scenario.seed = rng.next_u64();
             let result = run_scenario_with(&scenario, law, options);
             progress();
-            result.map(|r| SweepRun {
+            // A draw whose robot or plant is invalid (the spreads pushed a value out of
+            // range) is a failed run, not the end of the sweep.
+            result.ok().map(|r| SweepRun {
                 index,
                 draws,
                 fault: r.faults.any(),
@@ -187,8 +192,11 @@ pub fn sweep(
                 estimated: r.estimated,
             })
         })
-        .collect::<Result<Vec<_>, _>>()?;
-    let n = details.len().max(1) as f64;
+        .collect::<Vec<_>>();
+    let invalid_draws = details.iter().filter(|r| r.is_none()).count() as u32;
+    let details: Vec<SweepRun> = details.into_iter().flatten().collect();
+    // Invalid draws count as failures: rates are over every run asked for.
+    let n = f64::from(runs.max(1));
     let settle: Vec<f64> = details
         .iter()
         .filter(|r| r.success())
@@ -202,6 +210,7 @@ pub fn sweep(
         scenario: base.name.clone(),
         law: law.name().to_string(),
         runs,
+        invalid_draws,
         success_rate: details.iter().filter(|r| r.success()).count() as f64 / n,
         settle_time_s: Percentiles::of(&settle),
         true_settle_rate: details

@@ -185,7 +185,7 @@ fn no_bad_value_panics() {
                         let r = run_scenario_with(
                             &s,
                             controller_core::law::LawKind::Tracking,
-                            RunOptions::default(),
+                            RunOptions::at_steering_rate(&s),
                         );
                         assert!(r.is_ok(), "{name}: {key} = {replacement}");
                         loaded += 1;
@@ -241,7 +241,7 @@ fn no_bad_integer_panics_or_hangs() {
                 let r = run_scenario_with(
                     &s,
                     controller_core::law::LawKind::Tracking,
-                    RunOptions::default(),
+                    RunOptions::at_steering_rate(&s),
                 );
                 assert!(r.is_ok(), "{extra}");
             }

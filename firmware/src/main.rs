@@ -74,6 +74,10 @@ mod app {
 
     /// Control steps between two telemetry reports.
     const REPORT_EVERY: u32 = robot::ROBOT.control_rate_hz / robot::TELEMETRY_HZ;
+    const _: () = assert!(
+        REPORT_EVERY > 0,
+        "robot::TELEMETRY_HZ must not exceed the control rate"
+    );
 
     /// Incremented by the idle loop: proof for the supervisor that the background runs.
     static HEARTBEAT: AtomicU32 = AtomicU32::new(0);
@@ -300,7 +304,8 @@ static PANICKING: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBoo
 
 /// Panic: motors off first (PWM outputs forced low, driver inputs and STBY low), then the
 /// message over defmt, then stop (`udf`: probe-rs prints a backtrace; without a probe the
-/// watchdog resets the chip, which comes back disarmed).
+/// watchdog resets the chip, which comes back disarmed; a panic in `init`, before the
+/// watchdog starts, stays halted with the motors off).
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     cortex_m::interrupt::disable();

@@ -128,14 +128,6 @@ impl ScenarioError {
             problem: problem.into(),
         }
     }
-
-    /// The dotted key of an [`ScenarioError::Invalid`] error.
-    pub fn key(&self) -> Option<&str> {
-        match self {
-            ScenarioError::Invalid { key, .. } => Some(key),
-            _ => None,
-        }
-    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -679,8 +671,8 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
             let a = finite("path.start_angle_rad", p.start_angle_rad.unwrap_or(0.0))?;
             Path::circle(
                 center,
-                r as f32,
-                a as f32,
+                as_f32("path.radius_m", r)?,
+                as_f32("path.start_angle_rad", a)?,
                 p.counter_clockwise.unwrap_or(true),
             )
         }

@@ -167,10 +167,27 @@ pub fn ci() -> Vec<Step> {
             run_command(&mut ctx.cargo(&args))
         }),
         Step::new("clippy: firmware (thumbv7em-none-eabihf)", |ctx| {
-            clippy_for_target(ctx, "firmware")
+            clippy_for_target(ctx, "firmware", &[])
         }),
+        Step::new(
+            "clippy: firmware feature variants and the STM32F401 port",
+            |ctx| {
+                // Every optional feature at once, then the porting example's other chip: code
+                // behind a feature must not rot just because the default build skips it.
+                clippy_for_target(
+                    ctx,
+                    "firmware",
+                    &["--features", "drv8833,nucleo,auto-arm,bring-up,path-line"],
+                )?;
+                clippy_for_target(
+                    ctx,
+                    "firmware",
+                    &["--no-default-features", "--features", "stm32f401"],
+                )
+            },
+        ),
         Step::new("clippy: qemu-m4f (thumbv7em-none-eabihf)", |ctx| {
-            clippy_for_target(ctx, "qemu-m4f")
+            clippy_for_target(ctx, "qemu-m4f", &[])
         }),
         Step::new("tests: host crates", |ctx| {
             // --no-fail-fast: one failing crate must not hide the others' results.
@@ -185,18 +202,20 @@ pub fn ci() -> Vec<Step> {
     ]
 }
 
-fn clippy_for_target(ctx: &Context, package: &str) -> Result<()> {
-    run_command(&mut ctx.cargo(&[
+/// Clippy with `-D warnings` on `package` for the ARM target, with `features` (cargo
+/// feature flags, possibly empty).
+fn clippy_for_target(ctx: &Context, package: &str, features: &[&str]) -> Result<()> {
+    let mut args = vec![
         "clippy",
         "--package",
         package,
         "--target",
         TARGET,
         "--release",
-        "--",
-        "-D",
-        "warnings",
-    ]))
+    ];
+    args.extend_from_slice(features);
+    args.extend(["--", "-D", "warnings"]);
+    run_command(&mut ctx.cargo(&args))
 }
 
 /// Installs or checks the ARM target, flip-link and qemu-system-arm.

@@ -22,7 +22,10 @@
 //! classic fourth-order Runge–Kutta method at the plant rate (≥ 10 × the control rate),
 //! the armature voltages held constant over the control period (zero-order hold, as a PWM
 //! timer does). When a wheel speed crosses zero inside a step it is stopped at zero, where
-//! static friction then decides whether it breaks away (Karnopp's stick–slip model).
+//! static friction then decides whether it breaks away, after Karnopp's stick–slip model.
+//! Simplification: a wheel at rest compares static friction with its own drive torque
+//! only; the other wheel's pull through the chassis inertia is not included, so a stuck
+//! wheel can creep (measured: < 0.03 rad/s with one wheel at duty 0 and the other at 0.5).
 //!
 //! ## True pose and slip
 //!

@@ -6,8 +6,9 @@
 //! a tick, so quantisation is exact however long the run. The body moves as a unicycle,
 //! v = R(ω_r + ω_l)/2, ω = R(ω_r − ω_l)/L, integrated at the mid-point heading.
 //!
-//! This is not `host-sim`'s plant (no gearbox backlash, no noise, no slip): its only job
-//! is to close the loop with the core's own arithmetic, identically on host and target.
+//! This is not `host-sim`'s plant (no DC-motor model, friction, dead-band, coupled inertia,
+//! noise or slip): its only job is to close the loop with the core's own arithmetic,
+//! identically on host and target.
 
 use controller_core::controller::{MotorCommand, TickDeltas};
 use controller_core::kinematics::Pose;

@@ -330,7 +330,7 @@ impl Controller {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::kinematics::Point;
     use crate::params::RobotConfig;
@@ -338,9 +338,12 @@ mod tests {
     use crate::reference::ReferenceMode;
     use proptest::prelude::*;
 
-    fn controller() -> Controller {
+    /// The reference robot with the tracking law on a line along +x of `length_m` (m),
+    /// reference at 0.2 m/s, believing it starts at the origin. Shared with the
+    /// supervisor's tests.
+    pub(crate) fn on_a_line(length_m: f32) -> Controller {
         let params = Params::new(RobotConfig::REFERENCE_ROBOT).unwrap();
-        let path = Path::line(Point::new(0.0, 0.0), 0.0, 5.0).unwrap();
+        let path = Path::line(Point::new(0.0, 0.0), 0.0, length_m).unwrap();
         let reference = Reference::new(
             path,
             0.2,
@@ -350,6 +353,10 @@ mod tests {
         )
         .unwrap();
         Controller::new(params, reference, LawKind::Tracking, Pose::default())
+    }
+
+    fn controller() -> Controller {
+        on_a_line(5.0)
     }
 
     #[test]

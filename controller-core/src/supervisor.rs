@@ -732,11 +732,6 @@ impl Supervisor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinematics::Point;
-    use crate::law::LawKind;
-    use crate::params::{Params, RobotConfig};
-    use crate::path::Path;
-    use crate::reference::{Reference, ReferenceMode};
 
     const HOLD: WheelSpeeds = WheelSpeeds {
         left_rad_s: 5.0,
@@ -749,17 +744,7 @@ mod tests {
     };
 
     fn controller() -> Controller {
-        let params = Params::new(RobotConfig::REFERENCE_ROBOT).unwrap();
-        let path = Path::line(Point::new(0.0, 0.0), 0.0, 3.0).unwrap();
-        let reference = Reference::new(
-            path,
-            0.2,
-            ReferenceMode::TimeIndexed {
-                start_offset_m: 0.0,
-            },
-        )
-        .unwrap();
-        Controller::new(params, reference, LawKind::Tracking, Pose::default())
+        crate::controller::tests::on_a_line(3.0)
     }
 
     fn config() -> SupervisorConfig {

@@ -25,7 +25,7 @@
 //! static friction then decides whether it breaks away, after Karnopp's stick–slip model.
 //! Simplification: a wheel at rest compares static friction with its own drive torque
 //! only; the other wheel's pull through the chassis inertia is not included, so a stuck
-//! wheel can creep (measured: < 0.03 rad/s with one wheel at duty 0 and the other at 0.5).
+//! wheel can creep slowly when the other wheel is driven.
 //!
 //! ## True pose and slip
 //!

@@ -28,6 +28,10 @@ use crate::time::StepClock;
 /// Signed encoder ticks counted during one step, forward positive.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct TickDeltas {
     /// Left wheel ticks this step.
     pub left: i32,
@@ -38,6 +42,10 @@ pub struct TickDeltas {
 /// Motor commands, each a signed fraction of full supply voltage in [−1, 1].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct MotorCommand {
     /// Left motor duty, −1…1 (positive drives the robot forward).
     pub left: f32,
@@ -56,6 +64,10 @@ impl MotorCommand {
 /// What the controller is asked to do.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub enum Mode {
     /// Motors off; odometry keeps running.
     Idle,
@@ -68,6 +80,10 @@ pub enum Mode {
 /// Latched fault flags. Any flag set means both motors are commanded to 0.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct FaultFlags {
     /// A tick delta implied a wheel speed beyond `max_plausible_wheel_speed_rad_s`.
     pub encoder_jump: bool,
@@ -85,6 +101,10 @@ impl FaultFlags {
 /// Everything one step computed, for logs and plots. Frames as in each field's type.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct Telemetry {
     /// Index of this step since the controller was built.
     pub step: u32,

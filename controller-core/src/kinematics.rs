@@ -8,6 +8,10 @@ use crate::math;
 /// A point in the world frame, in metres.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct Point {
     /// x coordinate, world frame, m.
     pub x_m: f32,
@@ -30,6 +34,10 @@ impl Point {
 /// A robot pose in the world frame: position in m, heading θ in rad, wrapped to (−π, π].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct Pose {
     /// x position, world frame, m.
     pub x_m: f32,
@@ -64,6 +72,10 @@ impl Pose {
 /// x axis and yaw rate in rad/s, counter-clockwise positive.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct BodyVelocity {
     /// Forward speed v, robot frame, m/s.
     pub v_m_s: f32,
@@ -82,6 +94,10 @@ impl BodyVelocity {
 /// robot forward.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct WheelSpeeds {
     /// Left wheel ω_l, rad/s.
     pub left_rad_s: f32,
@@ -111,6 +127,10 @@ pub struct DiffDrive {
 /// Why a [`DiffDrive`] could not be built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub enum GeometryError {
     /// The wheel radius R was ≤ 0 or not finite.
     NonPositiveWheelRadius,
@@ -212,6 +232,10 @@ pub fn pose_rate(pose: &Pose, body: BodyVelocity) -> PoseRate {
 /// wrapped to (−π, π]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct TrackingError {
     /// Along-track error x_e, robot frame, m (positive: reference ahead of the robot).
     pub x_e_m: f32,

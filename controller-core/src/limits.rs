@@ -12,6 +12,10 @@ use crate::math;
 /// Limits on the body command, SI units.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct Limits {
     /// Largest rim speed of either wheel, m/s.
     pub max_rim_speed_m_s: f32,
@@ -24,6 +28,10 @@ pub struct Limits {
 /// What the limiter did to the last command.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct LimitFlags {
     /// The rim-speed cap scaled the command down.
     pub rim_speed_capped: bool,

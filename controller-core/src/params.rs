@@ -21,6 +21,10 @@ pub const MAX_TICKS_PER_STEP: i32 = 1 << 24;
 /// (−1…1 of the supply voltage).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct WheelPidConfig {
     /// K_p, duty per rad/s of wheel-speed error.
     pub kp_duty_per_rad_s: f32,
@@ -38,6 +42,10 @@ pub struct WheelPidConfig {
 /// Everything the controller needs to know about the robot, in SI units.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct RobotConfig {
     /// Wheel radius R, m.
     pub wheel_radius_m: f32,

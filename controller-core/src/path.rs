@@ -19,6 +19,11 @@ pub const MAX_SEGMENTS: usize = 32;
 
 /// One piece of a path, world frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub enum Segment {
     /// Straight segment from `start`, heading `heading_rad` (rad, world frame) for
     /// `length_m` (m).
@@ -48,6 +53,10 @@ pub enum Segment {
 /// A point on a path with its direction of travel and signed curvature.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct PathSample {
     /// Position, world frame, m.
     pub point: Point,
@@ -148,6 +157,10 @@ impl Segment {
 /// Why a [`Path`] could not be built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub enum PathError {
     /// A coordinate, length or radius was NaN or infinite.
     NonFinite,

@@ -26,6 +26,10 @@ use crate::math;
 /// Discrete PID gains for one sample period, plus feed-forward and D filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct PidGains {
     /// Proportional gain K_p, output per unit error.
     pub kp: f32,

@@ -26,6 +26,10 @@ const SEARCH_AHEAD_M: f32 = 0.5;
 /// How the reference point moves along the path (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub enum ReferenceMode {
     /// The paper's time-indexed reference robot, starting `start_offset_m` (m) along the
     /// path at step 0.
@@ -44,6 +48,10 @@ pub enum ReferenceMode {
 /// Why a [`Reference`] could not be built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub enum ReferenceError {
     /// The reference speed was ≤ 0 or not finite.
     NonPositiveSpeed,
@@ -65,6 +73,10 @@ impl core::fmt::Display for ReferenceError {
 /// The reference at one instant: pose (world frame), its body velocity and progress.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct ReferenceState {
     /// Reference pose (x_r, y_r, θ_r), world frame, m and rad.
     pub pose: Pose,

@@ -94,6 +94,10 @@ use crate::math;
 /// What the robot does while armed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub enum RunMode {
     /// Follow the controller's reference path from [`SupervisorConfig::start_pose`].
     FollowPath,
@@ -114,6 +118,10 @@ impl RunMode {
 /// The supervisor's state (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub enum State {
     /// Motors off, driver disabled; waiting for a press (or auto-arm).
     Disarmed,
@@ -126,6 +134,10 @@ pub enum State {
 /// Why the chip last reset, decoded from the reset-flag register (RCC_CSR on an STM32).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub enum ResetCause {
     /// Power-on or brown-out reset.
     PowerOn,
@@ -192,6 +204,10 @@ impl ResetCause {
 /// encoder or motor wired with the wrong polarity (the PID then runs away to full duty).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct StallCheck {
     /// Smallest |duty| (fraction of supply, 0…1] that must move the wheel.
     pub min_duty: f32,
@@ -204,6 +220,10 @@ pub struct StallCheck {
 /// The supervisor's settings. Times are in control steps (1 ms at 1 kHz).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct SupervisorConfig {
     /// Mode the robot is in after a reset (a long press selects the other one).
     pub initial_mode: RunMode,
@@ -304,6 +324,10 @@ const fn ms_to_steps(rate_hz: u32, ms: u32) -> u32 {
 /// Why a [`SupervisorConfig`] was rejected.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub enum SupervisorConfigError {
     /// `start_pose` has a NaN or infinite field.
     NonFiniteStartPose,
@@ -323,6 +347,10 @@ pub enum SupervisorConfigError {
 /// Faults latched by the supervisor. Any flag set means the robot is [`State::Faulted`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct Faults {
     /// The controller's own latched faults (encoder jump, non-finite value).
     pub core: FaultFlags,
@@ -344,6 +372,10 @@ impl Faults {
 /// Why the robot left [`State::Armed`] without a fault.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub enum DisarmReason {
     /// The button was pressed.
     Button,
@@ -354,6 +386,10 @@ pub enum DisarmReason {
 /// A state change, reported once in the step it happened (for the log).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub enum Event {
     /// Motors armed in this mode.
     Armed(RunMode),
@@ -370,6 +406,10 @@ pub enum Event {
 /// What the firmware reads each step, besides the controller.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct Inputs {
     /// Encoder ticks since the previous step, forward positive.
     pub ticks: TickDeltas,
@@ -384,6 +424,10 @@ pub struct Inputs {
 /// What the supervisor decided in one step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct Supervised {
     /// Duties to write now, each in [−1, 1]; exactly 0 unless Armed.
     pub duty: MotorCommand,

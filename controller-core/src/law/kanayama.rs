@@ -15,6 +15,10 @@ use crate::reference::ReferenceState;
 /// Gains of Kanayama's law (all > 0).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct KanayamaGains {
     /// K_x, 1/s: forward speed per metre of along-track error.
     pub k_x: f32,

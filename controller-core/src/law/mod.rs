@@ -26,6 +26,10 @@ pub use tracking::TrackingGains;
 /// Which steering law the controller runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub enum LawKind {
     /// The paper's polar regulation law, eqs. (33)–(34), exactly as published.
     Paper,
@@ -57,6 +61,10 @@ impl LawKind {
 /// Gains of all three laws (only the selected law's gains are used).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct LawGains {
     /// Gains of the paper's law.
     pub paper: PaperGains,
@@ -96,6 +104,10 @@ impl LawGains {
 /// What a law computed: the command and its diagnostics.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct LawOutput {
     /// Commanded body velocity (v m/s, ω rad/s), before limits.
     pub command: BodyVelocity,

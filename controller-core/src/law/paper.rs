@@ -28,6 +28,10 @@ use crate::math;
 /// Gains of the paper's law (all > 0).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct PaperGains {
     /// γ in (33)–(34), 1/s: forward speed per metre of distance.
     pub gamma: f32,
@@ -42,6 +46,10 @@ pub struct PaperGains {
 /// The polar error coordinates of the paper's law.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct PolarError {
     /// Distance r_e from robot to reference point, m.
     pub r_e_m: f32,

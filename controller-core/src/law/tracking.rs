@@ -43,6 +43,10 @@ use crate::reference::ReferenceState;
 /// Gains of the tracking law (all > 0).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
 pub struct TrackingGains {
     /// λ, 1/m²: weight of the position error against the heading error in V.
     pub lambda: f32,

@@ -1,29 +1,40 @@
-//! The fixed-step cascade: encoder ticks in, motor commands and telemetry out.
+//! The fixed-step cascade: encoder ticks and the supply voltage in, bridge duties and
+//! telemetry out.
 //!
 //! ```text
-//! ticks ─► odometry ─► pose ─┐                        every step (inner loop, T)
-//!      └─► speed estimate ───┼──────────────┐
-//! reference ─► steering law ─► limits ─► inverse kinematics ─► set-points
-//!                            every `steering_divider` steps     │
-//!                                         incremental PID × 2 ◄─┘ ─► duty in [−1, 1]
+//! ticks ─► odometry ─► pose ─┐                                 every step (inner loop, T)
+//!      └─► speed estimate ───┼────────────────────────────────────────────┐
+//! reference ─► steering law ─► limits ─► inverse kinematics ─► set-point ramp
+//!                every `steering_divider` steps                  every step │ set-points
+//! supply ─► filter ──────────────────────────────────────────► wheel loops (volts) ─► duty
 //! ```
 //!
-//! [`Controller::step`] is the whole of it: call it once per period T with the signed tick
-//! deltas of that period, apply the duties it returns, and read [`Controller::telemetry`]
-//! when you want to log or plot. It never panics and always returns duties in [−1, 1]. Faults
-//! (an implausible tick jump, a non-finite value anywhere) latch: both duties are 0 until
-//! [`Controller::clear_faults`].
+//! [`Controller::step`] is the whole of it: call it once per control period with a
+//! [`StepInput`] (the signed tick deltas since the last call, how many periods they span,
+//! the measured supply), apply the two duties it returns, and read
+//! [`Controller::telemetry`] when you want to log or plot. It never panics and always
+//! returns duties in [−1, 1]. Faults (an implausible tick jump, a non-finite value
+//! anywhere) latch: both duties are 0 until [`Controller::clear_faults`].
+//!
+//! Time is the number of control periods that actually elapsed: a step that starts late
+//! (the firmware missed a tick) says so in [`StepInput::periods`], and the reference, the
+//! speed estimate, the ramp and the PIDs all advance by that much, so a late step neither
+//! reads 2 ms of ticks as 1 ms nor leaves the time-indexed reference behind.
 
+use core::num::NonZeroU32;
+
+use crate::drive::{SupplyFilter, WheelDrive, WheelLoopReport};
 use crate::encoder::SpeedEstimator;
-use crate::kinematics::{BodyVelocity, Pose, TrackingError, WheelSpeeds};
+use crate::kinematics::{
+    tracking_error_with_heading, BodyVelocity, Pose, TrackingError, WheelSpeeds,
+};
 use crate::law::{self, LawKind, LawOutput};
 use crate::limits::{CommandLimiter, LimitFlags};
 use crate::math;
 use crate::odometry::Odometry;
 use crate::params::Params;
-use crate::pid::IncrementalPid;
+use crate::pid::PidParts;
 use crate::reference::{Reference, ReferenceState};
-use crate::time::StepClock;
 
 /// Signed encoder ticks counted during one step, forward positive.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -39,7 +50,31 @@ pub struct TickDeltas {
     pub right: i32,
 }
 
-/// Motor commands, each a signed fraction of full supply voltage in [−1, 1].
+/// What the controller reads in one step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StepInput {
+    /// Encoder ticks since the previous step.
+    pub ticks: TickDeltas,
+    /// Control periods since the previous step: 1 on time, more when the step started
+    /// late and absorbed missed ticks. Never 0, by type.
+    pub periods: NonZeroU32,
+    /// The measured motor supply (battery) voltage, V.
+    pub supply_v: f32,
+}
+
+impl StepInput {
+    /// A step on time (one period) with `ticks` and a supply of `supply_v` (V).
+    pub const fn on_time(ticks: TickDeltas, supply_v: f32) -> Self {
+        Self {
+            ticks,
+            periods: NonZeroU32::MIN,
+            supply_v,
+        }
+    }
+}
+
+/// Motor commands, each a signed fraction of the supply voltage in [−1, 1].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(
@@ -54,7 +89,7 @@ pub struct MotorCommand {
 }
 
 impl MotorCommand {
-    /// Both motors off.
+    /// Both motors at 0 (short brake while the bridge is enabled).
     pub const STOP: MotorCommand = MotorCommand {
         left: 0.0,
         right: 0.0,
@@ -73,7 +108,7 @@ pub enum Mode {
     Idle,
     /// Follow the reference with the selected steering law.
     FollowPath,
-    /// Hold these wheel speeds (rad/s) with the wheel PIDs only (bring-up).
+    /// Hold these wheel speeds (rad/s) with the wheel loops only (bring-up).
     HoldWheelSpeeds(WheelSpeeds),
 }
 
@@ -96,6 +131,14 @@ impl FaultFlags {
     pub const fn any(&self) -> bool {
         self.encoder_jump || self.non_finite
     }
+
+    /// Both sets of flags together (a flag set in either is set).
+    pub const fn union(self, other: FaultFlags) -> FaultFlags {
+        FaultFlags {
+            encoder_jump: self.encoder_jump || other.encoder_jump,
+            non_finite: self.non_finite || other.non_finite,
+        }
+    }
 }
 
 /// Everything one step computed, for logs and plots. Frames as in each field's type.
@@ -106,8 +149,10 @@ impl FaultFlags {
     derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
 )]
 pub struct Telemetry {
-    /// Index of this step since the controller was built.
+    /// Index of this step since the controller was built (counts calls, not periods).
     pub step: u32,
+    /// Control periods this step covered (1 on time).
+    pub periods: u32,
     /// True when the steering law ran in this step.
     pub steering_updated: bool,
     /// Odometry pose estimate, world frame.
@@ -116,20 +161,40 @@ pub struct Telemetry {
     pub reference: ReferenceState,
     /// Tracking error (9) at the last steering update, robot frame (a copy of `law.error`).
     pub error: TrackingError,
-    /// The steering law's last output (command before limits, V, V̇, polar error).
+    /// The steering law's last output (target before limits, V, V̇, polar error).
     pub law: LawOutput,
-    /// Body command after limits (v m/s, ω rad/s).
+    /// Body command after the acceleration limit and the rim-speed cap, at the last
+    /// steering update (v m/s, ω rad/s).
     pub command: BodyVelocity,
     /// What the limiter did to it.
     pub limit_flags: LimitFlags,
-    /// Wheel-speed set-points, rad/s.
+    /// Rim-speed cap in force: the configured one or less on a weak supply, m/s.
+    pub rim_speed_cap_m_s: f32,
+    /// Wheel-speed set-points, rad/s: ramped each step towards the command's (before
+    /// coordinated saturation).
     pub wheel_setpoint: WheelSpeeds,
     /// Measured wheel speeds, rad/s.
     pub wheel_speed: WheelSpeeds,
+    /// The wheel loops: volts, saturation, the set-points they used (the PIDs' parts:
+    /// [`Controller::wheel_pid_parts`]).
+    pub wheel_loop: WheelLoopReport,
+    /// Filtered supply voltage, V.
+    pub supply_v: f32,
     /// Motor duties sent, −1…1.
     pub duty: MotorCommand,
     /// Latched faults.
     pub faults: FaultFlags,
+}
+
+/// Where path following is in its schedule.
+#[derive(Clone, Copy, Debug, Default)]
+struct Schedule {
+    /// Periods until the steering law runs again (0: this step).
+    until_steering: u32,
+    /// Periods since the reference was last sampled.
+    since_sample: u32,
+    /// A step has run since path following (re)started.
+    started: bool,
 }
 
 /// The whole control stack for one robot (see the module doc).
@@ -138,15 +203,16 @@ pub struct Controller {
     params: Params,
     odometry: Odometry,
     speed: [SpeedEstimator; 2],
-    pid: [IncrementalPid; 2],
+    drive: WheelDrive,
+    supply: SupplyFilter,
     limiter: CommandLimiter,
+    ramp: SetpointRamp,
     reference: Reference,
     law: LawKind,
     mode: Mode,
     /// Steps since the controller was built.
     steps: u32,
-    /// Steps since path following (re)started: the time index of the reference.
-    path_clock: StepClock,
+    schedule: Schedule,
     /// Latest telemetry; the state carried between steps (set-points, last law output).
     telemetry: Telemetry,
 }
@@ -155,22 +221,24 @@ impl Controller {
     /// A controller for `params`, following `reference` with `law`, believing the robot
     /// starts at `start` (world frame). It starts in [`Mode::Idle`] (motors off).
     pub fn new(params: Params, reference: Reference, law: LawKind, start: Pose) -> Self {
-        let steps_per_s = params.config().control_rate_hz as f32;
+        let steps_per_s = params.control_rate().get() as f32;
         let window = params.config().speed_window_steps as usize;
         let estimator = SpeedEstimator::new(window, params.rad_per_tick(), steps_per_s);
-        let pid = IncrementalPid::new(params.wheel_pid(), 1.0);
         Self {
             odometry: Odometry::new(params.geometry(), params.rad_per_tick(), start),
             speed: [estimator.clone(), estimator],
-            pid: [pid, pid],
+            drive: WheelDrive::new(&params),
+            supply: SupplyFilter::new(params.config().drive.supply_filter_tau_s, params.period_s()),
             limiter: CommandLimiter::new(params.config().limits),
+            ramp: SetpointRamp::default(),
             reference,
             law,
             mode: Mode::Idle,
             steps: 0,
-            path_clock: StepClock::new(params.config().control_rate_hz),
+            schedule: Schedule::default(),
             telemetry: Telemetry {
                 pose: start,
+                rim_speed_cap_m_s: params.config().limits.max_rim_speed_m_s,
                 ..Telemetry::default()
             },
             params,
@@ -212,19 +280,26 @@ impl Controller {
         &self.telemetry
     }
 
+    /// Each wheel PID's last output split into P, I, D and FF, V, [left, right] (see
+    /// [`crate::pid`] for how the parts of a velocity-form PID are defined).
+    pub fn wheel_pid_parts(&self) -> [PidParts; 2] {
+        self.drive.pid_parts()
+    }
+
     /// Switches mode. Entering [`Mode::FollowPath`] restarts the reference's time index
-    /// and progress; any change restarts the PIDs and the limiter from the measured state,
-    /// so the command does not jump.
+    /// and progress; any change restarts the wheel loops and the ramp from the measured
+    /// state, so the command does not jump.
     pub fn set_mode(&mut self, mode: Mode) {
         if mode == self.mode {
             return;
         }
         if mode == Mode::FollowPath {
-            self.path_clock = StepClock::new(self.params.config().control_rate_hz);
+            self.schedule = Schedule::default();
             self.reference.restart();
         }
+        let was_driving = self.mode != Mode::Idle;
         self.mode = mode;
-        self.restart_loops();
+        self.restart_loops(was_driving);
     }
 
     /// Selects another steering law (takes effect at the next steering step).
@@ -235,6 +310,20 @@ impl Controller {
     /// Overwrites the odometry pose (world frame), e.g. from an external fix.
     pub fn set_pose(&mut self, pose: Pose) {
         self.odometry.set_pose(pose);
+        self.telemetry.pose = self.odometry.pose();
+    }
+
+    /// Asserts that the robot is moving at `body` (v m/s, ω rad/s, robot frame) although
+    /// the controller has not seen it: the speed estimates are filled with the encoder
+    /// ticks that motion would have produced. For a run that starts in motion (the
+    /// paper's experiments); call it before entering a driving mode, whose loops then
+    /// start from that motion.
+    pub fn seed_motion(&mut self, body: BodyVelocity) {
+        let wheels = self.params.geometry().inverse(body);
+        self.speed[0].seed(wheels.left_rad_s);
+        self.speed[1].seed(wheels.right_rad_s);
+        self.telemetry.wheel_speed =
+            WheelSpeeds::new(self.speed[0].speed_rad_s(), self.speed[1].speed_rad_s());
     }
 
     /// Clears latched faults. Speed history is dropped and the loops restart from rest.
@@ -243,14 +332,14 @@ impl Controller {
         for estimator in &mut self.speed {
             estimator.reset();
         }
-        self.restart_loops();
+        self.telemetry.wheel_speed = WheelSpeeds::default();
+        self.restart_loops(false);
     }
 
-    fn restart_loops(&mut self) {
+    /// Restarts the ramp and the wheel loops from the measured state; `was_driving` keeps
+    /// each wheel's applied voltage (a switch between driving modes).
+    fn restart_loops(&mut self, was_driving: bool) {
         let measured = self.telemetry.wheel_speed;
-        for pid in &mut self.pid {
-            pid.reset(0.0);
-        }
         self.limiter.reset(self.params.geometry().forward(measured));
         self.telemetry.wheel_setpoint = match self.mode {
             Mode::HoldWheelSpeeds(speeds) => self.capped_wheel_speeds(speeds),
@@ -258,94 +347,207 @@ impl Controller {
             Mode::FollowPath => measured,
             Mode::Idle => WheelSpeeds::default(),
         };
-        self.pid[0].prime(
-            self.telemetry.wheel_setpoint.left_rad_s,
-            measured.left_rad_s,
-        );
-        self.pid[1].prime(
-            self.telemetry.wheel_setpoint.right_rad_s,
-            measured.right_rad_s,
-        );
+        self.ramp = SetpointRamp {
+            target: self.telemetry.wheel_setpoint,
+            ..SetpointRamp::default()
+        };
+        self.drive
+            .restart(self.telemetry.wheel_setpoint, measured, was_driving);
+    }
+
+    /// The rim-speed cap on the present supply: the configured cap, or less if the motors
+    /// cannot reach it (m/s). Before the first supply measurement, the configured cap (no
+    /// voltage reaches the motors then anyway).
+    fn rim_speed_cap_m_s(&self) -> f32 {
+        let configured = self.params.config().limits.max_rim_speed_m_s;
+        if self.telemetry.supply_v <= 0.0 {
+            return configured;
+        }
+        let reachable = self.params.geometry().min_wheel_radius_m()
+            * self.drive.top_speed_rad_s(self.telemetry.supply_v);
+        if reachable < configured {
+            reachable
+        } else {
+            configured
+        }
     }
 
     /// Clamps each wheel to the rim-speed cap.
     fn capped_wheel_speeds(&self, speeds: WheelSpeeds) -> WheelSpeeds {
-        let max =
-            self.params.config().limits.max_rim_speed_m_s / self.params.geometry().wheel_radius_m();
+        let max = self.rim_speed_cap_m_s() / self.params.geometry().min_wheel_radius_m();
         WheelSpeeds::new(
             math::clamp(speeds.left_rad_s, -max, max),
             math::clamp(speeds.right_rad_s, -max, max),
         )
     }
 
-    /// One control period: `ticks` counted since the last call. Returns the duties to
-    /// apply (in [−1, 1], 0 on any fault). What the step computed is in
-    /// [`Controller::telemetry`], borrowed rather than copied out (on a Cortex-M4F the copy
-    /// cost more than the wheel loop's arithmetic).
-    pub fn step(&mut self, ticks: TickDeltas) -> MotorCommand {
-        // Phase the steering loop on the path clock, so the law runs on the very first step
-        // after path following (re)starts.
-        let steering_due = self.path_clock.steps() % self.params.config().steering_divider == 0;
+    /// One control step (see the module doc). Returns the duties to apply (in [−1, 1], 0
+    /// on any fault). What the step computed is in [`Controller::telemetry`], borrowed
+    /// rather than copied out (on a Cortex-M4F the copy cost more than the wheel loop's
+    /// arithmetic).
+    pub fn step(&mut self, input: StepInput) -> MotorCommand {
+        let periods = input.periods;
+        let ticks = input.ticks;
         // Telemetry is updated in place: it is the state carried between steps, and copying
         // it costs more than the arithmetic on a Cortex-M4F.
-        let t = &mut self.telemetry;
-        t.step = self.steps;
-        t.steering_updated = false;
+        self.telemetry.step = self.steps;
+        self.telemetry.periods = periods.get();
+        self.telemetry.steering_updated = false;
+        self.telemetry.supply_v = self.supply.update(input.supply_v);
 
-        let limit = self.params.max_ticks_per_step().unsigned_abs();
+        // A delta beyond what the fastest plausible wheel turns in the elapsed time.
+        let limit = self
+            .params
+            .max_ticks_per_step()
+            .unsigned_abs()
+            .saturating_mul(periods.get());
         if ticks.left.unsigned_abs() > limit || ticks.right.unsigned_abs() > limit {
-            t.faults.encoder_jump = true;
+            self.telemetry.faults.encoder_jump = true;
         }
 
-        if !t.faults.any() {
-            t.pose = self.odometry.update(ticks.left, ticks.right);
-            t.wheel_speed = WheelSpeeds::new(
-                self.speed[0].update(ticks.left),
-                self.speed[1].update(ticks.right),
+        if !self.telemetry.faults.any() {
+            self.telemetry.pose = self.odometry.update(ticks.left, ticks.right);
+            self.telemetry.wheel_speed = WheelSpeeds::new(
+                self.speed[0].update(ticks.left, periods),
+                self.speed[1].update(ticks.right, periods),
             );
-            if self.mode == Mode::FollowPath && steering_due {
-                // The outer loop: reference, law, limits, inverse kinematics → set-points.
-                let geometry = self.params.geometry();
-                t.steering_updated = true;
-                t.reference = self.reference.sample(&self.path_clock, &t.pose);
-                t.law = law::steer(self.law, &self.params.config().law, &t.pose, &t.reference);
-                t.error = t.law.error;
-                let (command, flags) = self.limiter.apply(
-                    t.law.command,
-                    self.params.steering_period_s(),
-                    geometry.track_width_m(),
-                );
-                t.command = command;
-                t.limit_flags = flags;
-                t.wheel_setpoint = geometry.inverse(command);
+            match self.mode {
+                Mode::FollowPath => self.follow_path(periods),
+                Mode::HoldWheelSpeeds(speeds) => {
+                    self.telemetry.wheel_setpoint = self.capped_wheel_speeds(speeds);
+                }
+                Mode::Idle => self.telemetry.wheel_setpoint = WheelSpeeds::default(),
             }
-            t.duty = match self.mode {
-                Mode::Idle => MotorCommand::STOP,
-                Mode::FollowPath | Mode::HoldWheelSpeeds(_) => MotorCommand {
-                    left: self.pid[0].step(t.wheel_setpoint.left_rad_s, t.wheel_speed.left_rad_s),
-                    right: self.pid[1]
-                        .step(t.wheel_setpoint.right_rad_s, t.wheel_speed.right_rad_s),
-                },
-            };
-            let finite = t.pose.is_finite()
-                && t.duty.left.is_finite()
-                && t.duty.right.is_finite()
-                && t.wheel_setpoint.left_rad_s.is_finite()
-                && t.wheel_setpoint.right_rad_s.is_finite();
-            if !finite {
+            let t = &mut self.telemetry;
+            if self.mode == Mode::Idle {
+                self.drive.stop();
+                t.wheel_loop = WheelLoopReport::default();
+                t.duty = MotorCommand::STOP;
+            } else {
+                t.duty = self.drive.step(
+                    t.wheel_setpoint,
+                    t.wheel_speed,
+                    t.supply_v,
+                    periods.get() as f32,
+                    &mut t.wheel_loop,
+                );
+            }
+            // One check for all: NaN and ±∞ propagate through a sum (∞ − ∞ is NaN), and a
+            // sum that overflows comes from values no robot has.
+            let sum = t.pose.x_m
+                + t.pose.y_m
+                + t.pose.theta_rad
+                + t.duty.left
+                + t.duty.right
+                + t.wheel_setpoint.left_rad_s
+                + t.wheel_setpoint.right_rad_s;
+            if !sum.is_finite() {
                 t.faults.non_finite = true;
             }
         }
-        if t.faults.any() {
-            t.duty = MotorCommand::STOP;
-            t.wheel_setpoint = WheelSpeeds::default();
+        if self.telemetry.faults.any() {
+            self.drive.stop();
+            self.telemetry.duty = MotorCommand::STOP;
+            self.telemetry.wheel_setpoint = WheelSpeeds::default();
         }
 
         self.steps = self.steps.wrapping_add(1);
-        if self.mode == Mode::FollowPath {
-            self.path_clock.tick();
-        }
         self.telemetry.duty
+    }
+
+    /// The outer loop of one path-following step: the steering law when it is due, and
+    /// the wheel set-points interpolated towards its (limited) command.
+    fn follow_path(&mut self, periods: NonZeroU32) {
+        let s = &mut self.schedule;
+        if s.started {
+            s.since_sample = s.since_sample.saturating_add(periods.get());
+            s.until_steering = s.until_steering.saturating_sub(periods.get());
+        }
+        s.started = true;
+        if s.until_steering == 0 {
+            let elapsed_s = s.since_sample as f32 * self.params.period_s();
+            s.since_sample = 0;
+            s.until_steering = self.params.steering_divider().get();
+            self.steer(elapsed_s);
+        }
+        self.ramp
+            .advance(periods.get(), &mut self.telemetry.wheel_setpoint);
+    }
+
+    /// The steering law, its limits, and a new set-point ramp to the command's wheel
+    /// speeds over the next steering period. `elapsed_s` is the time since the last
+    /// steering update, s.
+    fn steer(&mut self, elapsed_s: f32) {
+        let cap = self.rim_speed_cap_m_s();
+        let geometry = self.params.geometry();
+        let t = &mut self.telemetry;
+        t.steering_updated = true;
+        t.rim_speed_cap_m_s = cap;
+        t.reference = self.reference.sample(elapsed_s, &t.pose);
+        let error = tracking_error_with_heading(
+            &t.pose,
+            self.odometry.heading_sin_cos(),
+            &t.reference.pose,
+        );
+        t.law = law::steer_with_error(
+            self.law,
+            &self.params.config().law,
+            &t.pose,
+            &t.reference,
+            error,
+        );
+        t.error = error;
+        let (command, flags) = self.limiter.apply(
+            t.law.command,
+            self.params.steering_period_s(),
+            geometry.track_width_m(),
+            cap,
+        );
+        t.command = command;
+        t.limit_flags = flags;
+        self.ramp.start(
+            t.wheel_setpoint,
+            geometry.inverse(command),
+            self.params.steering_divider(),
+        );
+    }
+}
+
+/// Wheel set-points moved in equal steps, once per control period, from where they are
+/// to a target over one steering period (instead of jumping at each steering update).
+#[derive(Clone, Copy, Debug, Default)]
+struct SetpointRamp {
+    target: WheelSpeeds,
+    /// Change per control period, rad/s.
+    per_period: WheelSpeeds,
+    /// Control periods until the target is reached.
+    periods_left: u32,
+}
+
+impl SetpointRamp {
+    /// A ramp from `from` to `to` (rad/s) over `periods` control periods.
+    fn start(&mut self, from: WheelSpeeds, to: WheelSpeeds, periods: NonZeroU32) {
+        let per = 1.0 / periods.get() as f32;
+        self.target = to;
+        self.per_period = WheelSpeeds::new(
+            (to.left_rad_s - from.left_rad_s) * per,
+            (to.right_rad_s - from.right_rad_s) * per,
+        );
+        self.periods_left = periods.get();
+    }
+
+    /// Moves `setpoint` on by `periods` control periods (to the target exactly at the
+    /// end; it stays there until the next [`SetpointRamp::start`]).
+    fn advance(&mut self, periods: u32, setpoint: &mut WheelSpeeds) {
+        if periods >= self.periods_left {
+            self.periods_left = 0;
+            *setpoint = self.target;
+        } else {
+            self.periods_left -= periods;
+            let n = periods as f32;
+            setpoint.left_rad_s += self.per_period.left_rad_s * n;
+            setpoint.right_rad_s += self.per_period.right_rad_s * n;
+        }
     }
 }
 
@@ -379,11 +581,23 @@ pub(crate) mod tests {
         on_a_line(5.0)
     }
 
+    /// The supply the tests run on, V.
+    const SUPPLY_V: f32 = 6.0;
+
+    /// One on-time step with `ticks` on the test supply.
+    fn step(c: &mut Controller, ticks: TickDeltas) -> MotorCommand {
+        c.step(StepInput::on_time(ticks, SUPPLY_V))
+    }
+
+    fn ticks(left: i32, right: i32) -> TickDeltas {
+        TickDeltas { left, right }
+    }
+
     #[test]
     fn idle_commands_nothing() {
         let mut c = controller();
         for _ in 0..100 {
-            assert_eq!(c.step(TickDeltas { left: 1, right: 1 }), MotorCommand::STOP);
+            assert_eq!(step(&mut c, ticks(1, 1)), MotorCommand::STOP);
         }
         // Odometry still runs while idle.
         assert!(c.pose().x_m > 0.0);
@@ -393,14 +607,14 @@ pub(crate) mod tests {
     fn follow_path_drives_forward() {
         let mut c = controller();
         c.set_mode(Mode::FollowPath);
-        let duty = c.step(TickDeltas::default());
+        let duty = step(&mut c, ticks(0, 0));
         assert!(c.telemetry().steering_updated);
         assert!(duty.left > 0.0 && duty.right > 0.0);
         assert!(!c.faults().any());
         // The steering law runs every `steering_divider` (10) steps, the PIDs every step.
         let pattern: Vec<bool> = (1..=20)
             .map(|_| {
-                c.step(TickDeltas::default());
+                step(&mut c, ticks(0, 0));
                 c.telemetry().steering_updated
             })
             .collect();
@@ -409,36 +623,203 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn a_late_step_moves_the_reference_by_the_time_that_passed() {
+        // Two controllers, one stepped 21 times on time (steps at 0…20 ms), the other 10
+        // times on time (0…9 ms) and then once covering 11 periods (at 20 ms): at that
+        // steering step both references must be at 20 ms · 0.2 m/s = 4 mm.
+        let mut on_time = controller();
+        let mut late = controller();
+        on_time.set_mode(Mode::FollowPath);
+        late.set_mode(Mode::FollowPath);
+        for _ in 0..20 {
+            step(&mut on_time, ticks(0, 0));
+        }
+        step(&mut on_time, ticks(0, 0));
+        for _ in 0..10 {
+            step(&mut late, ticks(0, 0));
+        }
+        late.step(StepInput {
+            ticks: ticks(0, 0),
+            periods: NonZeroU32::new(11).unwrap(),
+            supply_v: SUPPLY_V,
+        });
+        assert!(late.telemetry().steering_updated);
+        assert_eq!(late.telemetry().periods, 11);
+        let (a, b) = (
+            on_time.telemetry().reference.progress_m,
+            late.telemetry().reference.progress_m,
+        );
+        assert!(
+            (a - 0.004).abs() < 1e-6 && (b - 0.004).abs() < 1e-6,
+            "{a} {b}"
+        );
+    }
+
+    #[test]
+    fn a_late_step_is_not_an_encoder_jump_for_the_time_it_covered() {
+        // 45 ticks per period is the limit; 80 ticks over 2 periods is 40 per period.
+        let mut c = controller();
+        c.step(StepInput {
+            ticks: ticks(80, 80),
+            periods: NonZeroU32::new(2).unwrap(),
+            supply_v: SUPPLY_V,
+        });
+        assert!(!c.faults().any());
+        step(&mut c, ticks(80, 0));
+        assert!(c.faults().encoder_jump);
+    }
+
+    #[test]
+    fn the_wheel_loop_commands_volts_whatever_the_supply() {
+        // Holding 10 rad/s with the wheels turning at 10 rad/s: the same volts on 6 and on
+        // 12 V, so half the duty.
+        let run = |supply_v: f32| {
+            let mut c = controller();
+            c.seed_motion(BodyVelocity::new(0.325, 0.0));
+            c.set_mode(Mode::HoldWheelSpeeds(WheelSpeeds::new(10.0, 10.0)));
+            // 10 rad/s is 2.29 ticks per step: whole ticks, the fraction carried.
+            let per_step = 10.0 * 1440.0 / (core::f32::consts::TAU * 1000.0);
+            let (mut counted, mut duty) = (0.0f32, MotorCommand::STOP);
+            for k in 1..=200 {
+                let n = (k as f32 * per_step) as i32 - counted as i32;
+                counted += n as f32;
+                duty = c.step(StepInput::on_time(ticks(n, n), supply_v));
+            }
+            (duty, c.telemetry().wheel_loop.volts.left_v)
+        };
+        let (duty6, volts6) = run(6.0);
+        let (duty12, volts12) = run(12.0);
+        assert!((volts6 - volts12).abs() < 1e-4, "{volts6} vs {volts12}");
+        assert!((duty6.left - 2.0 * duty12.left).abs() < 1e-4);
+        // About the feed-forward for 10 rad/s, 0.33 + 1.57 V: the PID only trims it.
+        assert!((volts6 - 1.9).abs() < 0.15, "{volts6}");
+    }
+
+    #[test]
+    fn set_points_move_every_step_not_every_steering_period() {
+        // From rest the tracking law asks for more than the 3 m/s² allow: the command grows
+        // by a·T_s = 30 mm/s per 10 ms steering period, and the wheel set-points follow it
+        // in ten equal steps of 0.092 rad/s (3 mm/s at the rim), not in one jump.
+        let mut c = on_a_line(5.0);
+        c.set_pose(Pose::new(-0.5, 0.0, 0.0));
+        c.set_mode(Mode::FollowPath);
+        let mut previous = 0.0;
+        for k in 0..40 {
+            step(&mut c, ticks(0, 0));
+            let w = c.telemetry().wheel_setpoint.left_rad_s;
+            let change = w - previous;
+            assert!(
+                (change - 0.003 / 0.0325).abs() < 1e-3,
+                "step {k}: {previous} → {w}"
+            );
+            previous = w;
+        }
+        assert!(c.telemetry().limit_flags.accel_limited);
+        // A late step covers several periods of the ramp at once.
+        c.step(StepInput {
+            ticks: ticks(0, 0),
+            periods: NonZeroU32::new(3).unwrap(),
+            supply_v: SUPPLY_V,
+        });
+        let w = c.telemetry().wheel_setpoint.left_rad_s;
+        assert!(
+            (w - previous - 3.0 * 0.003 / 0.0325).abs() < 1e-3,
+            "{previous} → {w}"
+        );
+    }
+
+    #[test]
+    fn a_weak_supply_lowers_the_rim_speed_cap() {
+        let mut c = controller();
+        c.set_mode(Mode::FollowPath);
+        c.step(StepInput::on_time(ticks(0, 0), 4.8));
+        // 0.85 · 4.8 V → 23.9 rad/s → 0.776 m/s at 32.5 mm, below the 1 m/s configured.
+        let cap = c.telemetry().rim_speed_cap_m_s;
+        assert!((cap - 0.7764).abs() < 1e-3, "{cap}");
+        let mut strong = controller();
+        strong.set_mode(Mode::FollowPath);
+        strong.step(StepInput::on_time(ticks(0, 0), 12.0));
+        // 0.85 · 6 V (the rated voltage caps a 12 V supply) → 30.4 rad/s → 0.987 m/s.
+        let cap = strong.telemetry().rim_speed_cap_m_s;
+        assert!((cap - 0.9874).abs() < 1e-3, "{cap}");
+    }
+
+    #[test]
+    fn seeding_a_motion_fills_the_speed_estimates() {
+        let mut c = controller();
+        c.seed_motion(BodyVelocity::new(0.4, 0.3));
+        let w = c.telemetry().wheel_speed;
+        // Inverse kinematics: (0.4 ∓ 0.0225)/0.0325 = 11.62 and 12.98 rad/s, to a tick.
+        assert!((w.left_rad_s - 11.615).abs() < 0.22, "{w:?}");
+        assert!((w.right_rad_s - 12.998).abs() < 0.22, "{w:?}");
+    }
+
+    #[test]
     fn encoder_jump_latches_a_stop_until_cleared() {
         let mut c = controller();
         c.set_mode(Mode::HoldWheelSpeeds(WheelSpeeds::new(5.0, 5.0)));
-        assert!(c.step(TickDeltas::default()).left > 0.0);
-        let duty = c.step(TickDeltas {
-            left: 10_000,
-            right: 0,
-        });
+        assert!(step(&mut c, ticks(0, 0)).left > 0.0);
+        let duty = step(&mut c, ticks(10_000, 0));
         assert!(c.faults().encoder_jump);
         assert_eq!(duty, MotorCommand::STOP);
         // Latched, even with sane input.
-        assert_eq!(c.step(TickDeltas::default()), MotorCommand::STOP);
+        assert_eq!(step(&mut c, ticks(0, 0)), MotorCommand::STOP);
         c.clear_faults();
-        let duty = c.step(TickDeltas::default());
+        let duty = step(&mut c, ticks(0, 0));
         assert!(!c.faults().any());
         assert!(duty.left > 0.0);
+    }
+
+    #[test]
+    fn fault_flags_union() {
+        let a = FaultFlags {
+            encoder_jump: true,
+            non_finite: false,
+        };
+        let b = FaultFlags {
+            encoder_jump: false,
+            non_finite: true,
+        };
+        assert!(a.union(b).encoder_jump && a.union(b).non_finite);
+        assert_eq!(FaultFlags::default().union(a), a);
+        assert!(!FaultFlags::default().any());
+        assert!(a.any() && b.any());
     }
 
     #[test]
     fn hold_mode_caps_set_points_at_the_rim_speed_limit() {
         let mut c = controller();
         c.set_mode(Mode::HoldWheelSpeeds(WheelSpeeds::new(1000.0, -1000.0)));
-        c.step(TickDeltas::default());
-        let max = 1.0 / 0.0325;
+        c.step(StepInput::on_time(ticks(0, 0), 12.0));
+        // The 6 V motors reach 30.4 rad/s with 15 % of their voltage spare (0.987 m/s at
+        // the rim), below the 1 m/s configured cap.
+        let max = (0.85 * 6.0 - 0.33) / 0.157;
         assert!((c.telemetry().wheel_setpoint.left_rad_s - max).abs() < 1e-3);
         assert!((c.telemetry().wheel_setpoint.right_rad_s + max).abs() < 1e-3);
     }
 
+    #[test]
+    fn set_law_and_set_mode_take_effect() {
+        let mut c = controller();
+        c.set_law(LawKind::Kanayama);
+        assert_eq!(c.law(), LawKind::Kanayama);
+        c.set_mode(Mode::FollowPath);
+        assert_eq!(c.mode(), Mode::FollowPath);
+        step(&mut c, ticks(0, 0));
+        // Kanayama's law reports no polar error; the paper's does.
+        assert!(c.telemetry().law.polar.is_none());
+        c.set_law(LawKind::Paper);
+        for _ in 0..10 {
+            step(&mut c, ticks(0, 0));
+        }
+        assert!(c.telemetry().law.polar.is_some());
+        c.set_mode(Mode::Idle);
+        assert_eq!(step(&mut c, ticks(0, 0)), MotorCommand::STOP);
+    }
+
     proptest! {
-        /// Any tick sequence, however absurd, gives duties that are finite and in [−1, 1].
+        /// Any tick sequence, late steps and supply reading, however absurd, gives duties
+        /// that are finite and in [−1, 1].
         #[test]
         fn any_input_gives_bounded_finite_duty(
             ticks in prop::collection::vec(
@@ -448,6 +829,11 @@ pub(crate) mod tests {
                 ],
                 1..300,
             ),
+            periods in prop::collection::vec(1u32..5, 1..10),
+            supply in prop_oneof![
+                Just(6.0f32), Just(12.6), Just(4.8), Just(0.0), Just(-3.0),
+                Just(f32::NAN), Just(f32::INFINITY), prop::num::f32::ANY
+            ],
             law in prop::sample::select(LawKind::ALL.to_vec()),
             pose in prop::option::of((
                 prop::num::f32::ANY, prop::num::f32::ANY, prop::num::f32::ANY
@@ -460,14 +846,19 @@ pub(crate) mod tests {
             if let Some((x, y, th)) = pose {
                 c.set_pose(Pose::new(x, y, th));
             }
-            for pair in ticks.chunks(2) {
+            for (k, pair) in ticks.chunks(2).enumerate() {
                 let t = TickDeltas { left: pair[0], right: *pair.last().unwrap_or(&0) };
-                let duty = c.step(t);
+                let n = periods[k % periods.len()];
+                let duty = c.step(StepInput {
+                    ticks: t,
+                    periods: NonZeroU32::new(n).unwrap_or(NonZeroU32::MIN),
+                    supply_v: supply,
+                });
                 for d in [duty.left, duty.right] {
                     prop_assert!(d.is_finite() && (-1.0..=1.0).contains(&d));
                 }
                 if !c.telemetry().pose.is_finite() {
-                    prop_assert!(c.faults().non_finite);
+                    prop_assert!(c.faults().any());
                     prop_assert_eq!(duty, MotorCommand::STOP);
                 }
             }

@@ -12,8 +12,11 @@
 //! ω̂ = (Σ ticks over W steps) · (2π / ticks_per_rev) / (W · T).
 //! Its resolution is 2π / (ticks_per_rev · W · T) (0.22 rad/s for W = 20 at 1 kHz, i.e.
 //! 7 mm/s of rim speed for a 65 mm wheel), its delay W·T/2, and it is exact (no drift, no
-//! lost ticks) because it is a difference of integer counts. Before W steps have been seen
-//! it averages over the steps it has.
+//! lost ticks) because it is a difference of integer counts. It starts as a wheel that
+//! has been at rest for the whole window. A step that began late (missed ticks) reports
+//! how many periods its ticks span, and the estimate divides by the elapsed time, not by
+//! the number of calls. [`crate::params::Params::new`] rejects a window whose one-tick
+//! quantum is a coarse fraction of the wheel's top speed.
 
 /// Largest averaging window of [`SpeedEstimator`], in control steps.
 pub const MAX_SPEED_WINDOW_STEPS: usize = 64;
@@ -48,72 +51,114 @@ impl WrappingCounter {
 }
 
 /// Sliding-window wheel-speed estimate from per-step tick deltas (see the module doc).
+///
+/// Each step adds its tick delta and the number of control periods it covered (1 on
+/// time, more when the step started late and absorbed missed ticks), so the estimate is
+/// ticks per *elapsed time*, not per call. The window holds the last W steps.
 #[derive(Clone, Debug)]
 pub struct SpeedEstimator {
-    ring: [i32; MAX_SPEED_WINDOW_STEPS],
+    /// Tick deltas of the last `window` steps (a ring; only `window` entries are used).
+    ticks: [i32; MAX_SPEED_WINDOW_STEPS],
+    /// Control periods of the same steps.
+    periods: [u32; MAX_SPEED_WINDOW_STEPS],
     window: usize,
     head: usize,
-    filled: usize,
-    /// Σ ring. Exact in i32: |ticks| per step is bounded by the encoder-jump fault
+    /// Σ ticks. Exact in i32: |ticks| per step is bounded by the encoder-jump fault
     /// ([`crate::params::Params::max_ticks_per_step`] ≤ 2²⁴), times ≤ 64 steps.
-    sum: i32,
+    tick_sum: i32,
+    /// Σ periods (≥ `window`: the ring starts as `window` steps of one period at rest).
+    period_sum: u32,
+    /// Wheel rad per tick × steps per second.
     rad_per_tick_per_s: f32,
-    /// rad_per_tick_per_s / filled: turns the tick sum into rad/s without a division.
+    /// `rad_per_tick_per_s / period_sum`, refreshed only when `period_sum` changes.
     scale: f32,
 }
 
 impl SpeedEstimator {
     /// An estimator averaging over `window_steps` (clamped to 1..=64) control steps of
     /// period T, for a wheel with `rad_per_tick` rad of wheel rotation per encoder tick.
-    /// `steps_per_s` is 1/T.
+    /// `steps_per_s` is 1/T. It starts as if the wheel had been at rest for the whole
+    /// window.
     pub fn new(window_steps: usize, rad_per_tick: f32, steps_per_s: f32) -> Self {
-        Self {
-            ring: [0; MAX_SPEED_WINDOW_STEPS],
-            window: window_steps.clamp(1, MAX_SPEED_WINDOW_STEPS),
+        let window = window_steps.clamp(1, MAX_SPEED_WINDOW_STEPS);
+        let rad_per_tick_per_s = rad_per_tick * steps_per_s;
+        let mut estimator = Self {
+            ticks: [0; MAX_SPEED_WINDOW_STEPS],
+            periods: [1; MAX_SPEED_WINDOW_STEPS],
+            window,
             head: 0,
-            filled: 0,
-            sum: 0,
-            rad_per_tick_per_s: rad_per_tick * steps_per_s,
+            tick_sum: 0,
+            period_sum: window as u32,
+            rad_per_tick_per_s,
             scale: 0.0,
-        }
+        };
+        estimator.reset();
+        estimator
     }
 
-    /// Adds one step's tick delta and returns the wheel speed estimate, rad/s.
-    pub fn update(&mut self, ticks: i32) -> f32 {
-        self.sum = self
-            .sum
+    /// Adds one step's tick delta `ticks`, counted over `periods` control periods (≥ 1),
+    /// and returns the wheel speed estimate, rad/s.
+    pub fn update(&mut self, ticks: i32, periods: core::num::NonZeroU32) -> f32 {
+        let periods = periods.get();
+        // The ring is MAX_SPEED_WINDOW_STEPS (a power of two) long: masking keeps every
+        // index in range whatever `head` holds, with no bounds check to fail.
+        let slot = self.head & (MAX_SPEED_WINDOW_STEPS - 1);
+        self.tick_sum = self
+            .tick_sum
             .wrapping_add(ticks)
-            .wrapping_sub(self.ring[self.head]);
-        self.ring[self.head] = ticks;
-        self.head += 1;
-        if self.head == self.window {
-            self.head = 0;
+            .wrapping_sub(self.ticks[slot]);
+        self.ticks[slot] = ticks;
+        // Only a late step entering or leaving the window changes the elapsed time.
+        let leaving = self.periods[slot];
+        if periods != leaving {
+            self.periods[slot] = periods;
+            self.period_sum = self.period_sum.wrapping_add(periods).wrapping_sub(leaving);
+            self.scale = self.rad_per_tick_per_s / self.period_sum as f32;
         }
-        if self.filled < self.window {
-            self.filled += 1;
-            self.scale = self.rad_per_tick_per_s / self.filled as f32;
-        }
+        self.head = if slot + 1 >= self.window { 0 } else { slot + 1 };
         self.speed_rad_s()
     }
 
-    /// The current estimate, rad/s (0 before the first update).
+    /// The current estimate, rad/s.
     pub fn speed_rad_s(&self) -> f32 {
-        self.sum as f32 * self.scale
+        self.tick_sum as f32 * self.scale
     }
 
-    /// Forgets the history (after a fault or a mode change).
+    /// Forgets the history: the wheel is taken to have been at rest for the whole window
+    /// (after a fault, or when a run starts).
     pub fn reset(&mut self) {
-        self.ring = [0; MAX_SPEED_WINDOW_STEPS];
+        self.ticks = [0; MAX_SPEED_WINDOW_STEPS];
+        self.periods = [1; MAX_SPEED_WINDOW_STEPS];
         self.head = 0;
-        self.filled = 0;
-        self.sum = 0;
-        self.scale = 0.0;
+        self.tick_sum = 0;
+        self.period_sum = self.window as u32;
+        self.scale = self.rad_per_tick_per_s / self.period_sum as f32;
+    }
+
+    /// Fills the window as if the wheel had turned at `speed_rad_s` (rad/s) for the whole
+    /// window, one period per step, with the ticks an encoder would have counted (whole
+    /// ticks, the fractions carried from step to step). For a run that starts in motion
+    /// (see [`crate::controller::Controller::seed_motion`]).
+    pub fn seed(&mut self, speed_rad_s: f32) {
+        self.reset();
+        let ticks_per_step = speed_rad_s / self.rad_per_tick_per_s;
+        if !ticks_per_step.is_finite() {
+            return;
+        }
+        let mut counted = 0i32;
+        for k in 1..=self.window {
+            let total = crate::math::round_to_i32(k as f32 * ticks_per_step);
+            let ticks = total.wrapping_sub(counted);
+            counted = total;
+            self.update(ticks, core::num::NonZeroU32::MIN);
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use core::num::NonZeroU32;
     use proptest::prelude::*;
 
     #[test]
@@ -138,18 +183,61 @@ mod tests {
         let mut est = SpeedEstimator::new(20, rad_per_tick, 1000.0);
         let mut last = 0.0;
         for k in 0..200 {
-            last = est.update(i32::from(k % 4 == 0));
+            last = est.update(i32::from(k % 4 == 0), ONE);
         }
         let expected = 250.0 * rad_per_tick; // 1.0908 rad/s
         assert!((last - expected).abs() < 1e-5, "{last} vs {expected}");
     }
 
+    const ONE: NonZeroU32 = NonZeroU32::MIN;
+
     #[test]
-    fn speed_uses_partial_window_at_start() {
+    fn starts_as_a_wheel_at_rest_for_the_whole_window() {
         let mut est = SpeedEstimator::new(10, 0.01, 1000.0);
         assert_eq!(est.speed_rad_s(), 0.0);
-        assert!((est.update(3) - 30.0).abs() < 1e-4); // 3 ticks in 1 ms = 0.03 rad / 1 ms
+        // 3 ticks in the newest of 10 one-period steps: 0.03 rad in 10 ms = 3 rad/s.
+        assert!((est.update(3, ONE) - 3.0).abs() < 1e-5);
         est.reset();
+        assert_eq!(est.speed_rad_s(), 0.0);
+    }
+
+    #[test]
+    fn a_late_step_counts_the_time_it_covered() {
+        // 5 ticks per period, window 4. A step that started one period late carries 10
+        // ticks over 2 periods: the speed must not double.
+        let mut est = SpeedEstimator::new(4, 0.01, 1000.0);
+        for _ in 0..4 {
+            est.update(5, ONE);
+        }
+        assert!((est.speed_rad_s() - 50.0).abs() < 1e-4);
+        let two = NonZeroU32::new(2).unwrap();
+        assert!((est.update(10, two) - 50.0).abs() < 1e-4);
+        // Once the late step has left the window the divisor is back to 4 periods.
+        for _ in 0..4 {
+            est.update(5, ONE);
+        }
+        assert!((est.speed_rad_s() - 50.0).abs() < 1e-4);
+        // Counting the late step as one period would have read 60 rad/s.
+    }
+
+    #[test]
+    fn seeding_fills_the_window_with_a_steady_speed() {
+        // 1440 ticks per turn at 1 kHz: 7 rad/s is 1.604 ticks per step; 20 steps hold 32.
+        let rad_per_tick = core::f32::consts::TAU / 1440.0;
+        let mut est = SpeedEstimator::new(20, rad_per_tick, 1000.0);
+        est.seed(7.0);
+        assert!(
+            (est.speed_rad_s() - 7.0).abs() <= 0.22,
+            "{}",
+            est.speed_rad_s()
+        );
+        est.seed(-7.0);
+        assert!(
+            (est.speed_rad_s() + 7.0).abs() <= 0.22,
+            "{}",
+            est.speed_rad_s()
+        );
+        est.seed(f32::NAN);
         assert_eq!(est.speed_rad_s(), 0.0);
     }
 

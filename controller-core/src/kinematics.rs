@@ -115,13 +115,21 @@ impl WheelSpeeds {
     }
 }
 
-/// Geometry of a differential-drive robot: wheel radius R and track width L, both in m.
+/// Geometry of a differential-drive robot: the radius of each wheel and the track width,
+/// all in m.
 ///
-/// Build it with [`DiffDrive::new`], which rejects non-positive or non-finite sizes.
+/// The two radii may differ (odometry calibration measures them); eqs. (1)–(4) then use
+/// each wheel's own radius. Build it with
+/// [`DiffDrive::new`] (equal wheels) or [`DiffDrive::with_wheel_radii`], which reject
+/// non-positive or non-finite sizes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DiffDrive {
-    wheel_radius_m: f32,
+    wheel_radius_left_m: f32,
+    wheel_radius_right_m: f32,
     track_width_m: f32,
+    /// 1/R_l and 1/R_r, 1/m: inverse kinematics runs every control step, and a
+    /// multiplication is cheaper than a division on the Cortex-M4F.
+    inverse_radius_per_m: [f32; 2],
 }
 
 /// Why a [`DiffDrive`] could not be built.
@@ -132,7 +140,7 @@ pub struct DiffDrive {
     derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
 )]
 pub enum GeometryError {
-    /// The wheel radius R was ≤ 0 or not finite.
+    /// A wheel radius was ≤ 0 or not finite.
     NonPositiveWheelRadius,
     /// The track width L was ≤ 0 or not finite.
     NonPositiveTrackWidth,
@@ -147,25 +155,55 @@ impl core::fmt::Display for GeometryError {
     }
 }
 
+fn positive(x: f32) -> bool {
+    x > 0.0 && x.is_finite()
+}
+
 impl DiffDrive {
-    /// Geometry with wheel radius R = `wheel_radius_m` and track width L = `track_width_m`
-    /// (distance between the wheels' contact points), both in m and > 0.
+    /// Geometry with both wheels of radius R = `wheel_radius_m` and track width
+    /// L = `track_width_m` (distance between the wheels' contact points), both in m and > 0.
     pub fn new(wheel_radius_m: f32, track_width_m: f32) -> Result<Self, GeometryError> {
-        if !(wheel_radius_m > 0.0 && wheel_radius_m.is_finite()) {
+        Self::with_wheel_radii(wheel_radius_m, wheel_radius_m, track_width_m)
+    }
+
+    /// Geometry with left and right wheel radii R_l = `left_m`, R_r = `right_m` and track
+    /// width L = `track_width_m`, all in m and > 0.
+    pub fn with_wheel_radii(
+        left_m: f32,
+        right_m: f32,
+        track_width_m: f32,
+    ) -> Result<Self, GeometryError> {
+        if !(positive(left_m) && positive(right_m)) {
             return Err(GeometryError::NonPositiveWheelRadius);
         }
-        if !(track_width_m > 0.0 && track_width_m.is_finite()) {
+        if !positive(track_width_m) {
             return Err(GeometryError::NonPositiveTrackWidth);
         }
         Ok(Self {
-            wheel_radius_m,
+            wheel_radius_left_m: left_m,
+            wheel_radius_right_m: right_m,
             track_width_m,
+            inverse_radius_per_m: [1.0 / left_m, 1.0 / right_m],
         })
     }
 
-    /// Wheel radius R, m.
-    pub const fn wheel_radius_m(&self) -> f32 {
-        self.wheel_radius_m
+    /// Left wheel radius R_l, m.
+    pub const fn wheel_radius_left_m(&self) -> f32 {
+        self.wheel_radius_left_m
+    }
+
+    /// Right wheel radius R_r, m.
+    pub const fn wheel_radius_right_m(&self) -> f32 {
+        self.wheel_radius_right_m
+    }
+
+    /// The smaller of the two wheel radii, m (the wheel that limits the rim speed).
+    pub fn min_wheel_radius_m(&self) -> f32 {
+        if self.wheel_radius_left_m < self.wheel_radius_right_m {
+            self.wheel_radius_left_m
+        } else {
+            self.wheel_radius_right_m
+        }
     }
 
     /// Track width L, m.
@@ -176,14 +214,14 @@ impl DiffDrive {
     /// Eq. (1): rim speeds (v_l, v_r) in m/s of wheels turning at `wheels` (rad/s).
     pub fn rim_speeds(&self, wheels: WheelSpeeds) -> (f32, f32) {
         (
-            self.wheel_radius_m * wheels.left_rad_s,
-            self.wheel_radius_m * wheels.right_rad_s,
+            self.wheel_radius_left_m * wheels.left_rad_s,
+            self.wheel_radius_right_m * wheels.right_rad_s,
         )
     }
 
     /// Eqs. (2)/(4): body velocity produced by wheel speeds (rad/s).
     ///
-    /// v = R(ω_r + ω_l)/2, ω = R(ω_r − ω_l)/L.
+    /// v = (R_r ω_r + R_l ω_l)/2, ω = (R_r ω_r − R_l ω_l)/L.
     pub fn forward(&self, wheels: WheelSpeeds) -> BodyVelocity {
         let (v_left, v_right) = self.rim_speeds(wheels);
         BodyVelocity {
@@ -194,12 +232,12 @@ impl DiffDrive {
 
     /// Inverse of eq. (4): the wheel speeds (rad/s) that produce `body`.
     ///
-    /// ω_r = (v + ωL/2)/R, ω_l = (v − ωL/2)/R.
+    /// ω_r = (v + ωL/2)/R_r, ω_l = (v − ωL/2)/R_l.
     pub fn inverse(&self, body: BodyVelocity) -> WheelSpeeds {
         let half_turn = 0.5 * body.omega_rad_s * self.track_width_m;
         WheelSpeeds {
-            left_rad_s: (body.v_m_s - half_turn) / self.wheel_radius_m,
-            right_rad_s: (body.v_m_s + half_turn) / self.wheel_radius_m,
+            left_rad_s: (body.v_m_s - half_turn) * self.inverse_radius_per_m[0],
+            right_rad_s: (body.v_m_s + half_turn) * self.inverse_radius_per_m[1],
         }
     }
 }
@@ -254,9 +292,20 @@ impl TrackingError {
 
 /// Eq. (9): the tracking error of `robot` with respect to `reference`, robot frame.
 pub fn tracking_error(robot: &Pose, reference: &Pose) -> TrackingError {
+    tracking_error_with_heading(robot, math::sin_cos(robot.theta_rad), reference)
+}
+
+/// Eq. (9) when (sin θ, cos θ) of the robot's heading is already known
+/// (`sin_cos_theta`, e.g. from [`crate::odometry::Odometry::heading_sin_cos`]): saves a
+/// sine and a cosine per steering step.
+pub fn tracking_error_with_heading(
+    robot: &Pose,
+    sin_cos_theta: (f32, f32),
+    reference: &Pose,
+) -> TrackingError {
     let dx = reference.x_m - robot.x_m;
     let dy = reference.y_m - robot.y_m;
-    let (sin_theta, cos_theta) = math::sin_cos(robot.theta_rad);
+    let (sin_theta, cos_theta) = sin_cos_theta;
     TrackingError {
         x_e_m: cos_theta * dx + sin_theta * dy,
         y_e_m: -sin_theta * dx + cos_theta * dy,
@@ -335,6 +384,23 @@ mod tests {
         let w = robot().inverse(BodyVelocity::new(0.25, 0.2));
         assert!((w.right_rad_s - 8.153_846).abs() < 1e-4);
         assert!((w.left_rad_s - 7.230_769).abs() < 1e-4);
+    }
+
+    #[test]
+    fn unequal_wheels_use_their_own_radius() {
+        // R_l = 0.03, R_r = 0.035, L = 0.15; ω_l = ω_r = 10 rad/s: rim speeds 0.30 and
+        // 0.35 m/s, so v = 0.325 m/s and the robot turns left at 0.05/0.15 rad/s.
+        let g = DiffDrive::with_wheel_radii(0.03, 0.035, 0.15).unwrap();
+        let body = g.forward(WheelSpeeds::new(10.0, 10.0));
+        assert!((body.v_m_s - 0.325).abs() < 1e-6);
+        assert!((body.omega_rad_s - 0.333_333_3).abs() < 1e-5);
+        let back = g.inverse(body);
+        assert!((back.left_rad_s - 10.0).abs() < 1e-4 && (back.right_rad_s - 10.0).abs() < 1e-4);
+        assert_eq!(g.min_wheel_radius_m(), 0.03);
+        assert_eq!(
+            DiffDrive::with_wheel_radii(0.03, -1.0, 0.15),
+            Err(GeometryError::NonPositiveWheelRadius)
+        );
     }
 
     #[test]

@@ -7,38 +7,45 @@
 //!
 //! ## The stack, top to bottom
 //!
-//! 1. [`params`] — one validated struct for geometry, encoder, rates, limits and gains.
+//! 1. [`params`] — one validated struct for geometry (each wheel's radius, the track),
+//!    encoder, rates, limits, the motor, the bridge, the wheel loops and the law gains.
 //!    Build [`params::Params`] from a [`params::RobotConfig`]; bad values get a
 //!    [`params::ParamError`] naming the field.
 //! 2. [`encoder`] — wrap-safe tick deltas from 16/32-bit timer counters, and a windowed
-//!    wheel-speed estimate that copes with one tick per several steps.
+//!    wheel-speed estimate that copes with one tick per several steps and with late steps.
 //! 3. [`kinematics`] — eqs. (1)–(8): wheel speeds ⇄ body velocity (v, ω), the unicycle
 //!    model, and the tracking error of eqs. (9)–(10) in the robot frame.
-//! 4. [`odometry`] — pose from ticks, integrated exactly along a constant-curvature arc.
-//! 5. [`path`] and [`reference`] — circles, lines, rounded polylines and a figure-eight;
+//! 4. [`odometry`] — pose from ticks, integrated exactly along a constant-curvature arc,
+//!    with [`compensated`] sums so a day-long run does not drift.
+//! 5. [`path`] and [`mod@reference`] — circles, lines, rounded polylines and a figure-eight;
 //!    a reference point moved either by time (the paper's virtual robot) or by the robot's
 //!    own progress along the path (true path following).
 //! 6. [`law`] — the steering laws behind [`law::steer`]:
 //!    [`law::paper`] (eqs. (27)–(35), exactly as published), [`law::tracking`] (the
 //!    paper's Lyapunov design redone so the error reaches zero on a moving reference) and
 //!    [`law::kanayama`] (the 1990 baseline). Each reports its Lyapunov V and V̇.
-//! 7. [`limits`] — rim-speed cap that keeps curvature, and acceleration limits.
-//! 8. [`pid`] — the incremental PID of eqs. (36)–(38), with (38)'s typo fixed (v₂ = K_d),
-//!    output clamp with anti-windup, feed-forward and a D filter.
+//! 7. [`limits`] — the acceleration ramp (at the wheel-loop rate) and a rim-speed cap that
+//!    keeps curvature and follows the battery.
+//! 8. [`drive`] — the wheel loops in volts: feed-forward, the incremental PID of
+//!    [`pid`] (eqs. (36)–(38), (38)'s typo fixed), voltage, current and slew limits,
+//!    reversal through zero, coordinated saturation, and duty = volts / supply.
 //! 9. [`controller`] — the cascade that composes all of the above: call
-//!    [`controller::Controller::step`] once per period with the tick deltas, apply the two
-//!    duties it returns, read [`controller::Controller::telemetry`] to log or plot.
+//!    [`controller::Controller::step`] once per period with a
+//!    [`controller::StepInput`], apply the two duties it returns, read
+//!    [`controller::Controller::telemetry`] to log or plot.
 //!
-//! [`supervisor`] holds the firmware's safety logic (arming, faults, watchdog feeding)
-//! so that host tests can exercise it.
+//! [`supervisor`] holds the safety logic around the controller (arming, the link's
+//! commands, faults, brake and coast, watchdog feeding): the firmware and the simulator
+//! both run it, so host tests and simulations exercise exactly what the robot runs.
 //!
 //! ## Conventions
 //!
-//! - SI units, named in every field: m, m/s, rad, rad/s, s, Hz. Duty is a fraction of
-//!   the supply voltage in [−1, 1].
+//! - SI units, named in every field: m, m/s, rad, rad/s, s, Hz, V, A, Ω. The wheel loops
+//!   compute volts; a duty is a fraction of the measured supply in [−1, 1].
 //! - World frame: x, y fixed; θ counter-clockwise from x. Robot frame: x ahead, y left.
 //!   Angles are wrapped to (−π, π] ([`math::wrap_angle`]).
-//! - Time is an integer count of steps ([`time::StepClock`]), never an accumulated `f32`.
+//! - Time is an integer count of control periods ([`time::StepClock`],
+//!   [`controller::StepInput::periods`]), never an accumulated `f32`.
 //! - All transcendental math goes through [`math`], so host and target compute the same
 //!   bits.
 //!
@@ -55,7 +62,8 @@
 //! let mut controller =
 //!     Controller::new(params, reference, LawKind::Tracking, Pose::new(1.25, 0.0, 1.57));
 //! controller.set_mode(Mode::FollowPath);
-//! let duty = controller.step(TickDeltas { left: 0, right: 0 });
+//! // No ticks yet, on time, on a 6 V supply.
+//! let duty = controller.step(StepInput::on_time(TickDeltas { left: 0, right: 0 }, 6.0));
 //! assert!(duty.left > 0.0 && duty.right > 0.0);
 //! assert!(!controller.telemetry().faults.any());
 //! ```
@@ -64,7 +72,9 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_op_in_unsafe_fn)]
 
+pub mod compensated;
 pub mod controller;
+pub mod drive;
 pub mod encoder;
 pub mod kinematics;
 pub mod law;
@@ -81,7 +91,7 @@ pub mod time;
 /// The types needed to build and run a controller.
 pub mod prelude {
     pub use crate::controller::{
-        Controller, FaultFlags, Mode, MotorCommand, Telemetry, TickDeltas,
+        Controller, FaultFlags, Mode, MotorCommand, StepInput, Telemetry, TickDeltas,
     };
     pub use crate::kinematics::{BodyVelocity, DiffDrive, Point, Pose, TrackingError, WheelSpeeds};
     pub use crate::law::{LawGains, LawKind};

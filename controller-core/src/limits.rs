@@ -1,10 +1,14 @@
 //! Limits between the steering law and the wheels.
 //!
-//! 1. **Acceleration**: per steering step, v may change by at most a·T_s and ω by α·T_s.
+//! 1. **Acceleration**: per control step of period T, v may change by at most a·T and ω by
+//!    α·T. The limiter runs at the inner (wheel-loop) rate and ramps towards the steering
+//!    law's latest command, so the wheel set-points move in steps of a·T (0.003 m/s at
+//!    3 m/s² and 1 kHz) rather than jumping by a·T_s every steering period.
 //! 2. **Rim-speed cap**: if either wheel's rim speed |v ± ωL/2| would exceed the cap, v and
 //!    ω are scaled down *together* by the same factor. The ratio ω/v, the curvature of the
 //!    commanded arc, is kept, so a saturated robot slows down on the path instead of
-//!    leaving it.
+//!    leaving it. The cap is the smaller of the configured one and what the motors can
+//!    reach on the measured supply (see [`crate::drive`]).
 
 use crate::kinematics::BodyVelocity;
 use crate::math;
@@ -17,7 +21,7 @@ use crate::math;
     derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
 )]
 pub struct Limits {
-    /// Largest rim speed of either wheel, m/s.
+    /// Largest rim speed of either wheel, m/s (the supply may lower it further).
     pub max_rim_speed_m_s: f32,
     /// Largest change of forward speed, m/s².
     pub max_linear_accel_m_s2: f32,
@@ -79,13 +83,20 @@ impl CommandLimiter {
         self.previous = current;
     }
 
-    /// Limits `desired` for a steering period of `period_s` (s) on a robot of track width
-    /// `track_width_m` (m).
+    /// The last command the limiter produced.
+    pub const fn command(&self) -> BodyVelocity {
+        self.previous
+    }
+
+    /// Moves towards `desired` over `period_s` (s) of time on a robot of track width
+    /// `track_width_m` (m), keeping both rim speeds within `max_rim_speed_m_s` (m/s; the
+    /// smaller of the configured cap and what the supply allows).
     pub fn apply(
         &mut self,
         desired: BodyVelocity,
         period_s: f32,
         track_width_m: f32,
+        max_rim_speed_m_s: f32,
     ) -> (BodyVelocity, LimitFlags) {
         let dv = self.limits.max_linear_accel_m_s2 * period_s;
         let dw = self.limits.max_angular_accel_rad_s2 * period_s;
@@ -100,11 +111,8 @@ impl CommandLimiter {
             self.previous.omega_rad_s + dw,
         );
         let accel_limited = v != desired.v_m_s || w != desired.omega_rad_s;
-        let (command, rim_speed_capped) = cap_rim_speed(
-            BodyVelocity::new(v, w),
-            track_width_m,
-            self.limits.max_rim_speed_m_s,
-        );
+        let (command, rim_speed_capped) =
+            cap_rim_speed(BodyVelocity::new(v, w), track_width_m, max_rim_speed_m_s);
         self.previous = command;
         (
             command,
@@ -141,10 +149,28 @@ mod tests {
     #[test]
     fn acceleration_is_limited_per_period() {
         let mut l = CommandLimiter::new(LIMITS);
-        let (c, flags) = l.apply(BodyVelocity::new(0.5, -3.0), 0.01, 0.2);
+        let (c, flags) = l.apply(BodyVelocity::new(0.5, -3.0), 0.01, 0.2, 1.0);
         assert!(flags.accel_limited);
         assert!((c.v_m_s - 0.02).abs() < 1e-7 && (c.omega_rad_s + 0.1).abs() < 1e-7);
-        let (c, _) = l.apply(BodyVelocity::new(0.5, -3.0), 0.01, 0.2);
+        let (c, _) = l.apply(BodyVelocity::new(0.5, -3.0), 0.01, 0.2, 1.0);
         assert!((c.v_m_s - 0.04).abs() < 1e-7);
+        assert_eq!(l.command(), c);
+        // A reachable command is passed through unflagged.
+        let (c, flags) = l.apply(BodyVelocity::new(0.05, -0.25), 0.01, 0.2, 1.0);
+        assert_eq!(c, BodyVelocity::new(0.05, -0.25));
+        assert_eq!(flags, LimitFlags::default());
+        // Reset starts the ramp from where it is told.
+        l.reset(BodyVelocity::new(0.4, 0.0));
+        let (c, _) = l.apply(BodyVelocity::new(0.4, 0.0), 0.01, 0.2, 1.0);
+        assert_eq!(c, BodyVelocity::new(0.4, 0.0));
+    }
+
+    #[test]
+    fn the_cap_passed_in_wins_over_the_configured_one() {
+        let mut l = CommandLimiter::new(LIMITS);
+        l.reset(BodyVelocity::new(0.8, 0.0));
+        let (c, flags) = l.apply(BodyVelocity::new(0.8, 0.0), 0.01, 0.2, 0.5);
+        assert!(flags.rim_speed_capped);
+        assert!((c.v_m_s - 0.5).abs() < 1e-7);
     }
 }

@@ -31,7 +31,7 @@ const PIO2_LO: f32 = 7.549_79e-8;
 /// Rounds to the nearest integer, ties away from zero. Saturates for huge or NaN input
 /// (NaN gives 0), never panics.
 #[inline]
-fn round_to_i32(x: f32) -> i32 {
+pub fn round_to_i32(x: f32) -> i32 {
     if x >= 0.0 {
         (x + 0.5) as i32
     } else {
@@ -82,11 +82,27 @@ pub fn cos(x: f32) -> f32 {
     sin_cos(x).1
 }
 
+/// Below this x², [`sinc`] uses its series (|x| < 0.1).
+const SINC_SERIES_MAX_X2: f32 = 1e-2;
+
 /// sin(x)/x, with its removable singularity at x = 0 evaluated by a series, never by 0/0.
 ///
-/// This is the factor of the paper's eq. (34), (cos θ_e sin θ_e / θ_e).
+/// This is the factor of the paper's eq. (34), (cos θ_e sin θ_e / θ_e), and odometry's
+/// chord factor, whose argument is a fraction of a step's turn (|x| < 0.1): there the
+/// series alone is used and no sine is evaluated.
 pub fn sinc(x: f32) -> f32 {
-    sinc_with_sin(x, sin(x))
+    if x * x < SINC_SERIES_MAX_X2 {
+        sinc_series(x * x)
+    } else {
+        sin(x) / x
+    }
+}
+
+/// sin x / x = 1 − x²/6 + x⁴/120 − x⁶/5040 for `z` = x² < 0.01; the next term, x⁸/362880,
+/// is < 3e-13.
+#[inline]
+fn sinc_series(z: f32) -> f32 {
+    1.0 - z * (1.0 / 6.0) + z * z * (1.0 / 120.0) - z * z * z * (1.0 / 5040.0)
 }
 
 /// sin(x)/x when sin(x) is already known (`sin_x`): saves a second evaluation of the sine.
@@ -94,9 +110,8 @@ pub fn sinc(x: f32) -> f32 {
 #[inline]
 pub fn sinc_with_sin(x: f32, sin_x: f32) -> f32 {
     let z = x * x;
-    if z < 1e-4 {
-        // sin x / x = 1 − x²/6 + x⁴/120 − …; the next term is < 2e-13 here.
-        1.0 - z * (1.0 / 6.0) + z * z * (1.0 / 120.0)
+    if z < SINC_SERIES_MAX_X2 {
+        sinc_series(z)
     } else {
         sin_x / x
     }
@@ -207,7 +222,8 @@ pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
 /// Wraps an angle in radians into (−π, π]. Non-finite input is returned unchanged so that
 /// the caller's fault check sees it.
 pub fn wrap_angle(a: f32) -> f32 {
-    if a > -PI && a <= PI {
+    // The common case in one comparison (±π itself takes the slow path, which maps −π to π).
+    if abs(a) < PI {
         return a;
     }
     if !a.is_finite() {

@@ -6,9 +6,10 @@
 
 use core::f32::consts::TAU;
 use core::fmt;
+use core::num::NonZeroU32;
 
 use crate::encoder::MAX_SPEED_WINDOW_STEPS;
-use crate::kinematics::{DiffDrive, GeometryError};
+use crate::kinematics::DiffDrive;
 use crate::law::{KanayamaGains, LawGains, PaperGains, TrackingGains};
 use crate::limits::Limits;
 use crate::pid::PidGains;
@@ -17,26 +18,66 @@ use crate::pid::PidGains;
 /// an `i32` sum.
 pub const MAX_TICKS_PER_STEP: i32 = 1 << 24;
 
-/// Continuous-time gains of the per-wheel speed PID. Error in rad/s, output in duty
-/// (−1…1 of the supply voltage).
+/// One wheel's speed loop, in volts: feed-forward from the motor model plus an incremental
+/// PID on the wheel-speed error. The output is an armature voltage; the duty written to
+/// the bridge is that voltage divided by the measured supply, so the gains hold from a
+/// 4.8 V pack to a 12.6 V one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(
     feature = "serde",
     derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
 )]
-pub struct WheelPidConfig {
-    /// K_p, duty per rad/s of wheel-speed error.
-    pub kp_duty_per_rad_s: f32,
+pub struct WheelLoopConfig {
+    /// Static-friction feed-forward k_S, V: applied as k_S·sgn(ω*) (ramped in over
+    /// ±0.5 rad/s of set-point, so a set-point of 0 gets 0 V).
+    pub ks_v: f32,
+    /// Speed feed-forward k_V, V per rad/s of wheel set-point (back-EMF plus viscous
+    /// friction referred to the armature).
+    pub kv_v_per_rad_s: f32,
+    /// Proportional gain K_p, V per rad/s of wheel-speed error.
+    pub kp_v_per_rad_s: f32,
     /// Integral time T_i, s (0 disables the integral).
     pub ti_s: f32,
     /// Derivative time T_d, s (0 disables the derivative).
     pub td_s: f32,
     /// Time constant of the D-term filter, s (0 for no filter).
     pub d_filter_tau_s: f32,
-    /// Feed-forward, duty per rad/s of wheel-speed set-point (≈ 1 / no-load speed at full
-    /// duty).
-    pub feed_forward_duty_per_rad_s: f32,
+}
+
+/// The motor, as far as the wheel loop's limits need it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct MotorConfig {
+    /// Rated armature voltage, V: the loop never applies more, whatever the supply.
+    pub rated_voltage_v: f32,
+    /// Armature resistance R_a (plus the bridge's switches), Ω.
+    pub resistance_ohm: f32,
+    /// Largest armature current the loop commands, A: the voltage is kept within
+    /// k_V·ω ± I_max·R_a, which also bounds the current when a reversal plugs the motor.
+    pub max_current_a: f32,
+}
+
+/// The motor driver (H-bridge) and its supply.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct DriveConfig {
+    /// Lowest supply the bridge works at, V (TB6612FNG: 4.5 V; DRV8833: 2.7 V).
+    pub min_supply_v: f32,
+    /// Highest supply the bridge tolerates, V (TB6612FNG: 13.5 V; DRV8833: 10.8 V).
+    pub max_supply_v: f32,
+    /// Time constant of the low-pass filter on the supply measurement, s (0: none).
+    pub supply_filter_tau_s: f32,
+    /// Largest change of a wheel's voltage per second, V/s (the output slew limit).
+    pub slew_v_per_s: f32,
 }
 
 /// Everything the controller needs to know about the robot, in SI units.
@@ -47,8 +88,10 @@ pub struct WheelPidConfig {
     derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
 )]
 pub struct RobotConfig {
-    /// Wheel radius R, m.
-    pub wheel_radius_m: f32,
+    /// Left wheel radius R_l, m.
+    pub wheel_radius_left_m: f32,
+    /// Right wheel radius R_r, m.
+    pub wheel_radius_right_m: f32,
     /// Track width L (distance between the wheels' contact points), m.
     pub track_width_m: f32,
     /// Encoder lines (pulses per channel) per motor-shaft revolution; ×4 for quadrature.
@@ -59,27 +102,50 @@ pub struct RobotConfig {
     pub control_rate_hz: u32,
     /// The steering law runs every this many inner steps.
     pub steering_divider: u32,
-    /// Steps averaged by the wheel-speed estimate (1…64).
+    /// Steps averaged by the wheel-speed estimate (1…64). One tick per window must be at
+    /// most [`MAX_SPEED_QUANTUM_FRACTION`] of the wheel's top speed.
     pub speed_window_steps: u32,
     /// Command limits.
     pub limits: Limits,
     /// Fastest plausible wheel speed, rad/s: a tick delta implying more than this in one
     /// step is an encoder fault (motors stop).
     pub max_plausible_wheel_speed_rad_s: f32,
-    /// Wheel-speed PID gains.
-    pub wheel_pid: WheelPidConfig,
+    /// The motor (rated voltage, resistance, current limit).
+    pub motor: MotorConfig,
+    /// The bridge and its supply.
+    pub drive: DriveConfig,
+    /// Left wheel's speed loop.
+    pub left_wheel: WheelLoopConfig,
+    /// Right wheel's speed loop.
+    pub right_wheel: WheelLoopConfig,
     /// Steering-law gains.
     pub law: LawGains,
 }
 
+/// The wheel loop of the reference robot's motors (see [`RobotConfig::REFERENCE_ROBOT`]).
+pub const REFERENCE_WHEEL_LOOP: WheelLoopConfig = WheelLoopConfig {
+    ks_v: 0.33,
+    kv_v_per_rad_s: 0.157,
+    kp_v_per_rad_s: 0.9,
+    ti_s: 0.03,
+    td_s: 0.0,
+    d_filter_tau_s: 0.0,
+};
+
+/// Most one encoder tick per speed window may be, as a fraction of the wheel's top speed:
+/// a coarser estimate makes the wheel loop bang between its limits.
+pub const MAX_SPEED_QUANTUM_FRACTION: f32 = 0.02;
+
 impl RobotConfig {
     /// The reference robot: 65 mm wheels, 150 mm track, 12-line encoders on 6 V gear motors
-    /// with a 1:30 gearbox (1440 ticks per wheel revolution), 1 kHz wheel loop, 100 Hz
-    /// steering, 1 m/s rim-speed cap. Gains tuned in `host-sim` against that robot: the
-    /// wheel PID (K_p = 0.15 duty/(rad/s), T_i = 30 ms, feed-forward 1/40 duty/(rad/s))
-    /// takes a wheel from 0 to 15 rad/s in 41 ms (10→90 %) with 0.2 % overshoot.
+    /// with a 1:30 gearbox (1440 ticks per wheel revolution), R_a = 4 Ω, 1.2 A current
+    /// limit (the TB6612FNG's average rating), 1 kHz wheel loop, 100 Hz steering, 1 m/s
+    /// rim-speed cap. The feed-forward is the motor model's (k_S = 0.33 V of static
+    /// friction, k_V = 0.157 V per rad/s); the PID gains were tuned in `host-sim` (see the
+    /// README for the margins and step response).
     pub const REFERENCE_ROBOT: RobotConfig = RobotConfig {
-        wheel_radius_m: 0.0325,
+        wheel_radius_left_m: 0.0325,
+        wheel_radius_right_m: 0.0325,
         track_width_m: 0.15,
         encoder_lines_per_motor_rev: 12,
         gear_ratio: 30.0,
@@ -92,13 +158,19 @@ impl RobotConfig {
             max_angular_accel_rad_s2: 30.0,
         },
         max_plausible_wheel_speed_rad_s: 100.0,
-        wheel_pid: WheelPidConfig {
-            kp_duty_per_rad_s: 0.15,
-            ti_s: 0.03,
-            td_s: 0.0,
-            d_filter_tau_s: 0.0,
-            feed_forward_duty_per_rad_s: 0.025,
+        motor: MotorConfig {
+            rated_voltage_v: 6.0,
+            resistance_ohm: 4.0,
+            max_current_a: 1.2,
         },
+        drive: DriveConfig {
+            min_supply_v: 4.5,
+            max_supply_v: 13.5,
+            supply_filter_tau_s: 0.02,
+            slew_v_per_s: 1200.0,
+        },
+        left_wheel: REFERENCE_WHEEL_LOOP,
+        right_wheel: REFERENCE_WHEEL_LOOP,
         law: LawGains {
             paper: PaperGains {
                 gamma: 1.0,
@@ -128,51 +200,53 @@ impl Default for RobotConfig {
 
 /// Why a [`RobotConfig`] was rejected. Each variant carries the offending value;
 /// [`ParamError::field`] names the field (its path in [`RobotConfig`]) and `Display` prints
-/// both, e.g. `wheel_radius_m must be > 0, got -0.03`.
+/// both, e.g. `wheel_radius_left_m must be > 0, got -0.03`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ParamError {
-    /// `wheel_radius_m` was ≤ 0 or not finite.
-    NonPositiveWheelRadius(f32),
-    /// `track_width_m` was ≤ 0 or not finite.
-    NonPositiveTrackWidth(f32),
     /// `encoder_lines_per_motor_rev` was 0.
     NonPositiveCountsPerRev,
-    /// `gear_ratio` was ≤ 0 or not finite.
-    NonPositiveGearRatio(f32),
     /// `control_rate_hz` was 0.
     ZeroControlRate,
     /// `steering_divider` was 0.
     ZeroSteeringDivider,
     /// `speed_window_steps` was outside 1…64.
     SpeedWindowOutOfRange(u32),
-    /// A limit was ≤ 0 or not finite.
-    NonPositiveLimit {
+    /// One tick per speed window is more than [`MAX_SPEED_QUANTUM_FRACTION`] of the top
+    /// wheel speed (the window is too short for the encoder and control rate).
+    SpeedQuantumTooCoarse {
+        /// One tick per window, rad/s.
+        quantum_rad_s: f32,
+        /// The fastest wheel's top speed at the rated voltage, rad/s.
+        top_speed_rad_s: f32,
+    },
+    /// A value that must be > 0 (and finite) was not.
+    NonPositive {
         /// The field, e.g. `limits.max_rim_speed_m_s`.
         field: &'static str,
         /// Its value.
         value: f32,
     },
-    /// A gain or a PID time was NaN or infinite.
-    NonFiniteGain {
+    /// A value that must be ≥ 0 (and finite) was not.
+    Negative {
+        /// The field, e.g. `left_wheel.ti_s`.
+        field: &'static str,
+        /// Its value.
+        value: f32,
+    },
+    /// A gain was NaN or infinite.
+    NonFinite {
         /// The field, e.g. `law.tracking.k_theta`.
         field: &'static str,
         /// Its value.
         value: f32,
     },
-    /// A steering-law gain was ≤ 0.
-    NonPositiveGain {
-        /// The field, e.g. `law.paper.gamma`.
-        field: &'static str,
-        /// Its value.
-        value: f32,
-    },
-    /// A PID time constant was < 0.
-    NegativeTime {
-        /// The field, e.g. `wheel_pid.ti_s`.
-        field: &'static str,
-        /// Its value, s.
-        value: f32,
+    /// `drive.max_supply_v` was not above `drive.min_supply_v`.
+    SupplyRangeEmpty {
+        /// `drive.min_supply_v`, V.
+        min_v: f32,
+        /// `drive.max_supply_v`, V.
+        max_v: f32,
     },
 }
 
@@ -180,46 +254,48 @@ impl ParamError {
     /// The offending field's path in [`RobotConfig`], e.g. `law.paper.gamma`.
     pub const fn field(&self) -> &'static str {
         match self {
-            ParamError::NonPositiveWheelRadius(_) => "wheel_radius_m",
-            ParamError::NonPositiveTrackWidth(_) => "track_width_m",
             ParamError::NonPositiveCountsPerRev => "encoder_lines_per_motor_rev",
-            ParamError::NonPositiveGearRatio(_) => "gear_ratio",
             ParamError::ZeroControlRate => "control_rate_hz",
             ParamError::ZeroSteeringDivider => "steering_divider",
-            ParamError::SpeedWindowOutOfRange(_) => "speed_window_steps",
-            ParamError::NonPositiveLimit { field, .. }
-            | ParamError::NonFiniteGain { field, .. }
-            | ParamError::NonPositiveGain { field, .. }
-            | ParamError::NegativeTime { field, .. } => field,
-        }
-    }
-
-    /// What the field must satisfy, e.g. `must be > 0`.
-    pub const fn requirement(&self) -> &'static str {
-        match self {
-            ParamError::NonFiniteGain { .. } => "must be finite",
-            ParamError::NegativeTime { .. } => "must be ≥ 0",
-            ParamError::SpeedWindowOutOfRange(_) => "must be in 1..=64",
-            _ => "must be > 0",
+            ParamError::SpeedWindowOutOfRange(_) | ParamError::SpeedQuantumTooCoarse { .. } => {
+                "speed_window_steps"
+            }
+            ParamError::SupplyRangeEmpty { .. } => "drive.max_supply_v",
+            ParamError::NonPositive { field, .. }
+            | ParamError::Negative { field, .. }
+            | ParamError::NonFinite { field, .. } => field,
         }
     }
 }
 
 impl fmt::Display for ParamError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} {}, got ", self.field(), self.requirement())?;
+        let field = self.field();
         match *self {
-            ParamError::NonPositiveWheelRadius(v)
-            | ParamError::NonPositiveTrackWidth(v)
-            | ParamError::NonPositiveGearRatio(v)
-            | ParamError::NonPositiveLimit { value: v, .. }
-            | ParamError::NonFiniteGain { value: v, .. }
-            | ParamError::NonPositiveGain { value: v, .. }
-            | ParamError::NegativeTime { value: v, .. } => write!(f, "{v}"),
-            ParamError::SpeedWindowOutOfRange(v) => write!(f, "{v}"),
             ParamError::NonPositiveCountsPerRev
             | ParamError::ZeroControlRate
-            | ParamError::ZeroSteeringDivider => f.write_str("0"),
+            | ParamError::ZeroSteeringDivider => write!(f, "{field} must be > 0, got 0"),
+            ParamError::SpeedWindowOutOfRange(v) => {
+                write!(f, "{field} must be in 1..=64, got {v}")
+            }
+            ParamError::SpeedQuantumTooCoarse {
+                quantum_rad_s,
+                top_speed_rad_s,
+            } => write!(
+                f,
+                "{field} is too short: one encoder tick per window is {quantum_rad_s} rad/s, \
+                 more than 2 % of the top wheel speed ({top_speed_rad_s} rad/s); lengthen \
+                 the window or lower control_rate_hz"
+            ),
+            ParamError::NonPositive { value, .. } => write!(f, "{field} must be > 0, got {value}"),
+            ParamError::Negative { value, .. } => write!(f, "{field} must be ≥ 0, got {value}"),
+            ParamError::NonFinite { value, .. } => {
+                write!(f, "{field} must be finite, got {value}")
+            }
+            ParamError::SupplyRangeEmpty { min_v, max_v } => write!(
+                f,
+                "{field} must be > drive.min_supply_v ({min_v} V), got {max_v}"
+            ),
         }
     }
 }
@@ -231,100 +307,188 @@ pub struct Params {
     geometry: DiffDrive,
     rad_per_tick: f32,
     period_s: f32,
-    wheel_pid: PidGains,
+    control_rate: NonZeroU32,
+    steering_divider: NonZeroU32,
+    wheel_pid: [PidGains; 2],
     max_ticks_per_step: i32,
 }
 
-fn positive_limit(value: f32, field: &'static str) -> Result<(), ParamError> {
+/// `value` > 0 and finite, or the error naming `field`.
+pub(crate) fn positive(value: f32, field: &'static str) -> Result<(), ParamError> {
     if value > 0.0 && value.is_finite() {
         Ok(())
     } else {
-        Err(ParamError::NonPositiveLimit { field, value })
+        Err(ParamError::NonPositive { field, value })
     }
 }
 
-fn finite_gain(value: f32, field: &'static str) -> Result<(), ParamError> {
+/// `value` finite, or the error naming `field`.
+pub(crate) fn finite(value: f32, field: &'static str) -> Result<(), ParamError> {
     if value.is_finite() {
         Ok(())
     } else {
-        Err(ParamError::NonFiniteGain { field, value })
+        Err(ParamError::NonFinite { field, value })
     }
 }
 
-fn time_constant(value: f32, field: &'static str) -> Result<(), ParamError> {
-    finite_gain(value, field)?;
+/// `value` ≥ 0 and finite, or the error naming `field`.
+pub(crate) fn non_negative(value: f32, field: &'static str) -> Result<(), ParamError> {
+    finite(value, field)?;
     if value >= 0.0 {
         Ok(())
     } else {
-        Err(ParamError::NegativeTime { field, value })
+        Err(ParamError::Negative { field, value })
+    }
+}
+
+/// Field names of one wheel loop, so both wheels are checked by one function.
+struct WheelLoopFields {
+    ks_v: &'static str,
+    kv_v_per_rad_s: &'static str,
+    kp_v_per_rad_s: &'static str,
+    ti_s: &'static str,
+    td_s: &'static str,
+    d_filter_tau_s: &'static str,
+}
+
+const LEFT_WHEEL_FIELDS: WheelLoopFields = WheelLoopFields {
+    ks_v: "left_wheel.ks_v",
+    kv_v_per_rad_s: "left_wheel.kv_v_per_rad_s",
+    kp_v_per_rad_s: "left_wheel.kp_v_per_rad_s",
+    ti_s: "left_wheel.ti_s",
+    td_s: "left_wheel.td_s",
+    d_filter_tau_s: "left_wheel.d_filter_tau_s",
+};
+
+const RIGHT_WHEEL_FIELDS: WheelLoopFields = WheelLoopFields {
+    ks_v: "right_wheel.ks_v",
+    kv_v_per_rad_s: "right_wheel.kv_v_per_rad_s",
+    kp_v_per_rad_s: "right_wheel.kp_v_per_rad_s",
+    ti_s: "right_wheel.ti_s",
+    td_s: "right_wheel.td_s",
+    d_filter_tau_s: "right_wheel.d_filter_tau_s",
+};
+
+impl WheelLoopConfig {
+    /// Checks every field; the error names the first bad one as `names` spells it.
+    fn validate(&self, names: &WheelLoopFields) -> Result<(), ParamError> {
+        non_negative(self.ks_v, names.ks_v)?;
+        positive(self.kv_v_per_rad_s, names.kv_v_per_rad_s)?;
+        non_negative(self.kp_v_per_rad_s, names.kp_v_per_rad_s)?;
+        non_negative(self.ti_s, names.ti_s)?;
+        non_negative(self.td_s, names.td_s)?;
+        non_negative(self.d_filter_tau_s, names.d_filter_tau_s)
+    }
+
+    /// Top wheel speed at `volts` (V) with no load but the motor's own friction, rad/s
+    /// (0 when `volts` is below the static-friction voltage).
+    pub fn speed_at_volts(&self, volts: f32) -> f32 {
+        let speed = (volts - self.ks_v) / self.kv_v_per_rad_s;
+        if speed > 0.0 {
+            speed
+        } else {
+            0.0
+        }
+    }
+
+    /// Discrete PID gains for the sample period `period_s` (s).
+    pub fn pid_gains(&self, period_s: f32) -> PidGains {
+        PidGains::from_continuous(
+            self.kp_v_per_rad_s,
+            self.ti_s,
+            self.td_s,
+            self.d_filter_tau_s,
+            period_s,
+        )
     }
 }
 
 impl Params {
     /// Validates `config` and derives ticks per revolution, the period and discrete gains.
     pub fn new(config: RobotConfig) -> Result<Self, ParamError> {
-        let geometry =
-            DiffDrive::new(config.wheel_radius_m, config.track_width_m).map_err(|e| match e {
-                GeometryError::NonPositiveWheelRadius => {
-                    ParamError::NonPositiveWheelRadius(config.wheel_radius_m)
-                }
-                GeometryError::NonPositiveTrackWidth => {
-                    ParamError::NonPositiveTrackWidth(config.track_width_m)
-                }
-            })?;
+        positive(config.wheel_radius_left_m, "wheel_radius_left_m")?;
+        positive(config.wheel_radius_right_m, "wheel_radius_right_m")?;
+        positive(config.track_width_m, "track_width_m")?;
+        let geometry = DiffDrive::with_wheel_radii(
+            config.wheel_radius_left_m,
+            config.wheel_radius_right_m,
+            config.track_width_m,
+        )
+        .map_err(|_| ParamError::NonPositive {
+            field: "track_width_m",
+            value: config.track_width_m,
+        })?;
         if config.encoder_lines_per_motor_rev == 0 {
             return Err(ParamError::NonPositiveCountsPerRev);
         }
-        if !(config.gear_ratio > 0.0 && config.gear_ratio.is_finite()) {
-            return Err(ParamError::NonPositiveGearRatio(config.gear_ratio));
-        }
-        if config.control_rate_hz == 0 {
-            return Err(ParamError::ZeroControlRate);
-        }
-        if config.steering_divider == 0 {
-            return Err(ParamError::ZeroSteeringDivider);
-        }
+        positive(config.gear_ratio, "gear_ratio")?;
+        let control_rate =
+            NonZeroU32::new(config.control_rate_hz).ok_or(ParamError::ZeroControlRate)?;
+        let steering_divider =
+            NonZeroU32::new(config.steering_divider).ok_or(ParamError::ZeroSteeringDivider)?;
         if config.speed_window_steps == 0
             || config.speed_window_steps as usize > MAX_SPEED_WINDOW_STEPS
         {
             return Err(ParamError::SpeedWindowOutOfRange(config.speed_window_steps));
         }
         let l = &config.limits;
-        positive_limit(l.max_rim_speed_m_s, "limits.max_rim_speed_m_s")?;
-        positive_limit(l.max_linear_accel_m_s2, "limits.max_linear_accel_m_s2")?;
-        positive_limit(
+        positive(l.max_rim_speed_m_s, "limits.max_rim_speed_m_s")?;
+        positive(l.max_linear_accel_m_s2, "limits.max_linear_accel_m_s2")?;
+        positive(
             l.max_angular_accel_rad_s2,
             "limits.max_angular_accel_rad_s2",
         )?;
-        positive_limit(
+        positive(
             config.max_plausible_wheel_speed_rad_s,
             "max_plausible_wheel_speed_rad_s",
         )?;
-        let p = &config.wheel_pid;
-        finite_gain(p.kp_duty_per_rad_s, "wheel_pid.kp_duty_per_rad_s")?;
-        finite_gain(
-            p.feed_forward_duty_per_rad_s,
-            "wheel_pid.feed_forward_duty_per_rad_s",
-        )?;
-        time_constant(p.ti_s, "wheel_pid.ti_s")?;
-        time_constant(p.td_s, "wheel_pid.td_s")?;
-        time_constant(p.d_filter_tau_s, "wheel_pid.d_filter_tau_s")?;
+        let m = &config.motor;
+        positive(m.rated_voltage_v, "motor.rated_voltage_v")?;
+        positive(m.resistance_ohm, "motor.resistance_ohm")?;
+        positive(m.max_current_a, "motor.max_current_a")?;
+        let d = &config.drive;
+        positive(d.min_supply_v, "drive.min_supply_v")?;
+        positive(d.max_supply_v, "drive.max_supply_v")?;
+        if d.max_supply_v <= d.min_supply_v {
+            return Err(ParamError::SupplyRangeEmpty {
+                min_v: d.min_supply_v,
+                max_v: d.max_supply_v,
+            });
+        }
+        non_negative(d.supply_filter_tau_s, "drive.supply_filter_tau_s")?;
+        positive(d.slew_v_per_s, "drive.slew_v_per_s")?;
+        config.left_wheel.validate(&LEFT_WHEEL_FIELDS)?;
+        config.right_wheel.validate(&RIGHT_WHEEL_FIELDS)?;
         config.law.validate()?;
 
         let ticks_per_rev = config.encoder_lines_per_motor_rev as f32 * 4.0 * config.gear_ratio;
         let rad_per_tick = TAU / ticks_per_rev;
         let period_s = 1.0 / config.control_rate_hz as f32;
-        let wheel_pid = PidGains::from_continuous(
-            p.kp_duty_per_rad_s,
-            p.ti_s,
-            p.td_s,
-            p.d_filter_tau_s,
-            p.feed_forward_duty_per_rad_s,
-            period_s,
-        );
+        // One tick per window must be a fine fraction of the top speed.
+        let top_speed_rad_s = config
+            .left_wheel
+            .speed_at_volts(m.rated_voltage_v)
+            .max(config.right_wheel.speed_at_volts(m.rated_voltage_v));
+        let quantum_rad_s = rad_per_tick / (config.speed_window_steps as f32 * period_s);
+        let fine_enough = quantum_rad_s <= MAX_SPEED_QUANTUM_FRACTION * top_speed_rad_s;
+        if !fine_enough {
+            return Err(ParamError::SpeedQuantumTooCoarse {
+                quantum_rad_s,
+                top_speed_rad_s,
+            });
+        }
+        let wheel_pid = [
+            config.left_wheel.pid_gains(period_s),
+            config.right_wheel.pid_gains(period_s),
+        ];
         // Finite continuous gains can still overflow when discretised (huge K_p·T_d/T).
-        finite_gain(wheel_pid.ki, "wheel_pid.ti_s")?;
-        finite_gain(wheel_pid.kd, "wheel_pid.td_s")?;
+        for (gains, names) in wheel_pid
+            .iter()
+            .zip([&LEFT_WHEEL_FIELDS, &RIGHT_WHEEL_FIELDS])
+        {
+            finite(gains.ki, names.ti_s)?;
+            finite(gains.kd, names.td_s)?;
+        }
         // Ticks in one step at the fastest plausible speed, with a factor-2 margin, at
         // least 2 so a single noisy edge is never a fault.
         let max_ticks = 2.0 * config.max_plausible_wheel_speed_rad_s * period_s / rad_per_tick;
@@ -339,6 +503,8 @@ impl Params {
             geometry,
             rad_per_tick,
             period_s,
+            control_rate,
+            steering_divider,
             wheel_pid,
             max_ticks_per_step,
         })
@@ -349,7 +515,7 @@ impl Params {
         &self.config
     }
 
-    /// Robot geometry (R, L).
+    /// Robot geometry (R_l, R_r, L).
     pub const fn geometry(&self) -> DiffDrive {
         self.geometry
     }
@@ -369,13 +535,23 @@ impl Params {
         self.period_s
     }
 
+    /// Rate of the inner loop, Hz (non-zero by type).
+    pub const fn control_rate(&self) -> NonZeroU32 {
+        self.control_rate
+    }
+
+    /// The steering law runs every this many inner steps (non-zero by type).
+    pub const fn steering_divider(&self) -> NonZeroU32 {
+        self.steering_divider
+    }
+
     /// Period of the steering loop, s.
     pub fn steering_period_s(&self) -> f32 {
         self.period_s * self.config.steering_divider as f32
     }
 
-    /// Discrete wheel PID gains for the inner period.
-    pub const fn wheel_pid(&self) -> PidGains {
+    /// Discrete wheel PID gains for the inner period, [left, right].
+    pub const fn wheel_pid(&self) -> [PidGains; 2] {
         self.wheel_pid
     }
 
@@ -401,8 +577,11 @@ mod tests {
         assert!((p.ticks_per_wheel_rev() - 1440.0).abs() < 1e-3);
         assert!((p.period_s() - 1e-3).abs() < 1e-9);
         assert!((p.steering_period_s() - 1e-2).abs() < 1e-8);
-        // K_i = K_p T / T_i = 0.15 · 0.001 / 0.03.
-        assert!((p.wheel_pid().ki - 5e-3).abs() < 1e-8);
+        assert_eq!(p.steering_divider().get(), 10);
+        assert_eq!(p.control_rate().get(), 1000);
+        // K_i = K_p T / T_i = 0.9 · 0.001 / 0.03.
+        assert!((p.wheel_pid()[0].ki - 0.03).abs() < 1e-7);
+        assert_eq!(p.wheel_pid()[0], p.wheel_pid()[1]);
         // 2 × 100 rad/s × 1 ms / (2π/1440) = 45.8 ticks.
         assert_eq!(p.max_ticks_per_step(), 45);
     }
@@ -410,22 +589,24 @@ mod tests {
     #[test]
     fn each_bad_field_has_its_own_error() {
         use ParamError::*;
+        let np = |field, value| NonPositive { field, value };
         assert_eq!(
-            with(|c| c.wheel_radius_m = -0.03),
-            Err(NonPositiveWheelRadius(-0.03))
+            with(|c| c.wheel_radius_left_m = -0.03),
+            Err(np("wheel_radius_left_m", -0.03))
+        );
+        assert_eq!(
+            with(|c| c.wheel_radius_right_m = 0.0),
+            Err(np("wheel_radius_right_m", 0.0))
         );
         assert_eq!(
             with(|c| c.track_width_m = 0.0),
-            Err(NonPositiveTrackWidth(0.0))
+            Err(np("track_width_m", 0.0))
         );
         assert_eq!(
             with(|c| c.encoder_lines_per_motor_rev = 0),
             Err(NonPositiveCountsPerRev)
         );
-        assert_eq!(
-            with(|c| c.gear_ratio = -30.0),
-            Err(NonPositiveGearRatio(-30.0))
-        );
+        assert_eq!(with(|c| c.gear_ratio = -30.0), Err(np("gear_ratio", -30.0)));
         assert_eq!(with(|c| c.control_rate_hz = 0), Err(ZeroControlRate));
         assert_eq!(with(|c| c.steering_divider = 0), Err(ZeroSteeringDivider));
         assert_eq!(
@@ -434,36 +615,49 @@ mod tests {
         );
         assert_eq!(
             with(|c| c.limits.max_rim_speed_m_s = f32::INFINITY),
-            Err(NonPositiveLimit {
-                field: "limits.max_rim_speed_m_s",
-                value: f32::INFINITY
+            Err(np("limits.max_rim_speed_m_s", f32::INFINITY))
+        );
+        assert_eq!(
+            with(|c| c.motor.max_current_a = 0.0),
+            Err(np("motor.max_current_a", 0.0))
+        );
+        assert_eq!(
+            with(|c| c.drive.slew_v_per_s = -1.0),
+            Err(np("drive.slew_v_per_s", -1.0))
+        );
+        assert_eq!(
+            with(|c| c.drive.max_supply_v = 4.0),
+            Err(SupplyRangeEmpty {
+                min_v: 4.5,
+                max_v: 4.0
             })
         );
         assert_eq!(
-            with(|c| c.wheel_pid.ti_s = -1.0),
-            Err(NegativeTime {
-                field: "wheel_pid.ti_s",
+            with(|c| c.right_wheel.ti_s = -1.0),
+            Err(Negative {
+                field: "right_wheel.ti_s",
                 value: -1.0
             })
         );
         assert_eq!(
+            with(|c| c.left_wheel.kv_v_per_rad_s = 0.0),
+            Err(np("left_wheel.kv_v_per_rad_s", 0.0))
+        );
+        assert_eq!(
             with(|c| c.law.tracking.k_theta = f32::INFINITY),
-            Err(NonFiniteGain {
+            Err(NonFinite {
                 field: "law.tracking.k_theta",
                 value: f32::INFINITY
             })
         );
         assert_eq!(
             with(|c| c.law.paper.gamma = 0.0),
-            Err(NonPositiveGain {
-                field: "law.paper.gamma",
-                value: 0.0
-            })
+            Err(np("law.paper.gamma", 0.0))
         );
         // NaN compares unequal, so check the variant and field.
-        let nan = with(|c| c.wheel_pid.kp_duty_per_rad_s = f32::NAN).unwrap_err();
-        assert!(matches!(nan, NonFiniteGain { .. }));
-        assert_eq!(nan.field(), "wheel_pid.kp_duty_per_rad_s");
+        let nan = with(|c| c.left_wheel.kp_v_per_rad_s = f32::NAN).unwrap_err();
+        assert!(matches!(nan, NonFinite { .. }));
+        assert_eq!(nan.field(), "left_wheel.kp_v_per_rad_s");
         assert_eq!(
             with(|c| c.gear_ratio = f32::NAN).unwrap_err().field(),
             "gear_ratio"
@@ -471,9 +665,34 @@ mod tests {
     }
 
     #[test]
+    fn a_speed_window_too_short_for_the_rate_is_refused() {
+        // 100 kHz with a 20-step window: one tick per window is 2π/1440 / 0.2 ms = 21.8 rad/s,
+        // 60 % of the 36 rad/s top speed. The loop would bang between its limits.
+        let e = with(|c| c.control_rate_hz = 100_000).unwrap_err();
+        let ParamError::SpeedQuantumTooCoarse {
+            quantum_rad_s,
+            top_speed_rad_s,
+        } = e
+        else {
+            panic!("{e:?}");
+        };
+        assert!((quantum_rad_s - 21.82).abs() < 0.01, "{quantum_rad_s}");
+        assert!((top_speed_rad_s - 36.11).abs() < 0.01, "{top_speed_rad_s}");
+        assert_eq!(e.field(), "speed_window_steps");
+        // At 1 kHz the quantum is 0.22 rad/s (0.6 %): accepted. At 10 kHz with the
+        // 64-step maximum window it is 0.68 rad/s (1.9 %): still accepted, just.
+        assert!(with(|c| {
+            c.control_rate_hz = 10_000;
+            c.speed_window_steps = 64;
+        })
+        .is_ok());
+        assert!(with(|c| c.control_rate_hz = 10_000).is_err());
+    }
+
+    #[test]
     fn errors_print_the_field_the_rule_and_the_value() {
-        let e = with(|c| c.wheel_radius_m = -0.03).unwrap_err();
-        assert_eq!(format!("{e}"), "wheel_radius_m must be > 0, got -0.03");
+        let e = with(|c| c.wheel_radius_left_m = -0.03).unwrap_err();
+        assert_eq!(format!("{e}"), "wheel_radius_left_m must be > 0, got -0.03");
         let e = with(|c| c.speed_window_steps = 0).unwrap_err();
         assert_eq!(
             format!("{e}"),
@@ -481,5 +700,25 @@ mod tests {
         );
         let e = with(|c| c.law.kanayama.k_y = -2.0).unwrap_err();
         assert_eq!(format!("{e}"), "law.kanayama.k_y must be > 0, got -2");
+        let e = with(|c| c.left_wheel.td_s = -0.5).unwrap_err();
+        assert_eq!(format!("{e}"), "left_wheel.td_s must be ≥ 0, got -0.5");
+        let e = with(|c| c.law.paper.k = f32::NAN).unwrap_err();
+        assert_eq!(format!("{e}"), "law.paper.k must be finite, got NaN");
+        let e = with(|c| c.steering_divider = 0).unwrap_err();
+        assert_eq!(format!("{e}"), "steering_divider must be > 0, got 0");
+        let e = with(|c| c.drive.max_supply_v = 3.0).unwrap_err();
+        assert_eq!(
+            format!("{e}"),
+            "drive.max_supply_v must be > drive.min_supply_v (4.5 V), got 3"
+        );
+        let e = with(|c| c.control_rate_hz = 100_000).unwrap_err();
+        assert!(format!("{e}").starts_with("speed_window_steps is too short"));
+    }
+
+    #[test]
+    fn top_speed_follows_the_feed_forward_model() {
+        let w = REFERENCE_WHEEL_LOOP;
+        assert!((w.speed_at_volts(6.0) - (6.0 - 0.33) / 0.157).abs() < 1e-4);
+        assert_eq!(w.speed_at_volts(0.2), 0.0);
     }
 }

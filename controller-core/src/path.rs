@@ -101,7 +101,9 @@ impl Segment {
             } => {
                 let direction = if sweep_rad >= 0.0 { 1.0 } else { -1.0 };
                 let polar = start_angle_rad + direction * s / radius_m;
-                let (sin_p, cos_p) = math::sin_cos(math::wrap_angle(polar));
+                // No wrap needed here: |polar| stays within a few π, where sin_cos is
+                // accurate to 2e-7 (see `math`).
+                let (sin_p, cos_p) = math::sin_cos(polar);
                 PathSample {
                     point: Point::new(center.x_m + radius_m * cos_p, center.y_m + radius_m * sin_p),
                     heading_rad: math::wrap_angle(polar + direction * FRAC_PI_2),
@@ -430,16 +432,28 @@ impl Path {
 
     /// The point at arc length `s_m` (m) from the start (see [`Path::normalize_m`]).
     pub fn sample(&self, s_m: f32) -> PathSample {
-        let s = self.normalize_m(s_m);
-        let mut index = 0;
-        for (i, start) in self.starts_m.iter().enumerate() {
-            if s >= *start {
-                index = i;
+        self.sample_normalized(self.normalize_m(s_m))
+    }
+
+    /// The point at arc length `s_m` (m), which the caller has already brought into
+    /// [0, length] ([`Path::normalize_m`]). The segments are searched in order and the
+    /// search stops at the first that starts beyond `s_m`; nothing is indexed, so nothing
+    /// can panic.
+    pub fn sample_normalized(&self, s_m: f32) -> PathSample {
+        let mut chosen = None;
+        for (segment, &start) in self.segments.iter().zip(self.starts_m.iter()) {
+            if s_m < start {
+                break;
             }
+            chosen = Some((segment, start));
         }
-        match self.segments.get(index) {
-            Some(segment) => segment.sample(s - self.starts_m[index]),
-            None => PathSample::default(),
+        match chosen {
+            Some((segment, start)) => segment.sample(s_m - start),
+            // Before the first segment (only for s < 0, which normalising excludes).
+            None => match self.segments.first() {
+                Some(first) => first.sample(0.0),
+                None => PathSample::default(),
+            },
         }
     }
 

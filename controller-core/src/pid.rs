@@ -11,19 +11,31 @@
 //!
 //! Additions a real wheel loop needs, none of which change (38) when switched off:
 //!
-//! - **Output clamp with anti-windup**: the stored m(k−1) is the clamped output, so the
-//!   integrator cannot wind up while the motor is saturated (the velocity form's natural
-//!   anti-windup).
-//! - **Feed-forward** u = m + K_ff·r: a motor command per unit set-point, so the PID only
-//!   corrects the model's error. The clamp applies to the sum.
+//! - **Output bounds with anti-windup**: every step gets its own bounds (the wheel loop's
+//!   voltage, current and slew limits change with the supply and the wheel speed), and
+//!   the stored m(k−1) is the bounded output, so the integrator cannot wind up while the
+//!   motor is saturated (the velocity form's natural anti-windup). When a limit *after*
+//!   the PID changes the output, [`IncrementalPid::apply_output`] tells it (back
+//!   calculation, as ArduPilot's `AC_PID` is told when an actuator saturates).
+//! - **Feed-forward** u = m + u_ff: the motor model's voltage for the set-point, so the
+//!   PID only corrects the model's error. The bounds apply to the sum.
 //! - **First-order filter on the D term**: d(k) = α d(k−1) + (1−α) K_d Δe(k); the
 //!   increment then uses d(k) − d(k−1). With α = 0 it is exactly K_d Δ²e(k).
+//! - **Late samples**: a sample that covers n periods (missed ticks) integrates n·K_i·e
+//!   and differentiates over n·T.
 //! - **Bumpless reset and retune**: the state is the last output, so changing gains or
 //!   restarting from a known output does not jump the command.
+//!
+//! ## The parts, for telemetry
+//!
+//! The velocity form stores only m(k−1), so "the I term" is not a state of its own. The
+//! parts are defined so that they add up to the output: P = K_p·e(k), D = d(k) (the
+//! filtered derivative term), FF = u_ff, and I = m(k) − P − D: what the integrator holds
+//! after the bounds have been applied ([`PidParts`]).
 
 use crate::math;
 
-/// Discrete PID gains for one sample period, plus feed-forward and D filter.
+/// Discrete PID gains for one sample period, plus the D filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(
@@ -39,21 +51,17 @@ pub struct PidGains {
     pub kd: f32,
     /// D-filter pole α in [0, 1): 0 is no filter; α = exp(−T/τ) for a time constant τ.
     pub d_filter_alpha: f32,
-    /// Feed-forward K_ff, output per unit set-point.
-    pub feed_forward: f32,
 }
 
 impl PidGains {
     /// Discrete gains for sample period `period_s` (s) from continuous ones: proportional
     /// `kp`, integral time `ti_s` (s; 0 or ∞ disables I), derivative time `td_s` (s),
-    /// D-filter time constant `d_filter_tau_s` (s; 0 disables the filter), feed-forward
-    /// `feed_forward` (output per unit set-point).
+    /// D-filter time constant `d_filter_tau_s` (s; 0 disables the filter).
     pub fn from_continuous(
         kp: f32,
         ti_s: f32,
         td_s: f32,
         d_filter_tau_s: f32,
-        feed_forward: f32,
         period_s: f32,
     ) -> Self {
         let ki = if ti_s > 0.0 && ti_s.is_finite() {
@@ -74,7 +82,6 @@ impl PidGains {
             ki,
             kd: kp * td_s / period_s,
             d_filter_alpha,
-            feed_forward,
         }
     }
 
@@ -92,35 +99,81 @@ impl PidGains {
         self.kp.is_finite()
             && self.ki.is_finite()
             && self.kd.is_finite()
-            && self.feed_forward.is_finite()
             && self.d_filter_alpha >= 0.0
             && self.d_filter_alpha < 1.0
     }
 }
 
-/// Incremental PID state for one wheel (see the module doc). Output in [−limit, limit].
+/// Lower and upper bound of one output sample (same unit as the output, e.g. V).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds {
+    /// Smallest output allowed.
+    pub min: f32,
+    /// Largest output allowed (≥ `min`).
+    pub max: f32,
+}
+
+impl Bounds {
+    /// Symmetric bounds ±`limit` (|`limit`| is used).
+    pub fn symmetric(limit: f32) -> Self {
+        let limit = math::abs(limit);
+        Self {
+            min: -limit,
+            max: limit,
+        }
+    }
+
+    /// `x` clamped into the bounds (NaN passes through).
+    pub fn clamp(&self, x: f32) -> f32 {
+        math::clamp(x, self.min, self.max)
+    }
+}
+
+/// The output split into its parts, which add up to it (see the module doc), in output
+/// units (V for a wheel loop).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct PidParts {
+    /// Proportional part K_p·e(k).
+    pub p: f32,
+    /// Integral part: the bounded output's remainder m(k) − P − D.
+    pub i: f32,
+    /// Derivative part d(k) (filtered).
+    pub d: f32,
+    /// Feed-forward part.
+    pub ff: f32,
+}
+
+/// Incremental PID state for one wheel (see the module doc).
 #[derive(Clone, Copy, Debug)]
 pub struct IncrementalPid {
     gains: PidGains,
-    output_limit: f32,
-    /// Feedback part of the last (clamped) output, m(k−1).
+    /// Feedback part of the last (bounded) output, m(k−1).
     feedback: f32,
     /// e(k−1).
     error_1: f32,
     /// Filtered derivative term d(k−1).
     derivative: f32,
+    /// Feed-forward of the last output.
+    feed_forward: f32,
+    /// The last output was held at one of its bounds.
+    clamped: bool,
 }
 
 impl IncrementalPid {
-    /// A PID with `gains`, output clamped to ±`output_limit` (use 1 for a duty cycle),
-    /// starting from output 0.
-    pub fn new(gains: PidGains, output_limit: f32) -> Self {
+    /// A PID with `gains`, starting from output 0.
+    pub fn new(gains: PidGains) -> Self {
         Self {
             gains,
-            output_limit: math::abs(output_limit),
             feedback: 0.0,
             error_1: 0.0,
             derivative: 0.0,
+            feed_forward: 0.0,
+            clamped: false,
         }
     }
 
@@ -129,39 +182,67 @@ impl IncrementalPid {
         self.gains
     }
 
-    /// One sample: set-point `setpoint` and measurement `measured` (same unit, e.g. rad/s).
-    /// Returns the clamped output m(k) + K_ff·setpoint.
+    /// One sample of error `error` (set-point − measurement) covering `periods` sample
+    /// periods (1 on time; more when samples were missed), with `feed_forward` added.
+    /// Returns m(k) + `feed_forward` clamped into `bounds`.
     ///
-    /// A non-finite input leaves the state untouched and returns 0.
-    pub fn step(&mut self, setpoint: f32, measured: f32) -> f32 {
-        let error = setpoint - measured;
-        if !error.is_finite() {
-            return 0.0;
+    /// A non-finite error or feed-forward leaves the state untouched and returns 0
+    /// clamped into `bounds`.
+    pub fn step(&mut self, error: f32, feed_forward: f32, bounds: Bounds, periods: f32) -> f32 {
+        // One check covers both: NaN + x is NaN, and ±∞ + finite is not finite.
+        if !(error + feed_forward).is_finite() {
+            return bounds.clamp(0.0);
         }
         let g = &self.gains;
         let delta_error = error - self.error_1;
-        let derivative =
-            g.d_filter_alpha * self.derivative + (1.0 - g.d_filter_alpha) * g.kd * delta_error;
-        // Eq. (37): Δm = K_p Δe + K_i e + Δ(D term); with α = 0 this is eq. (38).
-        let increment = g.kp * delta_error + g.ki * error + (derivative - self.derivative);
-        let feed_forward = g.feed_forward * setpoint;
-        let output = math::clamp(
-            self.feedback + increment + feed_forward,
-            -self.output_limit,
-            self.output_limit,
-        );
-        // Anti-windup: remember the clamped output, not the unclamped sum.
+        // Eq. (37): Δm = K_p Δe + K_i e + Δ(D term); with α = 0 and one period, eq. (38).
+        let mut increment = g.kp * delta_error + g.ki * periods * error;
+        if g.kd != 0.0 {
+            let derivative = g.d_filter_alpha * self.derivative
+                + (1.0 - g.d_filter_alpha) * g.kd * delta_error / periods;
+            increment += derivative - self.derivative;
+            self.derivative = derivative;
+        }
+        let wanted = self.feedback + increment + feed_forward;
+        let output = bounds.clamp(wanted);
+        self.clamped = output != wanted;
+        // Anti-windup: remember the bounded output, not the unbounded sum.
         self.feedback = output - feed_forward;
+        self.feed_forward = feed_forward;
         self.error_1 = error;
-        self.derivative = derivative;
         output
+    }
+
+    /// True when the last output was held at one of its bounds (the loop asked for more
+    /// than it may have: a saturated actuator).
+    pub const fn clamped(&self) -> bool {
+        self.clamped
+    }
+
+    /// Tells the PID that `output` was applied instead of what [`IncrementalPid::step`]
+    /// returned (a limit downstream changed it): the next increment continues from it.
+    pub fn apply_output(&mut self, output: f32) {
+        if output.is_finite() {
+            self.feedback = output - self.feed_forward;
+        }
+    }
+
+    /// The last output split into P, I, D and FF.
+    pub fn parts(&self) -> PidParts {
+        let p = self.gains.kp * self.error_1;
+        PidParts {
+            p,
+            i: self.feedback - p - self.derivative,
+            d: self.derivative,
+            ff: self.feed_forward,
+        }
     }
 
     /// Restarts so that the feedback part of the output is `feedback` (0 for a standstill):
     /// the next output continues from there without a jump, and the error history is
     /// cleared so Δe does not kick.
     pub fn reset(&mut self, feedback: f32) {
-        self.feedback = math::clamp(feedback, -self.output_limit, self.output_limit);
+        self.feedback = if feedback.is_finite() { feedback } else { 0.0 };
         self.error_1 = 0.0;
         self.derivative = 0.0;
     }
@@ -177,12 +258,11 @@ impl IncrementalPid {
         self.gains = gains;
     }
 
-    /// Primes the error history with `setpoint − measured` so that a fresh loop starts
-    /// without a proportional kick.
-    pub fn prime(&mut self, setpoint: f32, measured: f32) {
-        let e = setpoint - measured;
-        if e.is_finite() {
-            self.error_1 = e;
+    /// Primes the error history with `error` (set-point − measurement) so that a fresh
+    /// loop starts without a proportional kick.
+    pub fn prime(&mut self, error: f32) {
+        if error.is_finite() {
+            self.error_1 = error;
         }
     }
 }
@@ -197,8 +277,11 @@ mod tests {
             ki,
             kd,
             d_filter_alpha: 0.0,
-            feed_forward: 0.0,
         }
+    }
+
+    fn wide() -> Bounds {
+        Bounds::symmetric(1e6)
     }
 
     #[test]
@@ -210,16 +293,31 @@ mod tests {
     #[test]
     fn from_continuous_hand_values() {
         // K_p = 0.1, T_i = 0.05 s, T_d = 0.002 s, T = 1 ms: K_i = 0.002, K_d = 0.2.
-        let g = PidGains::from_continuous(0.1, 0.05, 0.002, 0.0, 0.03, 0.001);
+        let g = PidGains::from_continuous(0.1, 0.05, 0.002, 0.0, 0.001);
         assert!((g.ki - 0.002).abs() < 1e-9);
         assert!((g.kd - 0.2).abs() < 1e-7);
         assert_eq!(g.d_filter_alpha, 0.0);
+        assert_eq!(PidGains::from_continuous(0.1, 0.0, 0.0, 0.0, 0.001).ki, 0.0);
         assert_eq!(
-            PidGains::from_continuous(0.1, 0.0, 0.0, 0.0, 0.0, 0.001).ki,
+            PidGains::from_continuous(0.1, f32::INFINITY, 0.0, 0.0, 0.001).ki,
             0.0
         );
-        let f = PidGains::from_continuous(0.1, 0.0, 0.0, 0.01, 0.0, 0.001);
+        let f = PidGains::from_continuous(0.1, 0.0, 0.0, 0.01, 0.001);
         assert!((f.d_filter_alpha - (-0.1f32).exp()).abs() < 1e-3);
+    }
+
+    #[test]
+    fn validity_needs_finite_gains_and_a_stable_filter_pole() {
+        assert!(gains(1.0, 0.1, 0.0).is_valid());
+        assert!(!gains(f32::NAN, 0.1, 0.0).is_valid());
+        assert!(!gains(1.0, f32::INFINITY, 0.0).is_valid());
+        assert!(!gains(1.0, 0.1, f32::NEG_INFINITY).is_valid());
+        let pole = |a| PidGains {
+            d_filter_alpha: a,
+            ..gains(1.0, 0.0, 0.0)
+        };
+        assert!(pole(0.0).is_valid() && pole(0.99).is_valid());
+        assert!(!pole(1.0).is_valid() && !pole(-0.1).is_valid());
     }
 
     /// Positional PID (36) discretised: rectangle integral, backward-difference derivative.
@@ -238,19 +336,22 @@ mod tests {
     }
 
     #[test]
-    fn unsaturated_incremental_equals_positional_and_eq_38() {
+    fn unbounded_incremental_equals_positional_and_eq_38() {
         let g = gains(0.8, 0.05, 0.3);
         let errors: Vec<f32> = (0..200).map(|k| (k as f32 * 0.37).sin() * 0.4).collect();
-        let mut pid = IncrementalPid::new(g, 1e6);
+        let mut pid = IncrementalPid::new(g);
         let [v0, v1, v2] = g.coefficients();
         let (mut e1, mut e2, mut m38) = (0.0, 0.0, 0.0);
         for (k, (&e, expected)) in errors.iter().zip(positional(g, &errors)).enumerate() {
-            let m = pid.step(e, 0.0);
+            let m = pid.step(e, 0.0, wide(), 1.0);
             assert!((m - expected).abs() < 1e-4, "k = {k}: {m} vs {expected}");
             // The same sequence through the three-coefficient form (38).
             m38 += v0 * e + v1 * e1 + v2 * e2;
             (e2, e1) = (e1, e);
             assert!((m - m38).abs() < 1e-4, "k = {k}: {m} vs (38) {m38}");
+            // The parts add up to the output.
+            let parts = pid.parts();
+            assert!((parts.p + parts.i + parts.d + parts.ff - m).abs() < 1e-4);
         }
     }
 
@@ -259,30 +360,65 @@ mod tests {
         // Pure I controller against a large error saturates at 1 for 1000 steps. When the
         // error changes sign the output must leave the limit at once: a wound-up integrator
         // would stay at 1 for hundreds of steps.
-        let mut pid = IncrementalPid::new(gains(0.0, 0.01, 0.0), 1.0);
-        let saturated: Vec<f32> = (0..1000).map(|_| pid.step(10.0, 0.0)).collect();
+        let mut pid = IncrementalPid::new(gains(0.0, 0.01, 0.0));
+        let one = Bounds::symmetric(1.0);
+        let saturated: Vec<f32> = (0..1000).map(|_| pid.step(10.0, 0.0, one, 1.0)).collect();
         assert!(saturated[10..].iter().all(|&m| m == 1.0));
-        let after = pid.step(-10.0, 0.0);
+        let after = pid.step(-10.0, 0.0, one, 1.0);
         assert!(after < 1.0 && after > 0.85, "{after}");
         let mut steps = 1;
-        while pid.step(-10.0, 0.0) > 0.0 {
+        while pid.step(-10.0, 0.0, one, 1.0) > 0.0 {
             steps += 1;
         }
         assert!(steps <= 11, "left saturation in {steps} steps");
     }
 
     #[test]
-    fn feed_forward_and_clamp_share_the_limit() {
-        let mut pid = IncrementalPid::new(
-            PidGains {
-                feed_forward: 0.1,
-                ..gains(0.0, 0.0, 0.0)
-            },
-            1.0,
-        );
-        assert!((pid.step(5.0, 5.0) - 0.5).abs() < 1e-7);
-        assert_eq!(pid.step(20.0, 20.0), 1.0);
-        assert_eq!(pid.step(-20.0, -20.0), -1.0);
+    fn bounds_may_be_asymmetric_and_apply_to_the_sum_with_feed_forward() {
+        let mut pid = IncrementalPid::new(gains(0.0, 0.0, 0.0));
+        let b = Bounds { min: 0.5, max: 2.0 };
+        assert_eq!(pid.step(0.0, 1.2, b, 1.0), 1.2);
+        assert!(!pid.clamped());
+        assert_eq!(pid.step(0.0, 3.0, b, 1.0), 2.0);
+        assert!(pid.clamped());
+        assert_eq!(pid.step(0.0, -3.0, b, 1.0), 0.5);
+        assert!(pid.clamped());
+        // The feed-forward is reported as such, and the parts add up to the bounded output.
+        let parts = pid.parts();
+        assert_eq!(parts.ff, -3.0);
+        assert!((parts.p + parts.i + parts.d + parts.ff - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_downstream_limit_is_fed_back() {
+        // The PID asks for 0.6, a slew limit downstream applies 0.2: the next step must
+        // continue from 0.2 (plus its increment), not from 0.6.
+        let mut pid = IncrementalPid::new(gains(0.0, 0.1, 0.0));
+        for _ in 0..6 {
+            pid.step(1.0, 0.0, wide(), 1.0);
+        }
+        pid.apply_output(0.2);
+        assert!((pid.step(1.0, 0.0, wide(), 1.0) - 0.3).abs() < 1e-6);
+        pid.apply_output(f32::NAN);
+        assert!((pid.step(1.0, 0.0, wide(), 1.0) - 0.4).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_late_sample_integrates_the_time_it_covered() {
+        let mut on_time = IncrementalPid::new(gains(0.0, 0.1, 0.0));
+        let mut late = IncrementalPid::new(gains(0.0, 0.1, 0.0));
+        on_time.step(1.0, 0.0, wide(), 1.0);
+        let a = on_time.step(1.0, 0.0, wide(), 1.0);
+        let b = late.step(1.0, 0.0, wide(), 2.0);
+        assert!((a - b).abs() < 1e-6, "{a} vs {b}");
+        // The derivative of a ramp is the same whether it is sampled every period or every
+        // other one.
+        let d = |periods: f32| {
+            let mut pid = IncrementalPid::new(gains(0.0, 0.0, 1.0));
+            pid.step(0.0, 0.0, wide(), 1.0);
+            pid.step(periods, 0.0, wide(), periods)
+        };
+        assert!((d(1.0) - d(2.0)).abs() < 1e-6);
     }
 
     #[test]
@@ -292,35 +428,80 @@ mod tests {
             d_filter_alpha: 0.5,
             ..raw
         };
-        let mut a = IncrementalPid::new(raw, 10.0);
-        let mut b = IncrementalPid::new(filtered, 10.0);
-        assert_eq!(a.step(1.0, 0.0), 1.0);
-        assert_eq!(b.step(1.0, 0.0), 0.5);
-        assert_eq!(a.step(1.0, 0.0), 0.0);
-        assert_eq!(b.step(1.0, 0.0), 0.25);
+        let mut a = IncrementalPid::new(raw);
+        let mut b = IncrementalPid::new(filtered);
+        let ten = Bounds::symmetric(10.0);
+        assert_eq!(a.step(1.0, 0.0, ten, 1.0), 1.0);
+        assert_eq!(b.step(1.0, 0.0, ten, 1.0), 0.5);
+        assert_eq!(a.step(1.0, 0.0, ten, 1.0), 0.0);
+        assert_eq!(b.step(1.0, 0.0, ten, 1.0), 0.25);
     }
 
     #[test]
-    fn reset_and_retune_are_bumpless() {
-        let mut pid = IncrementalPid::new(gains(0.5, 0.02, 0.0), 1.0);
+    fn retune_is_bumpless() {
+        let one = Bounds::symmetric(1.0);
+        let mut pid = IncrementalPid::new(gains(0.5, 0.02, 0.0));
         for _ in 0..50 {
-            pid.step(1.0, 0.5);
+            pid.step(0.5, 0.0, one, 1.0);
         }
-        let before = pid.step(1.0, 0.5);
+        let before = pid.step(0.5, 0.0, one, 1.0);
         pid.set_gains(gains(0.9, 0.02, 0.0));
-        let after = pid.step(1.0, 0.5);
+        assert_eq!(pid.gains().kp, 0.9);
+        let after = pid.step(0.5, 0.0, one, 1.0);
         // Same error: only the integral increment K_i·e is added, no jump from the new K_p.
         assert!((after - before - 0.01).abs() < 1e-6);
-        pid.reset(0.3);
-        pid.prime(1.0, 1.0);
-        assert!((pid.step(1.0, 1.0) - 0.3).abs() < 1e-7);
     }
 
     #[test]
-    fn non_finite_input_gives_zero() {
-        let mut pid = IncrementalPid::new(gains(1.0, 0.1, 0.1), 1.0);
-        assert_eq!(pid.step(f32::NAN, 0.0), 0.0);
-        assert_eq!(pid.step(0.0, f32::INFINITY), 0.0);
-        assert!(pid.step(0.1, 0.0).is_finite());
+    fn retune_rescales_the_stored_derivative() {
+        // A constant-slope error keeps d(k) = K_d·Δe constant; after doubling K_d the
+        // increment must not contain the jump (2K_d − K_d)·Δe.
+        let mut pid = IncrementalPid::new(gains(0.0, 0.0, 1.0));
+        let mut e = 0.0;
+        for _ in 0..5 {
+            e += 0.1;
+            pid.step(e, 0.0, wide(), 1.0);
+        }
+        let before = pid.parts().d;
+        pid.set_gains(gains(0.0, 0.0, 2.0));
+        assert!((pid.parts().d - 2.0 * before).abs() < 1e-6);
+        let out_before = pid.parts().p + pid.parts().i + pid.parts().d;
+        e += 0.1;
+        let out_after = pid.step(e, 0.0, wide(), 1.0);
+        assert!(
+            (out_after - out_before).abs() < 1e-5,
+            "{out_before} → {out_after}"
+        );
+    }
+
+    #[test]
+    fn reset_and_prime_start_without_a_kick() {
+        let mut pid = IncrementalPid::new(gains(0.5, 0.0, 0.0));
+        pid.step(3.0, 0.0, wide(), 1.0);
+        pid.reset(0.3);
+        pid.prime(1.0);
+        // Same error as primed: no proportional kick, the output continues from 0.3.
+        assert!((pid.step(1.0, 0.0, wide(), 1.0) - 0.3).abs() < 1e-7);
+        // Without priming the same error would kick by K_p·e = 0.5.
+        pid.reset(0.3);
+        assert!((pid.step(1.0, 0.0, wide(), 1.0) - 0.8).abs() < 1e-7);
+        pid.reset(f32::NAN);
+        pid.prime(f32::NAN);
+        assert!(pid.step(0.0, 0.0, wide(), 1.0).is_finite());
+    }
+
+    #[test]
+    fn non_finite_input_gives_zero_within_bounds() {
+        let mut pid = IncrementalPid::new(gains(1.0, 0.1, 0.1));
+        assert_eq!(pid.step(f32::NAN, 0.0, Bounds::symmetric(1.0), 1.0), 0.0);
+        assert_eq!(
+            pid.step(0.0, f32::INFINITY, Bounds::symmetric(1.0), 1.0),
+            0.0
+        );
+        assert_eq!(
+            pid.step(f32::NAN, 0.0, Bounds { min: 0.5, max: 1.0 }, 1.0),
+            0.5
+        );
+        assert!(pid.step(0.1, 0.0, Bounds::symmetric(1.0), 1.0).is_finite());
     }
 }

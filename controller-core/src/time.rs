@@ -5,25 +5,31 @@
 //! them into seconds when asked, splitting whole seconds from the fraction so that the
 //! fraction keeps full resolution.
 
+use core::num::NonZeroU32;
+
 /// A count of fixed-period control steps.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct StepClock {
     steps: u32,
-    rate_hz: u32,
+    /// Steps per second; non-zero by type, so no division here can fail.
+    rate_hz: NonZeroU32,
 }
 
 impl StepClock {
-    /// A clock at step 0 ticking at `rate_hz` steps per second (0 is treated as 1).
-    pub const fn new(rate_hz: u32) -> Self {
-        Self {
-            steps: 0,
-            rate_hz: if rate_hz == 0 { 1 } else { rate_hz },
-        }
+    /// A clock at step 0 ticking at `rate_hz` steps per second.
+    pub const fn new(rate_hz: NonZeroU32) -> Self {
+        Self { steps: 0, rate_hz }
     }
 
     /// Advances by one step (wrapping after 2³² steps).
     pub fn tick(&mut self) {
         self.steps = self.steps.wrapping_add(1);
+    }
+
+    /// Advances by `periods` steps (wrapping after 2³² steps): a step that began late
+    /// covers the periods it missed.
+    pub fn advance(&mut self, periods: NonZeroU32) {
+        self.steps = self.steps.wrapping_add(periods.get());
     }
 
     /// Steps since start.
@@ -33,14 +39,14 @@ impl StepClock {
 
     /// Steps per second, Hz.
     pub const fn rate_hz(&self) -> u32 {
-        self.rate_hz
+        self.rate_hz.get()
     }
 
     /// Whole seconds since start and the fraction of the current second (in [0, 1)).
     pub fn split_seconds(&self) -> (u32, f32) {
         (
             self.steps / self.rate_hz,
-            (self.steps % self.rate_hz) as f32 / self.rate_hz as f32,
+            (self.steps % self.rate_hz) as f32 / self.rate_hz.get() as f32,
         )
     }
 
@@ -63,7 +69,7 @@ mod tests {
 
     #[test]
     fn splits_whole_and_fraction() {
-        let mut c = StepClock::new(1000);
+        let mut c = StepClock::new(KHZ);
         for _ in 0..2_345 {
             c.tick();
         }
@@ -75,7 +81,7 @@ mod tests {
     #[test]
     fn keeps_millisecond_resolution_after_a_day() {
         // 24 h + 1 ms at 1 kHz: an accumulated f32 clock could not see the extra 1 ms.
-        let mut c = StepClock::new(1000);
+        let mut c = StepClock::new(KHZ);
         c.steps = 86_400_000;
         let before = c.split_seconds();
         c.tick();
@@ -83,8 +89,17 @@ mod tests {
         assert!((c.split_seconds().1 - 0.001).abs() < 1e-7);
     }
 
+    const KHZ: NonZeroU32 = match NonZeroU32::new(1000) {
+        Some(rate) => rate,
+        None => NonZeroU32::MIN,
+    };
+
     #[test]
-    fn zero_rate_is_not_a_division_by_zero() {
-        assert_eq!(StepClock::new(0).rate_hz(), 1);
+    fn advance_counts_missed_periods() {
+        let mut c = StepClock::new(KHZ);
+        c.tick();
+        c.advance(NonZeroU32::new(3).unwrap());
+        assert_eq!(c.steps(), 4);
+        assert!((c.elapsed_s() - 0.004).abs() < 1e-7);
     }
 }

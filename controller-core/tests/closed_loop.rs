@@ -5,6 +5,8 @@
 //! is applied as is. No motors, no encoders: this isolates the laws. The full stack is
 //! exercised by `host-sim`.
 
+use core::num::NonZeroU32;
+
 use controller_core::law::{self, LawKind};
 use controller_core::limits::CommandLimiter;
 use controller_core::math;
@@ -55,13 +57,19 @@ fn run(law: LawKind, mode: ReferenceMode, seconds: u32) -> Run {
     limiter.reset(BodyVelocity::new(0.4, 0.3));
     let period = params.steering_period_s();
     let rate = config.control_rate_hz / config.steering_divider;
-    let mut clock = StepClock::new(rate);
+    let mut clock = StepClock::new(NonZeroU32::new(rate).unwrap());
     let mut pose = START;
     let mut samples = Vec::new();
     for _ in 0..seconds * rate {
-        let r = reference.sample(&clock, &pose);
+        let elapsed_s = if clock.steps() == 0 { 0.0 } else { period };
+        let r = reference.sample(elapsed_s, &pose);
         let out = law::steer(law, &config.law, &pose, &r);
-        let (cmd, _) = limiter.apply(out.command, period, params.geometry().track_width_m());
+        let (cmd, _) = limiter.apply(
+            out.command,
+            period,
+            params.geometry().track_width_m(),
+            config.limits.max_rim_speed_m_s,
+        );
         let e = controller_core::kinematics::tracking_error(&pose, &r.pose);
         samples.push((
             clock.elapsed_s(),
@@ -147,15 +155,21 @@ fn naive_feed_forward_on_the_paper_law_leaves_a_heading_error() {
     let mut reference = paper_circle(TIME_INDEXED);
     let period = params.steering_period_s();
     let rate = config.control_rate_hz / config.steering_divider;
-    let mut clock = StepClock::new(rate);
+    let mut clock = StepClock::new(NonZeroU32::new(rate).unwrap());
     let mut limiter = CommandLimiter::new(config.limits);
     let mut pose = START;
     let mut tail = Vec::new();
     for _ in 0..60 * rate {
-        let r = reference.sample(&clock, &pose);
+        let elapsed_s = if clock.steps() == 0 { 0.0 } else { period };
+        let r = reference.sample(elapsed_s, &pose);
         let paper = law::steer(LawKind::Paper, &config.law, &pose, &r).command;
         let naive = BodyVelocity::new(paper.v_m_s + r.v_m_s, paper.omega_rad_s + r.omega_rad_s);
-        let (cmd, _) = limiter.apply(naive, period, params.geometry().track_width_m());
+        let (cmd, _) = limiter.apply(
+            naive,
+            period,
+            params.geometry().track_width_m(),
+            config.limits.max_rim_speed_m_s,
+        );
         if clock.elapsed_s() >= 40.0 {
             let e = controller_core::kinematics::tracking_error(&pose, &r.pose);
             tail.push((e.position_m(), e.theta_e_rad.abs()));

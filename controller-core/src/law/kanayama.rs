@@ -7,7 +7,7 @@
 //! with the robot-frame error (x_e, y_e, θ_e) of eq. (9). Its Lyapunov function is
 //! V = ½(x_e² + y_e²) + (1 − cos θ_e)/K_y, with V̇ = −K_x x_e² − v_r K_θ sin²θ_e / K_y ≤ 0.
 
-use crate::kinematics::{tracking_error, BodyVelocity, Pose};
+use crate::kinematics::{tracking_error, BodyVelocity, Pose, TrackingError};
 use crate::law::LawOutput;
 use crate::math;
 use crate::reference::ReferenceState;
@@ -30,7 +30,16 @@ pub struct KanayamaGains {
 
 /// Kanayama's law for a robot at `robot` and a moving `reference`, with V and V̇.
 pub fn steer(gains: &KanayamaGains, robot: &Pose, reference: &ReferenceState) -> LawOutput {
-    let e = tracking_error(robot, &reference.pose);
+    from_error(gains, tracking_error(robot, &reference.pose), reference)
+}
+
+/// Kanayama's law from the tracking error `e` (eq. (9), robot frame) of the robot against
+/// the moving `reference`.
+pub fn from_error(
+    gains: &KanayamaGains,
+    e: TrackingError,
+    reference: &ReferenceState,
+) -> LawOutput {
     let (sin_e, cos_e) = math::sin_cos(e.theta_e_rad);
     let v = reference.v_m_s * cos_e + gains.k_x * e.x_e_m;
     let omega =

@@ -15,7 +15,7 @@ pub mod kanayama;
 pub mod paper;
 pub mod tracking;
 
-use crate::kinematics::{BodyVelocity, Pose, TrackingError};
+use crate::kinematics::{tracking_error, BodyVelocity, Pose, TrackingError};
 use crate::params::ParamError;
 use crate::reference::ReferenceState;
 
@@ -91,10 +91,10 @@ impl LawGains {
         ];
         for (field, value) in all {
             if !value.is_finite() {
-                return Err(ParamError::NonFiniteGain { field, value });
+                return Err(ParamError::NonFinite { field, value });
             }
             if value <= 0.0 {
-                return Err(ParamError::NonPositiveGain { field, value });
+                return Err(ParamError::NonPositive { field, value });
             }
         }
         Ok(())
@@ -129,10 +129,23 @@ pub fn steer(
     robot: &Pose,
     reference: &ReferenceState,
 ) -> LawOutput {
+    let error = tracking_error(robot, &reference.pose);
+    steer_with_error(kind, gains, robot, reference, error)
+}
+
+/// [`steer`] with the tracking error (9) of `robot` against `reference` already computed
+/// (the controller does, from the heading's sine and cosine that odometry keeps).
+pub fn steer_with_error(
+    kind: LawKind,
+    gains: &LawGains,
+    robot: &Pose,
+    reference: &ReferenceState,
+    error: TrackingError,
+) -> LawOutput {
     match kind {
-        LawKind::Paper => paper::steer(&gains.paper, robot, &reference.pose),
-        LawKind::Tracking => tracking::steer(&gains.tracking, robot, reference),
-        LawKind::Kanayama => kanayama::steer(&gains.kanayama, robot, reference),
+        LawKind::Paper => paper::with_tracking_error(&gains.paper, robot, &reference.pose, error),
+        LawKind::Tracking => tracking::from_error(&gains.tracking, error, reference),
+        LawKind::Kanayama => kanayama::from_error(&gains.kanayama, error, reference),
     }
 }
 

@@ -21,7 +21,7 @@
 //! that moves at v_r, it can only produce v = v_r while r_e = v_r/(γ cos α) > 0, so the
 //! robot trails the reference by ≈ v_r/γ forever.
 
-use crate::kinematics::{tracking_error, BodyVelocity, Pose};
+use crate::kinematics::{tracking_error, BodyVelocity, Pose, TrackingError};
 use crate::law::LawOutput;
 use crate::math;
 
@@ -111,6 +111,17 @@ pub fn lyapunov_rate(gains: &PaperGains, e: &PolarError, command: BodyVelocity) 
 /// Eqs. (33)–(34) for a robot at `robot` and the reference pose `target`, with V (30) and
 /// V̇ (35).
 pub fn steer(gains: &PaperGains, robot: &Pose, target: &Pose) -> LawOutput {
+    with_tracking_error(gains, robot, target, tracking_error(robot, target))
+}
+
+/// Eqs. (33)–(34) as [`steer`], with the tracking error (9) of `robot` against `target`
+/// already computed (`error`; it is reported, the law itself uses the polar error).
+pub fn with_tracking_error(
+    gains: &PaperGains,
+    robot: &Pose,
+    target: &Pose,
+    error: TrackingError,
+) -> LawOutput {
     let e = polar_error(robot, target);
     let (sin_a, cos_a) = math::sin_cos(e.alpha_rad);
     let v = gains.gamma * e.r_e_m * cos_a;
@@ -125,7 +136,7 @@ pub fn steer(gains: &PaperGains, robot: &Pose, target: &Pose) -> LawOutput {
         lyapunov: lyapunov(gains, &e),
         lyapunov_rate: -gains.lambda * gains.gamma * radial * radial
             - gains.k * e.alpha_rad * e.alpha_rad,
-        error: tracking_error(robot, target),
+        error,
         polar: Some(e),
     }
 }

@@ -35,7 +35,7 @@
 //! This is the quadratic-heading member of the family of Kanayama et al. (1990), whose
 //! V uses (1 − cos θ_e)/K_y instead of ½θ_e²; the quadratic form is the one the paper uses.
 
-use crate::kinematics::{tracking_error, BodyVelocity, Pose};
+use crate::kinematics::{tracking_error, BodyVelocity, Pose, TrackingError};
 use crate::law::LawOutput;
 use crate::math;
 use crate::reference::ReferenceState;
@@ -58,7 +58,16 @@ pub struct TrackingGains {
 
 /// The tracking law for a robot at `robot` and a moving `reference`, with V and V̇.
 pub fn steer(gains: &TrackingGains, robot: &Pose, reference: &ReferenceState) -> LawOutput {
-    let e = tracking_error(robot, &reference.pose);
+    from_error(gains, tracking_error(robot, &reference.pose), reference)
+}
+
+/// The tracking law from the tracking error `e` (eq. (9), robot frame) of the robot
+/// against the moving `reference`.
+pub fn from_error(
+    gains: &TrackingGains,
+    e: TrackingError,
+    reference: &ReferenceState,
+) -> LawOutput {
     let (sin_e, cos_e) = math::sin_cos(e.theta_e_rad);
     let v = reference.v_m_s * cos_e + gains.k_x * e.x_e_m;
     let omega = reference.omega_rad_s

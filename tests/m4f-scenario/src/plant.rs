@@ -96,7 +96,7 @@ impl Plant {
         let substeps = config.substeps.max(1);
         Self {
             config: PlantConfig { substeps, ..config },
-            wheel_radius_m: params.geometry().wheel_radius_m(),
+            wheel_radius_m: params.geometry().wheel_radius_left_m(),
             track_width_m: params.geometry().track_width_m(),
             ticks_per_rad: 1.0 / params.rad_per_tick(),
             dt_s: params.period_s() / substeps as f32,

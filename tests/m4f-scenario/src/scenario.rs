@@ -3,7 +3,9 @@
 use core::f32::consts::PI;
 use core::fmt;
 
-use controller_core::controller::{Controller, Mode, MotorCommand, Telemetry, TickDeltas};
+use controller_core::controller::{
+    Controller, Mode, MotorCommand, StepInput, Telemetry, TickDeltas,
+};
 use controller_core::kinematics::{Point, Pose};
 use controller_core::law::LawKind;
 use controller_core::math;
@@ -44,6 +46,8 @@ pub struct Scenario {
     pub segments: [Segment; 3],
     /// The simulated robot.
     pub plant: PlantConfig,
+    /// The supply voltage the controller is told, V (the plant's speeds are at it).
+    pub supply_v: f32,
 }
 
 impl Scenario {
@@ -75,6 +79,7 @@ impl Scenario {
                 },
             ],
             plant: PlantConfig::REFERENCE,
+            supply_v: 6.0,
         }
     }
 
@@ -168,7 +173,7 @@ pub fn run_scenario_with(
     for segment in &scenario.segments {
         controller.set_law(segment.law);
         for _ in 0..segment.steps {
-            let duty = controller.step(ticks);
+            let duty = controller.step(StepInput::on_time(ticks, scenario.supply_v));
             hash.write_f32(duty.left);
             hash.write_f32(duty.right);
             hash.write_pose(&controller.telemetry().pose);

@@ -77,7 +77,7 @@ fn main() -> ! {
     // The law runs at step 0 only (then not for 2³² − 1 steps): run step 0 untimed, then
     // every timed step is a wheel step.
     let mut wheel_only = controller(&scenario, u32::MAX);
-    wheel_only.step(TickDeltas::default());
+    timing::controller_step(&mut wheel_only, TickDeltas::default());
     expect_steering(&wheel_only, &recorded, false);
     let wheel = timing::per_call_tenths(&calibration, &wheel_only, &recorded);
     report("control step", full);
@@ -101,10 +101,13 @@ fn controller(scenario: &Scenario, steering_divider: u32) -> Controller {
 fn expect_steering(controller: &Controller, ticks: &[[i8; 2]], steering: bool) {
     let mut c = controller.clone();
     for (i, pair) in ticks.iter().enumerate() {
-        c.step(TickDeltas {
-            left: i32::from(pair[0]),
-            right: i32::from(pair[1]),
-        });
+        timing::controller_step(
+            &mut c,
+            TickDeltas {
+                left: i32::from(pair[0]),
+                right: i32::from(pair[1]),
+            },
+        );
         let telemetry = c.telemetry();
         if telemetry.steering_updated != steering {
             fail_with(format_args!(

@@ -9,7 +9,7 @@
 use core::arch::asm;
 use core::hint::black_box;
 
-use controller_core::controller::{Controller, MotorCommand, TickDeltas};
+use controller_core::controller::{Controller, MotorCommand, StepInput, TickDeltas};
 
 use crate::counter;
 
@@ -85,10 +85,13 @@ pub fn empty_step(_controller: &mut Controller, _ticks: TickDeltas) -> MotorComm
     MotorCommand::STOP
 }
 
+/// The supply voltage of the timed steps, V (as in the scenario).
+pub const SUPPLY_V: f32 = 6.0;
+
 /// One control step, as the firmware calls it.
 #[inline(never)]
 pub fn controller_step(controller: &mut Controller, ticks: TickDeltas) -> MotorCommand {
-    controller.step(ticks)
+    controller.step(StepInput::on_time(ticks, SUPPLY_V))
 }
 
 /// Calls `step` once per entry of `ticks` and returns the SysTick ticks it took.

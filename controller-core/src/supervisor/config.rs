@@ -1,0 +1,585 @@
+//! The supervisor's settings, their validation, and defaults derived from the control rate
+//! and from the path.
+//!
+//! Every time is a count of control steps (1 ms at 1 kHz): the supervisor runs in the
+//! control interrupt and counts its own steps, so a simulation or an emulator that runs
+//! faster or slower than real time sees the same decisions.
+
+use core::fmt;
+
+use crate::kinematics::{Point, Pose, WheelSpeeds};
+use crate::params::Params;
+use crate::path::{Path, Segment};
+use crate::reference::{Reference, ReferenceMode};
+
+use super::RunMode;
+
+/// Detects a wheel that does not follow its drive: driven with |u| ≥ `min_volts` while
+/// turning slower than `min_speed_rad_s` in the driven direction, for `timeout_steps`
+/// consecutive steps. Catches a stalled or blocked wheel, an unplugged motor or encoder
+/// and an encoder or motor wired with the wrong polarity (the loop then runs away to its
+/// voltage limit).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct StallCheck {
+    /// Smallest |armature voltage| that must move the wheel, V (> 0).
+    pub min_volts: f32,
+    /// Slowest wheel speed in the driven direction that counts as moving, rad/s (≥ 0).
+    pub min_speed_rad_s: f32,
+    /// Consecutive control steps of "driven but not moving" before the fault (≥ 1).
+    pub timeout_steps: u32,
+}
+
+/// Missed control ticks (a step that started late and covered more than one period).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct MissedTickCheck {
+    /// Length of the counting window, steps (≥ 1).
+    pub window_steps: u32,
+    /// More missed ticks than this within one window is a fault.
+    pub max_per_window: u32,
+    /// A single gap of this many periods or more (the loop was blind that long) is a fault
+    /// (≥ 2).
+    pub max_gap_periods: u32,
+}
+
+/// Loss of control: the controller's own tracking error stays above `bound_m` for
+/// `persist_steps` once `settle_steps` have passed since arming into path following.
+/// Catches a path the limits cannot follow, a motor too weak for the command, and cables
+/// that make odometry see the wrong motion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct DivergenceCheck {
+    /// Steps after arming before the check starts (the initial transient), ≥ 0.
+    pub settle_steps: u32,
+    /// Largest position error the controller may report for long, m (> 0).
+    pub bound_m: f32,
+    /// Steps the error must stay above the bound before the fault (≥ 1).
+    pub persist_steps: u32,
+}
+
+/// The battery, judged on the filtered supply measurement.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct BatteryCheck {
+    /// Below this the robot warns, V.
+    pub warn_v: f32,
+    /// Below this (for `debounce_steps`) it faults and stops, V; never below the
+    /// bridge's minimum supply.
+    pub fault_v: f32,
+    /// Steps a low (or too high) supply must last before it counts, so the sag of a hard
+    /// acceleration does not trip it (≥ 1).
+    pub debounce_steps: u32,
+}
+
+/// The supervisor's settings. Times are in control steps (1 ms at 1 kHz).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct SupervisorConfig {
+    /// Mode the robot is in after a reset (a long press selects the other one).
+    pub initial_mode: RunMode,
+    /// Pose (world frame, m and rad) the odometry is reset to each time the robot is armed
+    /// in [`RunMode::FollowPath`]: where the robot is put down before pressing the button.
+    pub start_pose: Pose,
+    /// Wheel speeds held in [`RunMode::HoldWheelSpeeds`], rad/s.
+    pub hold_speeds: WheelSpeeds,
+    /// Steps the button level must be stable before a press or release counts (≥ 1).
+    pub debounce_steps: u32,
+    /// Steps a press must last to count as long (> `debounce_steps`).
+    pub long_press_steps: u32,
+    /// Arm by itself this many steps after a power-on or pin reset (`None`: button only).
+    /// Happens at most once per boot, never after a watchdog, software or brown-out
+    /// reset, and not once the button has been used.
+    pub auto_arm_after_steps: Option<u32>,
+    /// Disarm after this many steps armed (`None`: no limit).
+    pub max_armed_steps: Option<u32>,
+    /// This many overrun steps in a row are a fault and stop the watchdog feeding (≥ 1).
+    pub max_consecutive_overruns: u32,
+    /// Steps without a change of the background heartbeat before the watchdog is starved
+    /// (≥ 1).
+    pub background_timeout_steps: u32,
+    /// Missed-tick limits.
+    pub missed_ticks: MissedTickCheck,
+    /// Stall / polarity detection.
+    pub stall: StallCheck,
+    /// Loss-of-control detection (`None`: off).
+    pub divergence: Option<DivergenceCheck>,
+    /// Largest distance of the estimated pose from the start pose while armed, m
+    /// (`None`: no geofence).
+    pub geofence_radius_m: Option<f32>,
+    /// Battery thresholds.
+    pub battery: BatteryCheck,
+    /// When the link armed the robot: disarm after this many steps without a heartbeat
+    /// (≥ 1). The button needs none.
+    pub heartbeat_timeout_steps: u32,
+    /// After disarming or a fault, the bridge short-brakes the motors for this many steps,
+    /// then goes to standby (coast).
+    pub brake_steps: u32,
+}
+
+/// Steps of a `rate_hz` loop in `ms` milliseconds, rounded down, at least 1.
+pub const fn ms_to_steps(rate_hz: u32, ms: u32) -> u32 {
+    let steps = rate_hz as u64 * ms as u64 / 1000;
+    if steps == 0 {
+        1
+    } else if steps > u32::MAX as u64 {
+        u32::MAX
+    } else {
+        steps as u32
+    }
+}
+
+impl SupervisorConfig {
+    /// Defaults for a loop at `control_rate_hz` (Hz): 20 ms debounce, 1 s long press, no
+    /// auto-arm, no run limit, 5 overruns in a row, 500 ms background timeout, missed
+    /// ticks: more than 20 in 1 s or a gap of 10 periods, a stall after 500 ms at ≥ 3.6 V
+    /// below 1 rad/s, no divergence check or geofence (they depend on the path: see
+    /// [`SupervisorConfig::with_path_checks`]), battery warning at 5.0 V and fault at
+    /// 4.6 V after 200 ms (a 4-cell NiMH pack on a TB6612FNG), 500 ms heartbeat timeout
+    /// (as ROS's diff_drive_controller), 500 ms of braking. Starts in
+    /// [`RunMode::FollowPath`] from `start_pose` (world frame, m and rad); `hold_speeds`
+    /// in rad/s.
+    pub const fn at_rate(control_rate_hz: u32, start_pose: Pose, hold_speeds: WheelSpeeds) -> Self {
+        let debounce_steps = ms_to_steps(control_rate_hz, 20);
+        let long_press_steps = ms_to_steps(control_rate_hz, 1000);
+        Self {
+            initial_mode: RunMode::FollowPath,
+            start_pose,
+            hold_speeds,
+            debounce_steps,
+            long_press_steps: if long_press_steps > debounce_steps {
+                long_press_steps
+            } else {
+                debounce_steps + 1
+            },
+            auto_arm_after_steps: None,
+            max_armed_steps: None,
+            max_consecutive_overruns: 5,
+            background_timeout_steps: ms_to_steps(control_rate_hz, 500),
+            missed_ticks: MissedTickCheck {
+                window_steps: ms_to_steps(control_rate_hz, 1000),
+                max_per_window: 20,
+                max_gap_periods: 10,
+            },
+            stall: StallCheck {
+                min_volts: 3.6,
+                min_speed_rad_s: 1.0,
+                timeout_steps: ms_to_steps(control_rate_hz, 500),
+            },
+            divergence: None,
+            geofence_radius_m: None,
+            battery: BatteryCheck {
+                warn_v: 5.0,
+                fault_v: 4.6,
+                debounce_steps: ms_to_steps(control_rate_hz, 200),
+            },
+            heartbeat_timeout_steps: ms_to_steps(control_rate_hz, 500),
+            brake_steps: ms_to_steps(control_rate_hz, 500),
+        }
+    }
+
+    /// These settings with the divergence check and the geofence derived from the path
+    /// `reference` follows and the start pose, at `control_rate_hz` (see
+    /// [`DivergenceCheck::for_reference`] and [`geofence_radius_m`]).
+    pub fn with_path_checks(mut self, reference: &Reference, control_rate_hz: u32) -> Self {
+        self.divergence = Some(DivergenceCheck::for_reference(
+            reference,
+            &self.start_pose,
+            control_rate_hz,
+        ));
+        self.geofence_radius_m = Some(geofence_radius_m(reference.path(), self.start_pose));
+        self
+    }
+
+    /// Checks every field against itself and against the robot's `params` (the battery
+    /// fault must not be below the bridge's minimum supply); the error names the first
+    /// bad one.
+    pub fn validate(&self, params: &Params) -> Result<(), SupervisorConfigError> {
+        use SupervisorConfigError as E;
+        if !self.start_pose.is_finite() {
+            return Err(E::NonFiniteStartPose);
+        }
+        if !(self.hold_speeds.left_rad_s.is_finite() && self.hold_speeds.right_rad_s.is_finite()) {
+            return Err(E::NonFiniteHoldSpeeds);
+        }
+        if self.debounce_steps == 0 || self.long_press_steps <= self.debounce_steps {
+            return Err(E::BadButtonTiming);
+        }
+        if self.max_consecutive_overruns == 0 {
+            return Err(E::ZeroOverrunLimit);
+        }
+        if self.background_timeout_steps == 0 {
+            return Err(E::ZeroBackgroundTimeout);
+        }
+        let m = &self.missed_ticks;
+        if m.window_steps == 0 || m.max_gap_periods < 2 {
+            return Err(E::BadMissedTickCheck);
+        }
+        let s = &self.stall;
+        let volts_ok = s.min_volts > 0.0 && s.min_volts.is_finite();
+        let speed_ok = s.min_speed_rad_s >= 0.0 && s.min_speed_rad_s.is_finite();
+        if !(volts_ok && speed_ok) || s.timeout_steps == 0 {
+            return Err(E::BadStallCheck);
+        }
+        if let Some(d) = self.divergence {
+            if !(d.bound_m > 0.0 && d.bound_m.is_finite()) || d.persist_steps == 0 {
+                return Err(E::BadDivergenceCheck);
+            }
+        }
+        if let Some(r) = self.geofence_radius_m {
+            if !(r > 0.0 && r.is_finite()) {
+                return Err(E::BadGeofence);
+            }
+        }
+        let b = &self.battery;
+        let min_supply_v = params.config().drive.min_supply_v;
+        if !(b.fault_v >= min_supply_v && b.warn_v >= b.fault_v && b.warn_v.is_finite()) {
+            return Err(E::BadBatteryThresholds {
+                warn_v: b.warn_v,
+                fault_v: b.fault_v,
+                min_supply_v,
+            });
+        }
+        if b.debounce_steps == 0 {
+            return Err(E::BadBatteryThresholds {
+                warn_v: b.warn_v,
+                fault_v: b.fault_v,
+                min_supply_v,
+            });
+        }
+        if self.heartbeat_timeout_steps == 0 {
+            return Err(E::ZeroHeartbeatTimeout);
+        }
+        Ok(())
+    }
+}
+
+impl DivergenceCheck {
+    /// Defaults for following `reference` from `start` (world frame) at `control_rate_hz`:
+    /// the bound is 0.25 m plus the look-ahead plus one second of reference travel (0.5 m
+    /// at the paper's 0.25 m/s; the paper's own law trails by ≈ v_r/γ = 0.25 m), the error
+    /// must persist for 1 s, and the check starts once the robot has had 3 s plus twice
+    /// the time to cover its initial distance to the path at the reference speed.
+    pub fn for_reference(reference: &Reference, start: &Pose, control_rate_hz: u32) -> Self {
+        let speed = reference.speed_m_s();
+        let lookahead = match reference.mode() {
+            ReferenceMode::PathFollowing { lookahead_m } => lookahead_m,
+            ReferenceMode::TimeIndexed { .. } => 0.0,
+        };
+        let path = reference.path();
+        let nearest =
+            path.sample(path.project(start.position(), 0.0, f32::INFINITY, f32::INFINITY));
+        let initial_m = start.position().distance_to(nearest.point);
+        let settle_s = 3.0 + 2.0 * initial_m / speed;
+        let settle_steps = if settle_s.is_finite() && settle_s < 86_400.0 {
+            (settle_s * control_rate_hz as f32) as u32
+        } else {
+            u32::MAX
+        };
+        Self {
+            settle_steps,
+            bound_m: 0.25 + lookahead + speed,
+            persist_steps: ms_to_steps(control_rate_hz, 1000),
+        }
+    }
+}
+
+/// Default geofence radius for a robot starting at `start` on `path`: the farthest point
+/// of the path from the start, plus 1 m, m.
+pub fn geofence_radius_m(path: &Path, start: Pose) -> f32 {
+    let origin = start.position();
+    let farthest = path
+        .segments()
+        .iter()
+        .map(|segment| farthest_distance_m(segment, origin))
+        .fold(0.0f32, |a, b| if b > a { b } else { a });
+    farthest + 1.0
+}
+
+/// Largest distance from `p` to any point of `segment`, m.
+fn farthest_distance_m(segment: &Segment, p: Point) -> f32 {
+    match *segment {
+        Segment::Line {
+            start,
+            heading_rad,
+            length_m,
+        } => {
+            let (s, c) = crate::math::sin_cos(heading_rad);
+            let end = Point::new(start.x_m + length_m * c, start.y_m + length_m * s);
+            max(p.distance_to(start), p.distance_to(end))
+        }
+        Segment::Arc {
+            center,
+            radius_m,
+            start_angle_rad,
+            sweep_rad,
+        } => {
+            let at = |a: f32| {
+                let (s, c) = crate::math::sin_cos(a);
+                Point::new(center.x_m + radius_m * c, center.y_m + radius_m * s)
+            };
+            let ends = max(
+                p.distance_to(at(start_angle_rad)),
+                p.distance_to(at(start_angle_rad + sweep_rad)),
+            );
+            // The farthest point of the full circle is opposite p; it counts if the arc
+            // sweeps over it.
+            let away = crate::math::atan2(center.y_m - p.y_m, center.x_m - p.x_m);
+            let offset = crate::math::wrap_angle(away - start_angle_rad);
+            let swept = if sweep_rad >= 0.0 {
+                let o = if offset < 0.0 {
+                    offset + core::f32::consts::TAU
+                } else {
+                    offset
+                };
+                o <= sweep_rad
+            } else {
+                let o = if offset > 0.0 {
+                    offset - core::f32::consts::TAU
+                } else {
+                    offset
+                };
+                o >= sweep_rad
+            };
+            if swept {
+                max(ends, p.distance_to(center) + radius_m)
+            } else {
+                ends
+            }
+        }
+    }
+}
+
+fn max(a: f32, b: f32) -> f32 {
+    if b > a {
+        b
+    } else {
+        a
+    }
+}
+
+/// Why a [`SupervisorConfig`] was rejected.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum SupervisorConfigError {
+    /// `start_pose` has a NaN or infinite field.
+    NonFiniteStartPose,
+    /// `hold_speeds` has a NaN or infinite field.
+    NonFiniteHoldSpeeds,
+    /// `debounce_steps` was 0 or `long_press_steps` ≤ `debounce_steps`.
+    BadButtonTiming,
+    /// `max_consecutive_overruns` was 0.
+    ZeroOverrunLimit,
+    /// `background_timeout_steps` was 0.
+    ZeroBackgroundTimeout,
+    /// `missed_ticks.window_steps` was 0 or `missed_ticks.max_gap_periods` < 2.
+    BadMissedTickCheck,
+    /// `stall.min_volts` ≤ 0 or not finite, `stall.min_speed_rad_s` < 0 or not finite, or
+    /// `stall.timeout_steps` 0.
+    BadStallCheck,
+    /// `divergence.bound_m` ≤ 0 or not finite, or `divergence.persist_steps` 0.
+    BadDivergenceCheck,
+    /// `geofence_radius_m` ≤ 0 or not finite.
+    BadGeofence,
+    /// The battery thresholds are out of order: the bridge's minimum ≤ `fault_v` ≤
+    /// `warn_v` is required (and `battery.debounce_steps` ≥ 1).
+    BadBatteryThresholds {
+        /// `battery.warn_v`, V.
+        warn_v: f32,
+        /// `battery.fault_v`, V.
+        fault_v: f32,
+        /// The bridge's `drive.min_supply_v`, V.
+        min_supply_v: f32,
+    },
+    /// `heartbeat_timeout_steps` was 0.
+    ZeroHeartbeatTimeout,
+}
+
+impl SupervisorConfigError {
+    /// The offending field's path in [`SupervisorConfig`].
+    pub const fn field(&self) -> &'static str {
+        use SupervisorConfigError as E;
+        match self {
+            E::NonFiniteStartPose => "start_pose",
+            E::NonFiniteHoldSpeeds => "hold_speeds",
+            E::BadButtonTiming => "long_press_steps",
+            E::ZeroOverrunLimit => "max_consecutive_overruns",
+            E::ZeroBackgroundTimeout => "background_timeout_steps",
+            E::BadMissedTickCheck => "missed_ticks",
+            E::BadStallCheck => "stall",
+            E::BadDivergenceCheck => "divergence",
+            E::BadGeofence => "geofence_radius_m",
+            E::BadBatteryThresholds { .. } => "battery",
+            E::ZeroHeartbeatTimeout => "heartbeat_timeout_steps",
+        }
+    }
+}
+
+impl fmt::Display for SupervisorConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use SupervisorConfigError as E;
+        let field = self.field();
+        match *self {
+            E::NonFiniteStartPose | E::NonFiniteHoldSpeeds => {
+                write!(f, "{field} must be finite")
+            }
+            E::BadButtonTiming => write!(
+                f,
+                "debounce_steps must be ≥ 1 and {field} longer than debounce_steps"
+            ),
+            E::ZeroOverrunLimit | E::ZeroBackgroundTimeout | E::ZeroHeartbeatTimeout => {
+                write!(f, "{field} must be ≥ 1")
+            }
+            E::BadMissedTickCheck => write!(
+                f,
+                "{field}.window_steps must be ≥ 1 and {field}.max_gap_periods ≥ 2"
+            ),
+            E::BadStallCheck => write!(
+                f,
+                "{field}.min_volts must be > 0, {field}.min_speed_rad_s ≥ 0 and \
+                 {field}.timeout_steps ≥ 1"
+            ),
+            E::BadDivergenceCheck => write!(
+                f,
+                "{field}.bound_m must be > 0 and {field}.persist_steps ≥ 1"
+            ),
+            E::BadGeofence => write!(f, "{field} must be > 0"),
+            E::BadBatteryThresholds {
+                warn_v,
+                fault_v,
+                min_supply_v,
+            } => write!(
+                f,
+                "{field} thresholds must satisfy {min_supply_v} V (the bridge's minimum) ≤ \
+                 fault_v ≤ warn_v, got fault_v = {fault_v} V, warn_v = {warn_v} V"
+            ),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::Point;
+    use crate::params::RobotConfig;
+
+    fn params() -> Params {
+        Params::new(RobotConfig::REFERENCE_ROBOT).unwrap()
+    }
+
+    #[test]
+    fn ms_to_steps_rounds_down_and_never_returns_zero() {
+        assert_eq!(ms_to_steps(1000, 20), 20);
+        assert_eq!(ms_to_steps(500, 21), 10);
+        assert_eq!(ms_to_steps(1000, 0), 1);
+        assert_eq!(ms_to_steps(10, 50), 1);
+        assert_eq!(ms_to_steps(u32::MAX, u32::MAX), u32::MAX);
+        assert_eq!(ms_to_steps(100_000, 1000), 100_000);
+    }
+
+    #[test]
+    fn defaults_are_valid_at_any_rate() {
+        for rate in [1, 100, 1000, 20_000] {
+            let c = SupervisorConfig::at_rate(rate, Pose::default(), WheelSpeeds::default());
+            assert_eq!(c.validate(&params()), Ok(()), "{rate} Hz");
+        }
+        let c = SupervisorConfig::at_rate(500, Pose::default(), WheelSpeeds::default());
+        assert_eq!(c.debounce_steps, 10);
+        assert_eq!(c.long_press_steps, 500);
+        assert_eq!(c.heartbeat_timeout_steps, 250);
+    }
+
+    #[test]
+    fn battery_fault_below_the_bridge_minimum_is_refused() {
+        let mut c = SupervisorConfig::at_rate(1000, Pose::default(), WheelSpeeds::default());
+        c.battery.fault_v = 4.0;
+        let e = c.validate(&params()).unwrap_err();
+        assert_eq!(e.field(), "battery");
+        assert!(
+            format!("{e}").contains("4.5 V (the bridge's minimum)"),
+            "{e}"
+        );
+        c.battery.fault_v = 5.5;
+        assert!(c.validate(&params()).is_err(), "fault above warn");
+    }
+
+    #[test]
+    fn geofence_covers_the_whole_path() {
+        // The paper's circle r = 1.25 about the origin, robot starting at (−1, −1.2): the
+        // farthest point of the circle is diametrically opposite, at 1.562 + 1.25 m.
+        let circle = Path::circle(Point::new(0.0, 0.0), 1.25, 0.0, true).unwrap();
+        let r = geofence_radius_m(&circle, Pose::new(-1.0, -1.2, 0.0));
+        assert!((r - (1.562_05 + 1.25 + 1.0)).abs() < 1e-3, "{r}");
+        // A 2 m line from the origin, start at its beginning: 2 m + 1 m.
+        let line = Path::line(Point::new(0.0, 0.0), 0.0, 2.0).unwrap();
+        assert!((geofence_radius_m(&line, Pose::default()) - 3.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn the_far_side_of_an_arc_counts_only_if_the_arc_reaches_it() {
+        // A quarter arc from angle 0 to π/2 (counter-clockwise) about the origin, r = 1,
+        // seen from (−2, 0): the far side of the circle (angle 0, at x = 1) is the arc's
+        // start: 3 m. Seen from (2, 0), the far side (angle π) is not on the arc: the
+        // farthest point is the end (0, 1), √5 m away.
+        let arc = Segment::Arc {
+            center: Point::new(0.0, 0.0),
+            radius_m: 1.0,
+            start_angle_rad: 0.0,
+            sweep_rad: core::f32::consts::FRAC_PI_2,
+        };
+        assert!((farthest_distance_m(&arc, Point::new(-2.0, 0.0)) - 3.0).abs() < 1e-5);
+        assert!((farthest_distance_m(&arc, Point::new(2.0, 0.0)) - 5f32.sqrt()).abs() < 1e-5);
+        // Swept clockwise from π/2 to 0 (the same quarter), from (−1, −1): the far side
+        // at angle π/4 is on it: √2 + 1.
+        let cw = Segment::Arc {
+            center: Point::new(0.0, 0.0),
+            radius_m: 1.0,
+            start_angle_rad: core::f32::consts::FRAC_PI_2,
+            sweep_rad: -core::f32::consts::FRAC_PI_2,
+        };
+        let d = farthest_distance_m(&cw, Point::new(-1.0, -1.0));
+        assert!((d - (2f32.sqrt() + 1.0)).abs() < 1e-5, "{d}");
+    }
+
+    #[test]
+    fn divergence_defaults_follow_the_reference() {
+        let circle = Path::circle(Point::new(0.0, 0.0), 1.25, -2.265, true).unwrap();
+        let reference = Reference::new(
+            circle,
+            0.25,
+            ReferenceMode::TimeIndexed {
+                start_offset_m: 0.0,
+            },
+        )
+        .unwrap();
+        let d = DivergenceCheck::for_reference(&reference, &Pose::new(-1.0, -1.2, 2.09), 1000);
+        assert!((d.bound_m - 0.5).abs() < 1e-6);
+        assert_eq!(d.persist_steps, 1000);
+        // 0.312 m from the circle at 0.25 m/s: 3 s + 2 · 1.25 s.
+        assert!((5400..5600).contains(&d.settle_steps), "{}", d.settle_steps);
+    }
+}

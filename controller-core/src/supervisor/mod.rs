@@ -1,0 +1,946 @@
+//! The robot's safety logic: arming, fault handling, the bridge's brake/coast decision and
+//! watchdog feeding, hardware-free so that host tests and the simulator run exactly what
+//! the firmware runs.
+//!
+//! The firmware's control task reads its inputs (encoder ticks, the periods elapsed since
+//! the last step, the supply voltage, the raw button level, whether the previous step
+//! overran, a heartbeat counter of the background work, a command from the link), hands
+//! them to [`Supervisor::step`] together with the [`Controller`], and applies what comes
+//! back: the duties, the bridge state and whether to feed the watchdog. Every decision
+//! about what the motors get is made here; the firmware only moves numbers between
+//! registers and this module. `host-sim` runs the same [`Supervisor`] around the same
+//! [`Controller`], with the same inputs built from its plant.
+//!
+//! ## States
+//!
+//! ```text
+//!         short press (on release) / link Arm / auto-arm once after boot
+//!   ┌──────────┐ ─────────────────────────────────────────► ┌───────┐
+//!   │ Disarmed │                                            │ Armed │
+//!   └──────────┘ ◄───────────────────────────────────────── └───────┘
+//!   ▲  │  ▲  │     press (on press-down) / link Disarm / run limit / link lost
+//!   │  │  │  └─ link BeginPersist ──► ┌────────────┐
+//!   │  │  └──── link EndPersist ───── │ Persisting │ (flash erase/write, motors off)
+//!   │  │                              └────────────┘
+//!   │  │ any fault, emergency stop (in any state)   ┌─────────┐
+//!   │  └──────────────────────────────────────────► │ Faulted │ ◄── any fault while Armed
+//!   └──── short press (on release) / link ClearFaults ─┘
+//! ```
+//!
+//! - **Disarmed** (the state after every reset): duties 0, the controller in
+//!   [`Mode::Idle`] (odometry keeps running).
+//! - **Armed**: the controller runs the selected [`RunMode`]; its duties go to the motors.
+//!   Arming into [`RunMode::FollowPath`] resets the odometry to the configured start pose
+//!   and restarts the reference.
+//! - **Faulted**: duties 0, the faults latched in [`Faults`] until a short press or the
+//!   link's `ClearFaults` acknowledges them (the robot is then Disarmed, not Armed).
+//! - **Persisting**: motors off while the firmware erases and writes flash, which stalls
+//!   the CPU: missed ticks are expected and are not a fault.
+//!
+//! ## The bridge: brake, then coast
+//!
+//! Both supported bridges run slow decay, so duty 0 with the bridge enabled is a short
+//! brake (the armature shorted, the back-EMF braking the wheel). On leaving Armed, for
+//! whatever reason, the bridge brakes for [`SupervisorConfig::brake_steps`] and then goes
+//! to standby ([`Bridge::Coast`]: TB6612 STBY or DRV8833 nSLEEP low, the motor free). The
+//! simulator models both states. A panic, a hard fault or a reset cannot brake: the pins
+//! go low or float, the STBY pull-down puts the bridge in standby, and the motors coast.
+//!
+//! ## Faults
+//!
+//! Latched until acknowledged ([`Faults`]): the core's own (encoder jump, non-finite
+//! value), overruns and missed ticks of the control loop, a wheel that does not follow its
+//! drive ([`StallCheck`]), loss of control ([`DivergenceCheck`]), leaving the geofence, a
+//! supply below the battery's fault threshold or above the bridge's maximum, and an
+//! emergency stop. Not faults: a low-battery *warning*, and the link going quiet, which
+//! disarms a robot the link armed (heartbeat timeout).
+//!
+//! What odometry cannot see stays unseen: a wrong track width or wheel radius, a wrong
+//! start pose, or a wheel whose motor and encoder are *both* inverted leave odometry
+//! self-consistent, and the controller converges in its own frame while the robot is
+//! elsewhere. Only an independent sensor (a gyro's yaw rate against odometry's, an
+//! absolute position fix) would see them.
+//!
+//! ## The watchdog-feeding rule
+//!
+//! The firmware feeds the independent watchdog only from the control task, and only when
+//! [`Supervised::feed_watchdog`] says so. It is true unless
+//!
+//! - the control loop is late: the last [`SupervisorConfig::max_consecutive_overruns`]
+//!   steps all overran, or
+//! - the background is starved: the heartbeat counter of the lowest-priority work has not
+//!   changed for [`SupervisorConfig::background_timeout_steps`].
+//!
+//! A stalled control task does not call [`Supervisor::step`] at all, so it does not feed
+//! either. Disarmed and Faulted states keep feeding: a fault is handled by stopping the
+//! motors, and the latched flags stay visible instead of being wiped by a reset. After a
+//! watchdog, software or brown-out reset the robot comes back Disarmed with auto-arm
+//! refused.
+//!
+//! ## Example
+//!
+//! ```
+//! use controller_core::prelude::*;
+//! use controller_core::supervisor::*;
+//!
+//! let params = Params::new(RobotConfig::REFERENCE_ROBOT).unwrap();
+//! let line = Path::line(Point::new(0.0, 0.0), 0.0, 2.0).unwrap();
+//! let reference =
+//!     Reference::new(line, 0.2, ReferenceMode::TimeIndexed { start_offset_m: 0.0 }).unwrap();
+//! let mut controller = Controller::new(params, reference, LawKind::Tracking, Pose::default());
+//! let config = SupervisorConfig::at_rate(1000, Pose::default(), WheelSpeeds::new(5.0, 5.0));
+//! let mut supervisor = Supervisor::new(config, &params, ResetCause::PowerOn).unwrap();
+//!
+//! let mut input = Inputs::at_supply(6.0);
+//! let out = supervisor.step(&mut controller, input);
+//! assert_eq!(out.state, State::Disarmed);
+//! assert_eq!(out.duty, MotorCommand::STOP);
+//! assert!(out.feed_watchdog && out.bridge == Bridge::Coast);
+//!
+//! // The link arms the robot; it must then send heartbeats.
+//! input.command = Some(Command::Arm(ArmRequest::follow_path()));
+//! let out = supervisor.step(&mut controller, input);
+//! assert_eq!(out.state, State::Armed);
+//! assert_eq!(out.command_result, Some(Ok(())));
+//! assert!(out.duty.left > 0.0 && out.bridge == Bridge::Drive);
+//! ```
+
+mod button;
+mod checks;
+mod config;
+
+pub use config::{
+    geofence_radius_m, ms_to_steps, BatteryCheck, DivergenceCheck, MissedTickCheck, StallCheck,
+    SupervisorConfig, SupervisorConfigError,
+};
+
+use core::num::NonZeroU32;
+
+use crate::controller::{Controller, FaultFlags, Mode, MotorCommand, StepInput, TickDeltas};
+use crate::kinematics::{BodyVelocity, WheelSpeeds};
+use crate::math;
+use crate::params::Params;
+
+use button::{Debouncer, Press};
+use checks::{outside_geofence, Divergence, MissedTicks, Stall, Supply};
+
+/// What the robot does while armed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum RunMode {
+    /// Follow the controller's reference path from [`SupervisorConfig::start_pose`].
+    FollowPath,
+    /// Hold [`SupervisorConfig::hold_speeds`] with the wheel loops only (bring-up).
+    HoldWheelSpeeds,
+}
+
+impl RunMode {
+    /// The other mode (what a long press selects).
+    pub const fn other(self) -> RunMode {
+        match self {
+            RunMode::FollowPath => RunMode::HoldWheelSpeeds,
+            RunMode::HoldWheelSpeeds => RunMode::FollowPath,
+        }
+    }
+}
+
+/// The supervisor's state (see the module doc).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum State {
+    /// Motors off; waiting for a press, the link or auto-arm.
+    Disarmed,
+    /// The controller drives the motors.
+    Armed,
+    /// Motors off; faults latched until acknowledged.
+    Faulted,
+    /// Motors off while the firmware writes flash.
+    Persisting,
+}
+
+/// What the motor bridge does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum Bridge {
+    /// Enabled, driving [`Supervised::duty`] (slow decay: 0 is a short brake).
+    Drive,
+    /// Enabled with both duties 0: the motors short-brake.
+    Brake,
+    /// In standby (TB6612 STBY / DRV8833 nSLEEP low): outputs off, the motors coast.
+    Coast,
+}
+
+impl Bridge {
+    /// Level of the bridge's enable line (STBY / nSLEEP): high unless coasting.
+    pub const fn enabled(self) -> bool {
+        !matches!(self, Bridge::Coast)
+    }
+}
+
+/// Why the chip last reset, decoded from the reset-flag register (RCC_CSR on an STM32).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum ResetCause {
+    /// Power-on reset.
+    PowerOn,
+    /// The supply dipped below the brown-out threshold while running: the battery sagged
+    /// or a connector bounced. Never auto-arms: the robot is no longer where it started.
+    BrownOut,
+    /// The reset pin (NRST), e.g. the board's reset button or a debug probe.
+    Pin,
+    /// The independent or window watchdog: the control loop stalled.
+    Watchdog,
+    /// A software reset (`SCB::sys_reset`), e.g. after a fault handler.
+    Software,
+    /// A low-power-management reset.
+    LowPower,
+    /// No flag set.
+    Unknown,
+}
+
+/// The raw reset flags of an STM32F4's RCC_CSR, one `bool` per flag.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ResetFlags {
+    /// LPWRRSTF: low-power reset.
+    pub low_power: bool,
+    /// WWDGRSTF: window watchdog reset.
+    pub window_watchdog: bool,
+    /// IWDGRSTF: independent watchdog reset.
+    pub independent_watchdog: bool,
+    /// SFTRSTF: software reset.
+    pub software: bool,
+    /// PORRSTF: power-on / power-down reset.
+    pub power_on: bool,
+    /// PINRSTF: NRST pin reset (also set by every other reset source, which drives NRST).
+    pub pin: bool,
+    /// BORRSTF: brown-out reset (also set by a power-on reset, together with PORRSTF).
+    pub brown_out: bool,
+}
+
+impl ResetCause {
+    /// The cause that explains `flags`. Every internal reset also pulls NRST low and so
+    /// sets the pin flag, so the pin is the cause only when nothing else is set. A
+    /// power-on sets both POR and BOR; BOR alone is a brown-out while running.
+    pub const fn from_flags(flags: ResetFlags) -> ResetCause {
+        if flags.independent_watchdog || flags.window_watchdog {
+            ResetCause::Watchdog
+        } else if flags.software {
+            ResetCause::Software
+        } else if flags.low_power {
+            ResetCause::LowPower
+        } else if flags.power_on {
+            ResetCause::PowerOn
+        } else if flags.brown_out {
+            ResetCause::BrownOut
+        } else if flags.pin {
+            ResetCause::Pin
+        } else {
+            ResetCause::Unknown
+        }
+    }
+
+    /// True for the resets a person causes on purpose (power-on, reset pin): the only
+    /// ones after which [`SupervisorConfig::auto_arm_after_steps`] may arm the motors.
+    pub const fn allows_auto_arm(self) -> bool {
+        matches!(self, ResetCause::PowerOn | ResetCause::Pin)
+    }
+}
+
+/// Faults latched by the supervisor. Any flag set means the robot is [`State::Faulted`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct Faults {
+    /// The controller's own faults (encoder jump, non-finite value), and the supervisor's
+    /// own non-finite check of the duties.
+    pub core: FaultFlags,
+    /// The control loop overran its period too many times in a row.
+    pub overrun: bool,
+    /// The control loop missed too many ticks, or was blind too long.
+    pub missed_ticks: bool,
+    /// The left wheel did not follow its drive (see [`StallCheck`]).
+    pub stall_left: bool,
+    /// The right wheel did not follow its drive (see [`StallCheck`]).
+    pub stall_right: bool,
+    /// The tracking error stayed above its bound (see [`DivergenceCheck`]).
+    pub divergence: bool,
+    /// The estimated pose left the geofence around the start.
+    pub geofence: bool,
+    /// The supply was below the battery's fault threshold (or unreadable).
+    pub supply_low: bool,
+    /// The supply was above what the bridge tolerates.
+    pub supply_high: bool,
+    /// An emergency stop was commanded.
+    pub emergency_stop: bool,
+}
+
+impl Faults {
+    /// True when any fault is latched.
+    pub const fn any(&self) -> bool {
+        self.core.any()
+            || self.overrun
+            || self.missed_ticks
+            || self.stall_left
+            || self.stall_right
+            || self.divergence
+            || self.geofence
+            || self.supply_low
+            || self.supply_high
+            || self.emergency_stop
+    }
+}
+
+/// Why the robot left [`State::Armed`] without a fault.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum DisarmReason {
+    /// The button was pressed.
+    Button,
+    /// The link asked.
+    Link,
+    /// [`SupervisorConfig::max_armed_steps`] ran out.
+    Timeout,
+    /// The link armed the robot and then fell silent for
+    /// [`SupervisorConfig::heartbeat_timeout_steps`].
+    LinkLost,
+}
+
+/// A state change, reported once in the step it happened (for the log).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum Event {
+    /// Motors armed in this mode.
+    Armed(RunMode),
+    /// Motors disarmed.
+    Disarmed(DisarmReason),
+    /// A fault stopped the motors; the flags are in [`Supervised::faults`].
+    Faulted,
+    /// The faults were acknowledged; the robot is Disarmed.
+    FaultsCleared,
+    /// A long press selected this mode for the next arming.
+    ModeSelected(RunMode),
+    /// The supply fell below the battery's warning threshold.
+    BatteryLow,
+    /// Entered [`State::Persisting`].
+    PersistStarted,
+    /// Left [`State::Persisting`].
+    PersistEnded,
+}
+
+/// How to arm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct ArmRequest {
+    /// What to do once armed.
+    pub mode: RunMode,
+    /// Wheel speeds to hold (rad/s) instead of [`SupervisorConfig::hold_speeds`], in
+    /// [`RunMode::HoldWheelSpeeds`].
+    pub hold_speeds: Option<WheelSpeeds>,
+    /// The motion (v m/s, ω rad/s, robot frame) the operator asserts the robot already
+    /// has, for a run that starts in motion ([`Controller::seed_motion`]).
+    pub initial_motion: Option<BodyVelocity>,
+}
+
+impl ArmRequest {
+    /// Arm into path following from rest.
+    pub const fn follow_path() -> Self {
+        Self {
+            mode: RunMode::FollowPath,
+            hold_speeds: None,
+            initial_motion: None,
+        }
+    }
+}
+
+/// An operator command from the link (or a simulation's script).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum Command {
+    /// Arm (from Disarmed only).
+    Arm(ArmRequest),
+    /// Disarm.
+    Disarm,
+    /// Stop now and latch a fault until acknowledged.
+    EmergencyStop,
+    /// Acknowledge the faults (from Faulted only).
+    ClearFaults,
+    /// The link is alive.
+    Heartbeat,
+    /// Enter [`State::Persisting`] (from Disarmed only).
+    BeginPersist,
+    /// Leave [`State::Persisting`].
+    EndPersist,
+}
+
+/// Why a [`Command`] was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum Refusal {
+    /// Not in this state (e.g. arming while Armed, Faulted or Persisting).
+    WrongState(State),
+    /// The button is held: the local kill wins over the link.
+    ButtonHeld,
+}
+
+impl core::fmt::Display for Refusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Refusal::WrongState(state) => write!(f, "not possible while {state:?}"),
+            Refusal::ButtonHeld => f.write_str("the robot's button is held (local stop)"),
+        }
+    }
+}
+
+/// What the firmware reads each step, besides the controller.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Inputs {
+    /// Encoder ticks since the previous step, forward positive.
+    pub ticks: TickDeltas,
+    /// Control periods since the previous step (1 on time).
+    pub periods: NonZeroU32,
+    /// Measured supply voltage, V.
+    pub supply_v: f32,
+    /// Raw (undebounced) button level, true while pressed.
+    pub button_pressed: bool,
+    /// True when the previous step was still running when this period began.
+    pub overrun: bool,
+    /// A counter the background work increments (any change proves it runs).
+    pub background_heartbeat: u32,
+    /// A command from the link, at most one per step.
+    pub command: Option<Command>,
+}
+
+impl Inputs {
+    /// A quiet, on-time step at rest on a supply of `supply_v` (V).
+    pub const fn at_supply(supply_v: f32) -> Self {
+        Self {
+            ticks: TickDeltas { left: 0, right: 0 },
+            periods: NonZeroU32::MIN,
+            supply_v,
+            button_pressed: false,
+            overrun: false,
+            background_heartbeat: 0,
+            command: None,
+        }
+    }
+}
+
+/// What the supervisor decided in one step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Supervised {
+    /// Duties to write now, each in [−1, 1]; exactly 0 unless Armed.
+    pub duty: MotorCommand,
+    /// What the bridge does (drive, brake, coast).
+    pub bridge: Bridge,
+    /// Feed the watchdog in this step (see the module doc for the rule).
+    pub feed_watchdog: bool,
+    /// State after this step.
+    pub state: State,
+    /// Mode used when armed.
+    pub run_mode: RunMode,
+    /// Latched faults.
+    pub faults: Faults,
+    /// The supply is below the battery's warning threshold.
+    pub battery_low: bool,
+    /// Overrun steps since boot (saturating).
+    pub overruns_total: u32,
+    /// Missed control ticks since boot (saturating).
+    pub missed_ticks_total: u32,
+    /// The state change of this step, if any.
+    pub event: Option<Event>,
+    /// The outcome of this step's [`Inputs::command`], if there was one.
+    pub command_result: Option<Result<(), Refusal>>,
+    /// The controller's duties of this step, before the supervisor zeroed anything (its
+    /// telemetry is [`Controller::telemetry`]).
+    pub controller_duty: MotorCommand,
+}
+
+/// The firmware's safety state machine (see the module doc).
+#[derive(Clone, Debug)]
+pub struct Supervisor {
+    config: SupervisorConfig,
+    /// The bridge's maximum supply, V (from the robot's parameters).
+    max_supply_v: f32,
+    state: State,
+    run_mode: RunMode,
+    faults: Faults,
+    button: Debouncer,
+    /// The current press has already acted (disarm, mode switch, arm): its release must not
+    /// act again.
+    press_consumed: bool,
+    /// Auto-arm is still allowed this boot.
+    auto_arm_pending: bool,
+    /// Steps since boot (saturating), for auto-arm.
+    steps_since_boot: u32,
+    /// Steps in the current Armed period.
+    armed_steps: u32,
+    /// The link armed the robot: heartbeats are due.
+    armed_by_link: bool,
+    steps_since_link_heartbeat: u32,
+    /// Steps left of braking after leaving Armed.
+    brake_steps_left: u32,
+    consecutive_overruns: u32,
+    overruns_total: u32,
+    last_heartbeat: Option<u32>,
+    steps_since_heartbeat: u32,
+    battery_low: bool,
+    /// [`Event::BatteryLow`] has been reported for the present low-battery spell.
+    battery_warned: bool,
+    missed: MissedTicks,
+    stall: Stall,
+    divergence: Divergence,
+    supply: Supply,
+}
+
+impl Supervisor {
+    /// A supervisor with `config` for a robot with `params`, after a reset caused by
+    /// `reset`. It starts [`State::Disarmed`] whatever the cause.
+    pub fn new(
+        config: SupervisorConfig,
+        params: &Params,
+        reset: ResetCause,
+    ) -> Result<Self, SupervisorConfigError> {
+        config.validate(params)?;
+        Ok(Self {
+            config,
+            max_supply_v: params.config().drive.max_supply_v,
+            state: State::Disarmed,
+            run_mode: config.initial_mode,
+            faults: Faults::default(),
+            button: Debouncer::new(),
+            press_consumed: false,
+            auto_arm_pending: config.auto_arm_after_steps.is_some() && reset.allows_auto_arm(),
+            steps_since_boot: 0,
+            armed_steps: 0,
+            armed_by_link: false,
+            steps_since_link_heartbeat: 0,
+            brake_steps_left: 0,
+            consecutive_overruns: 0,
+            overruns_total: 0,
+            last_heartbeat: None,
+            steps_since_heartbeat: 0,
+            battery_low: false,
+            battery_warned: false,
+            missed: MissedTicks::default(),
+            stall: Stall::default(),
+            divergence: Divergence::default(),
+            supply: Supply::default(),
+        })
+    }
+
+    /// The settings in use.
+    pub const fn config(&self) -> &SupervisorConfig {
+        &self.config
+    }
+
+    /// Replaces the settings (validated against `params`); refused unless Disarmed.
+    pub fn set_config(
+        &mut self,
+        config: SupervisorConfig,
+        params: &Params,
+    ) -> Result<(), SupervisorSetError> {
+        if self.state != State::Disarmed {
+            return Err(SupervisorSetError::NotDisarmed(self.state));
+        }
+        config
+            .validate(params)
+            .map_err(SupervisorSetError::Invalid)?;
+        self.config = config;
+        self.max_supply_v = params.config().drive.max_supply_v;
+        Ok(())
+    }
+
+    /// The current state.
+    pub const fn state(&self) -> State {
+        self.state
+    }
+
+    /// The mode used when armed.
+    pub const fn run_mode(&self) -> RunMode {
+        self.run_mode
+    }
+
+    /// Latched faults.
+    pub const fn faults(&self) -> Faults {
+        self.faults
+    }
+
+    /// One control period: processes `input`, sets `controller`'s mode, steps it, checks
+    /// the result and returns what the motors, the bridge and the watchdog get.
+    pub fn step(&mut self, controller: &mut Controller, input: Inputs) -> Supervised {
+        self.steps_since_boot = self.steps_since_boot.saturating_add(1);
+        self.track_liveness(&input);
+
+        // 1. The operator (button, link, auto-arm) and the timers.
+        let mut event = self.handle_button(input.button_pressed, controller);
+        let mut command_result = None;
+        if let Some(command) = input.command {
+            let (result, command_event) = self.handle_command(command, controller);
+            command_result = Some(result);
+            event = event.or(command_event);
+        }
+        if event.is_none() {
+            event = self.handle_timers(controller);
+        }
+
+        // 2. The controller runs in the mode the state allows.
+        let mode = match (self.state, self.run_mode) {
+            (State::Armed, RunMode::FollowPath) => Mode::FollowPath,
+            (State::Armed, RunMode::HoldWheelSpeeds) => {
+                Mode::HoldWheelSpeeds(self.config.hold_speeds)
+            }
+            (State::Disarmed | State::Faulted | State::Persisting, _) => Mode::Idle,
+        };
+        controller.set_mode(mode);
+        let controller_duty = controller.step(StepInput {
+            ticks: input.ticks,
+            periods: input.periods,
+            supply_v: input.supply_v,
+        });
+
+        // 3. Faults, whatever the state. Flags latch: OR, never overwrite.
+        self.check_faults(controller, controller_duty, input.periods);
+        if self.faults.any() && self.state != State::Faulted {
+            if self.state == State::Armed {
+                self.start_braking();
+            }
+            self.state = State::Faulted;
+            self.armed_by_link = false;
+            self.auto_arm_pending = false;
+            event = Some(Event::Faulted);
+        }
+        let battery_event = self.battery_event();
+        event = event.or(battery_event);
+
+        // 4. Outputs.
+        let armed = self.state == State::Armed;
+        let bridge = if armed {
+            Bridge::Drive
+        } else if self.brake_steps_left > 0 {
+            self.brake_steps_left -= 1;
+            Bridge::Brake
+        } else {
+            Bridge::Coast
+        };
+        Supervised {
+            duty: if armed {
+                controller_duty
+            } else {
+                MotorCommand::STOP
+            },
+            bridge,
+            feed_watchdog: self.watchdog_may_be_fed(),
+            state: self.state,
+            run_mode: self.run_mode,
+            faults: self.faults,
+            battery_low: self.battery_low,
+            overruns_total: self.overruns_total,
+            missed_ticks_total: self.missed.total,
+            event,
+            command_result,
+            controller_duty,
+        }
+    }
+
+    /// The watchdog-feeding rule (module doc): the loop is not late and the background runs.
+    fn watchdog_may_be_fed(&self) -> bool {
+        self.consecutive_overruns < self.config.max_consecutive_overruns
+            && self.steps_since_heartbeat < self.config.background_timeout_steps
+    }
+
+    fn track_liveness(&mut self, input: &Inputs) {
+        // Counted before this step's command: a heartbeat in it restarts from 0.
+        self.steps_since_link_heartbeat = self.steps_since_link_heartbeat.saturating_add(1);
+        if input.overrun {
+            self.consecutive_overruns = self.consecutive_overruns.saturating_add(1);
+            self.overruns_total = self.overruns_total.saturating_add(1);
+        } else {
+            self.consecutive_overruns = 0;
+        }
+        if self.last_heartbeat == Some(input.background_heartbeat) {
+            self.steps_since_heartbeat = self.steps_since_heartbeat.saturating_add(1);
+        } else {
+            self.last_heartbeat = Some(input.background_heartbeat);
+            self.steps_since_heartbeat = 0;
+        }
+    }
+
+    /// Every check of step 3; sets the latched flags.
+    fn check_faults(&mut self, controller: &Controller, duty: MotorCommand, periods: NonZeroU32) {
+        let t = controller.telemetry();
+        self.faults.core = self.faults.core.union(controller.faults());
+        let duty_ok = [duty.left, duty.right]
+            .iter()
+            .all(|d| d.is_finite() && math::abs(*d) <= 1.0);
+        if !duty_ok {
+            self.faults.core.non_finite = true;
+        }
+        if self.consecutive_overruns >= self.config.max_consecutive_overruns {
+            self.faults.overrun = true;
+        }
+        // A flash erase stalls the CPU on purpose: its missed ticks are not a fault.
+        let missed_fault = self.missed.update(periods.get(), &self.config.missed_ticks);
+        if missed_fault && self.state != State::Persisting {
+            self.faults.missed_ticks = true;
+        }
+        if self.state == State::Armed {
+            let [left, right] = self.stall.update(t, &self.config.stall);
+            self.faults.stall_left |= left;
+            self.faults.stall_right |= right;
+            if self.run_mode == RunMode::FollowPath {
+                if let Some(check) = self.config.divergence {
+                    if self.divergence.update(t, periods.get(), &check) {
+                        self.faults.divergence = true;
+                    }
+                }
+                if let Some(radius) = self.config.geofence_radius_m {
+                    if outside_geofence(&t.pose, &self.config.start_pose, radius) {
+                        self.faults.geofence = true;
+                    }
+                }
+            }
+        } else {
+            self.stall.reset();
+        }
+        let supply = self
+            .supply
+            .update(t.supply_v, &self.config.battery, self.max_supply_v);
+        self.faults.supply_low |= supply.low;
+        self.faults.supply_high |= supply.high;
+        self.battery_low = supply.warn;
+    }
+
+    /// The low-battery warning's event, once each time the supply falls below the
+    /// warning threshold.
+    fn battery_event(&mut self) -> Option<Event> {
+        if !self.battery_low {
+            self.battery_warned = false;
+            return None;
+        }
+        if self.battery_warned || self.faults.supply_low {
+            return None;
+        }
+        self.battery_warned = true;
+        Some(Event::BatteryLow)
+    }
+
+    fn handle_button(&mut self, raw: bool, controller: &mut Controller) -> Option<Event> {
+        let press = self.button.update(
+            raw,
+            self.config.debounce_steps,
+            self.config.long_press_steps,
+        )?;
+        // Any use of the button cancels a pending auto-arm: the operator is in charge.
+        self.auto_arm_pending = false;
+        match (press, self.state) {
+            (Press::Down, State::Armed) => {
+                // Stop on the press itself, not on its release.
+                self.press_consumed = true;
+                self.disarm(controller);
+                Some(Event::Disarmed(DisarmReason::Button))
+            }
+            (Press::Down, _) => {
+                self.press_consumed = false;
+                None
+            }
+            (Press::Long, State::Disarmed) if !self.press_consumed => {
+                self.press_consumed = true;
+                self.run_mode = self.run_mode.other();
+                Some(Event::ModeSelected(self.run_mode))
+            }
+            (Press::Long, _) => None,
+            (Press::Up { .. }, _) if self.press_consumed => {
+                self.press_consumed = false;
+                None
+            }
+            (Press::Up { long: false }, State::Disarmed) => {
+                Some(self.arm(controller, self.arm_request_for(self.run_mode), false))
+            }
+            (Press::Up { long: false }, State::Faulted) => Some(self.clear_faults(controller)),
+            (Press::Up { .. }, _) => None,
+        }
+    }
+
+    fn handle_command(
+        &mut self,
+        command: Command,
+        controller: &mut Controller,
+    ) -> (Result<(), Refusal>, Option<Event>) {
+        let wrong_state = Err(Refusal::WrongState(self.state));
+        match (command, self.state) {
+            (Command::Heartbeat, _) => {
+                self.steps_since_link_heartbeat = 0;
+                (Ok(()), None)
+            }
+            (Command::EmergencyStop, _) => {
+                self.faults.emergency_stop = true;
+                (Ok(()), None)
+            }
+            (Command::Arm(_), State::Disarmed) if self.button.pressed() => {
+                (Err(Refusal::ButtonHeld), None)
+            }
+            (Command::Arm(request), State::Disarmed) => {
+                self.auto_arm_pending = false;
+                (Ok(()), Some(self.arm(controller, request, true)))
+            }
+            (Command::Disarm, State::Armed) => {
+                self.disarm(controller);
+                (Ok(()), Some(Event::Disarmed(DisarmReason::Link)))
+            }
+            // Disarming a robot that is not armed is already done.
+            (Command::Disarm, _) => (Ok(()), None),
+            (Command::ClearFaults, State::Faulted) => (Ok(()), Some(self.clear_faults(controller))),
+            (Command::BeginPersist, State::Disarmed) => {
+                self.state = State::Persisting;
+                (Ok(()), Some(Event::PersistStarted))
+            }
+            (Command::EndPersist, State::Persisting) => {
+                // The erase's missed ticks must not count against the next window.
+                self.missed.restart_window();
+                self.state = State::Disarmed;
+                (Ok(()), Some(Event::PersistEnded))
+            }
+            (Command::Arm(_) | Command::ClearFaults | Command::BeginPersist, _)
+            | (Command::EndPersist, _) => (wrong_state, None),
+        }
+    }
+
+    fn handle_timers(&mut self, controller: &mut Controller) -> Option<Event> {
+        match self.state {
+            State::Disarmed if self.auto_arm_pending => {
+                let due = self.config.auto_arm_after_steps.unwrap_or(u32::MAX);
+                if self.steps_since_boot >= due && !self.button.pressed() {
+                    Some(self.arm(controller, self.arm_request_for(self.run_mode), false))
+                } else {
+                    None
+                }
+            }
+            State::Armed => {
+                self.armed_steps = self.armed_steps.saturating_add(1);
+                if self.armed_by_link
+                    && self.steps_since_link_heartbeat >= self.config.heartbeat_timeout_steps
+                {
+                    self.disarm(controller);
+                    return Some(Event::Disarmed(DisarmReason::LinkLost));
+                }
+                match self.config.max_armed_steps {
+                    Some(max) if self.armed_steps >= max => {
+                        self.disarm(controller);
+                        Some(Event::Disarmed(DisarmReason::Timeout))
+                    }
+                    _ => None,
+                }
+            }
+            State::Disarmed | State::Faulted | State::Persisting => None,
+        }
+    }
+
+    /// The request the button and auto-arm make for `mode`.
+    const fn arm_request_for(&self, mode: RunMode) -> ArmRequest {
+        ArmRequest {
+            mode,
+            hold_speeds: None,
+            initial_motion: None,
+        }
+    }
+
+    fn arm(&mut self, controller: &mut Controller, request: ArmRequest, by_link: bool) -> Event {
+        self.auto_arm_pending = false;
+        self.state = State::Armed;
+        self.run_mode = request.mode;
+        if let Some(speeds) = request.hold_speeds {
+            if speeds.left_rad_s.is_finite() && speeds.right_rad_s.is_finite() {
+                self.config.hold_speeds = speeds;
+            }
+        }
+        self.armed_steps = 0;
+        self.armed_by_link = by_link;
+        self.steps_since_link_heartbeat = 0;
+        self.brake_steps_left = 0;
+        self.stall.reset();
+        self.divergence.reset();
+        if request.mode == RunMode::FollowPath {
+            // The robot has been put down at the start; forget where odometry drifted to
+            // while it was carried. Leaving Idle for FollowPath restarts the reference.
+            controller.set_pose(self.config.start_pose);
+        }
+        if let Some(motion) = request.initial_motion {
+            controller.seed_motion(motion);
+        }
+        Event::Armed(self.run_mode)
+    }
+
+    fn disarm(&mut self, controller: &mut Controller) {
+        self.state = State::Disarmed;
+        self.armed_by_link = false;
+        self.start_braking();
+        controller.set_mode(Mode::Idle);
+    }
+
+    fn start_braking(&mut self) {
+        self.brake_steps_left = self.config.brake_steps;
+    }
+
+    fn clear_faults(&mut self, controller: &mut Controller) -> Event {
+        self.faults = Faults::default();
+        self.consecutive_overruns = 0;
+        self.missed.restart_window();
+        self.supply = Supply::default();
+        controller.clear_faults();
+        self.state = State::Disarmed;
+        Event::FaultsCleared
+    }
+}
+
+/// Why [`Supervisor::set_config`] refused new settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SupervisorSetError {
+    /// Only while Disarmed.
+    NotDisarmed(State),
+    /// The settings are invalid.
+    Invalid(SupervisorConfigError),
+}
+
+#[cfg(test)]
+mod tests;

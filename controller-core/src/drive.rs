@@ -119,7 +119,7 @@ impl SupplyFilter {
     /// the filter holds its value and the caller's range checks judge it.
     pub fn update(&mut self, supply_v: f32) -> f32 {
         // NaN fails both comparisons.
-        if supply_v >= 0.0 && supply_v < f32::INFINITY {
+        if (0.0..f32::INFINITY).contains(&supply_v) {
             self.filtered_v += self.weight * (supply_v - self.filtered_v);
             self.weight = self.alpha;
         }

@@ -31,6 +31,8 @@ mod image;
 mod panic_names;
 mod report;
 mod source_lines;
+#[cfg(test)]
+mod test_support;
 mod thumb;
 
 use std::fmt;
@@ -225,7 +227,89 @@ fn build_firmware(ctx: &Context, features: &[&str]) -> Result<PathBuf> {
 
 #[cfg(test)]
 mod tests {
+    use super::test_support::*;
     use super::*;
+
+    fn root(spec: &str) -> Root {
+        Root::parse(spec).unwrap()
+    }
+
+    #[test]
+    fn a_panic_path_is_printed_from_the_root_one_function_a_line() {
+        let image = program().image();
+        let roots = [Root::control_interrupt(), root("USART2:38")];
+        let findings = analyze(&image, &roots, None).unwrap();
+
+        let [control, link] = &findings[..] else {
+            panic!("two roots, two findings");
+        };
+        assert!(!control.is_clean());
+        assert_eq!(
+            control.verdict(),
+            "control interrupt TIM5 (IRQ 50): 5 functions reachable, 1 panic path, \
+             no indirect call"
+        );
+        assert_eq!(
+            control.details(),
+            "panic path 1 of 1: core::panicking::panic_bounds_check\n\
+             \x20   0x08000100  TIM5\n\
+             \x20   0x08000300  middle  (bl at 0x08000106)\n\
+             \x20   0x08000400  tail  (b at 0x08000302)\n\
+             \x20   0x08000500  core::panicking::panic_bounds_check  (bl at 0x08000400)\n"
+        );
+        assert!(control.has_panic_site_in("tail"));
+        assert!(!control.has_panic_site_in("middle"));
+
+        assert!(link.is_clean());
+        assert_eq!(
+            link.verdict(),
+            "interrupt USART2 (IRQ 38): 2 functions reachable, no panic path, no indirect call"
+        );
+        assert_eq!(link.details(), "");
+    }
+
+    #[test]
+    fn indirect_calls_fail_the_root_and_are_named() {
+        let image = program().image();
+        let roots = [root("unreachable:7")];
+        let findings = analyze(&image, &roots, None).unwrap();
+        let only = &findings[0];
+        assert_eq!(
+            only.verdict(),
+            "interrupt unreachable (IRQ 7): 2 functions reachable, 1 panic path, \
+             1 indirect call"
+        );
+        assert!(only.details().contains(
+            "indirect call `blx r3` at 0x08000600 in unreachable: its target is unknown\n\
+             \x20   0x08000600  unreachable\n"
+        ));
+    }
+
+    #[test]
+    fn a_root_must_be_bound_to_its_handler() {
+        let image = program().image();
+        // IRQ 7's vector points at `unreachable`, not at a function named EXTI1.
+        let error = analyze(&image, &[root("EXTI1:7")], None).err().unwrap();
+        assert!(
+            format!("{error:#}").contains("not at a handler named EXTI1"),
+            "{error:#}"
+        );
+        // IRQ 3's vector is empty (no Thumb bit); IRQ 60's lies past the table.
+        assert!(analyze(&image, &[root("EXTI3:3")], None).is_err());
+        assert!(analyze(&image, &[root("DMA2:60")], None).is_err());
+    }
+
+    #[test]
+    fn an_image_without_a_panic_handler_is_refused() {
+        let mut asm = program();
+        asm.functions
+            .retain(|f| !f.name.ends_with("rust_begin_unwind"));
+        let image = asm.image();
+        let error = analyze(&image, &[Root::control_interrupt()], None)
+            .err()
+            .unwrap();
+        assert!(format!("{error}").contains("no panic handler"), "{error}");
+    }
 
     #[test]
     fn roots_from_the_command_line() {

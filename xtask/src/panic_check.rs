@@ -22,6 +22,12 @@
 //! which is a root of its own if it must not panic. `UDF` traps (after calls that cannot
 //! return) are not panics and are not reported.
 //!
+//! A panic path is one call instruction. The optimiser may merge the panics of several
+//! source lines into one call (DWARF then gives line `?` or one of them), so fixing the
+//! reported line can bring the next one to light: run the check again until it passes.
+//! The source lines under each call site come from the ELF's DWARF, inlined frames
+//! innermost first; they are for the reader, the proof does not use them.
+//!
 //! The CI step also builds the firmware with the test-only feature `panic-canary`, which
 //! adds one bounds-checked indexing in a function the control task calls, and requires
 //! the check to find it: a check that cannot see that panic path would pass anything.

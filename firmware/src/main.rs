@@ -27,6 +27,8 @@
 mod board;
 mod encoder;
 mod motor;
+#[cfg(feature = "panic-canary")]
+mod panic_canary;
 mod robot;
 mod telemetry;
 
@@ -264,6 +266,10 @@ mod app {
             let t = l.controller.telemetry();
             let _dropped = report::spawn(Report::new(*l.step, &out, t, cycles, *l.max_cycles));
         }
+
+        // Test builds only: a known panic path for `cargo xtask panic-check` to find.
+        #[cfg(feature = "panic-canary")]
+        core::hint::black_box(crate::panic_canary::index());
 
         *l.step = l.step.wrapping_add(1);
         // Fixed rate: if the next tick already came while this step ran, it overran.

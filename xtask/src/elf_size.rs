@@ -220,7 +220,7 @@ pub fn check_budget(
 
 /// The CI step: release-builds the firmware and checks its ELF against the budget.
 pub fn check_firmware(ctx: &Context) -> Result<()> {
-    let executables = build_target_executables(ctx, "firmware")?;
+    let executables = build_target_executables(ctx, "firmware", &[])?;
     let elf = match executables.as_slice() {
         [one] => one,
         [] => bail!(

@@ -2,15 +2,18 @@
 //!
 //! | command | what it does |
 //! |---|---|
-//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU program), host tests, firmware build and size budget, the core on an emulated Cortex-M4F. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
+//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU program), host tests, firmware build and size budget, the panic check, the core on an emulated Cortex-M4F. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
 //! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` |
 //! | `size` | builds the firmware and checks it against the flash and RAM budget |
 //! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
+//! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt reaches no panic and no indirect call |
+//! | `panic-check ELF [--root NAME:IRQ]…` | the same proof on a given ELF (no build), from the given interrupts (default `TIM5:50`) |
 //!
 //! Every step runs even if an earlier one failed, so one CI log shows every problem.
 
 mod elf_size;
+mod panic_check;
 mod qemu;
 mod setup;
 mod steps;
@@ -25,12 +28,18 @@ use crate::steps::{Context, Step};
 const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
-  ci      run every check (what CI runs): setup, fmt, clippy, tests, firmware size, QEMU
+  ci      run every check (what CI runs): setup, fmt, clippy, tests, firmware size,
+          panic check, QEMU
   setup   install what is missing: ARM target, flip-link, qemu-system-arm
   size    build the firmware and check its flash / static RAM budget
   qemu    run the core on an emulated Cortex-M4F and compare with the host
   size-of ELF
-          flash and static RAM of an ARM ELF against the firmware budget (no build)";
+          flash and static RAM of an ARM ELF against the firmware budget (no build)
+  panic-check
+          build the firmware and prove that its control interrupt (TIM5) cannot reach a
+          panic or an indirect call; the `panic-canary` build must fail the same check
+  panic-check ELF [--root NAME:IRQ]...
+          the same proof on an ELF (no build), from the given interrupts (default TIM5:50)";
 
 fn main() -> ExitCode {
     match run() {
@@ -59,6 +68,13 @@ fn run() -> Result<bool> {
                     .map(drop)
             })]
         }
+        ["panic-check"] => vec![steps::setup(), steps::panic_check()],
+        ["panic-check", ref rest @ ..] => {
+            let (elf, roots) = panic_check_arguments(rest)?;
+            vec![Step::new("panic check of an ELF", move |ctx| {
+                panic_check::check_elf(&elf, &roots, &ctx.root)
+            })]
+        }
         ["help" | "-h" | "--help"] => {
             println!("{USAGE}");
             return Ok(true);
@@ -66,6 +82,28 @@ fn run() -> Result<bool> {
         _ => bail!("unknown command {args:?}\n\n{USAGE}"),
     };
     Ok(steps::run_all(&ctx, &selected))
+}
+
+/// `ELF [--root NAME:IRQ]...` of `panic-check`: the ELF and the roots (default: the
+/// control interrupt).
+fn panic_check_arguments(args: &[&str]) -> Result<(PathBuf, Vec<panic_check::Root>)> {
+    let mut elf = None;
+    let mut roots = Vec::new();
+    let mut args = args.iter();
+    while let Some(&arg) = args.next() {
+        if arg == "--root" {
+            let spec = args.next().context("--root needs NAME:IRQ")?;
+            roots.push(panic_check::Root::parse(spec)?);
+        } else if elf.is_none() && !arg.starts_with('-') {
+            elf = Some(PathBuf::from(arg));
+        } else {
+            bail!("panic-check: unexpected argument `{arg}`\n\n{USAGE}");
+        }
+    }
+    if roots.is_empty() {
+        roots = panic_check::default_roots();
+    }
+    Ok((elf.context("panic-check: no ELF given")?, roots))
 }
 
 /// The workspace root: the parent of this crate's manifest directory.

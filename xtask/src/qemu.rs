@@ -72,7 +72,7 @@ fn instructions(output: &str, what: &str) -> Result<u64> {
 
 /// The CI step (see the module doc).
 pub fn check(ctx: &Context) -> Result<()> {
-    let executables = build_target_executables(ctx, "qemu-m4f")?;
+    let executables = build_target_executables(ctx, "qemu-m4f", &[])?;
     let elf = executables
         .first()
         .context("building qemu-m4f produced no executable")?;

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Context as _, Result};
 
-use crate::{elf_size, qemu, setup};
+use crate::{elf_size, panic_check, qemu, setup};
 
 /// The ARM target of the firmware and the QEMU program.
 pub const TARGET: &str = "thumbv7em-none-eabihf";
@@ -64,10 +64,15 @@ pub fn display_command(cmd: &Command) -> String {
     })
 }
 
-/// Builds `package` for [`TARGET`] in release and returns the paths of the executables
-/// it produced (diagnostics go to the terminal as usual).
-pub fn build_target_executables(ctx: &Context, package: &str) -> Result<Vec<PathBuf>> {
-    let mut cmd = ctx.cargo(&[
+/// Builds `package` for [`TARGET`] in release, with `extra_args` (e.g. `--features`,
+/// possibly empty), and returns the paths of the executables it produced (diagnostics go
+/// to the terminal as usual).
+pub fn build_target_executables(
+    ctx: &Context,
+    package: &str,
+    extra_args: &[&str],
+) -> Result<Vec<PathBuf>> {
+    let mut args = vec![
         "build",
         "--release",
         "--package",
@@ -75,7 +80,9 @@ pub fn build_target_executables(ctx: &Context, package: &str) -> Result<Vec<Path
         "--target",
         TARGET,
         "--message-format=json-render-diagnostics",
-    ]);
+    ];
+    args.extend_from_slice(extra_args);
+    let mut cmd = ctx.cargo(&args);
     let shown = display_command(&cmd);
     println!("$ {shown}");
     let output = cmd
@@ -177,7 +184,10 @@ pub fn ci() -> Vec<Step> {
                 clippy_for_target(
                     ctx,
                     "firmware",
-                    &["--features", "drv8833,nucleo,auto-arm,bring-up,path-line"],
+                    &[
+                        "--features",
+                        "drv8833,nucleo,auto-arm,bring-up,path-line,panic-canary",
+                    ],
                 )?;
                 clippy_for_target(
                     ctx,
@@ -198,6 +208,7 @@ pub fn ci() -> Vec<Step> {
             run_command(&mut ctx.cargo(&args))
         }),
         firmware_size(),
+        panic_check(),
         qemu(),
     ]
 }
@@ -231,6 +242,15 @@ pub fn firmware_size() -> Step {
     Step::new(
         "firmware: release build and size budget",
         elf_size::check_firmware,
+    )
+}
+
+/// The control interrupt of the release firmware cannot reach a panic (and the check does
+/// see the one the `panic-canary` build adds).
+pub fn panic_check() -> Step {
+    Step::new(
+        "firmware: no panic path from the control interrupt (release ELF, with a canary)",
+        panic_check::check_firmware,
     )
 }
 

@@ -43,13 +43,13 @@ pub struct FilterTiming {
 
 impl FilterTiming {
     /// A level held at least this long always passes, s: N / f_SAMPLING.
-    pub fn pass_s(&self) -> f32 {
-        f32::from(self.samples) / self.sample_hz
+    pub const fn pass_s(&self) -> f32 {
+        self.samples as f32 / self.sample_hz
     }
 
     /// A pulse shorter than this is always rejected, s: (N − 1) / f_SAMPLING.
-    pub fn reject_s(&self) -> f32 {
-        f32::from(self.samples.saturating_sub(1)) / self.sample_hz
+    pub const fn reject_s(&self) -> f32 {
+        self.samples.saturating_sub(1) as f32 / self.sample_hz
     }
 }
 
@@ -76,9 +76,9 @@ const CODES: [(u32, u8); 16] = [
 
 /// The timing of ICxF `code` (taken modulo 16) on a timer clocked at `timer_clock_hz`
 /// with `ckd`.
-pub fn timing(code: u8, timer_clock_hz: u32, ckd: Ckd) -> FilterTiming {
+pub const fn timing(code: u8, timer_clock_hz: u32, ckd: Ckd) -> FilterTiming {
     let code = code & 0xF;
-    let (divider, samples) = CODES[usize::from(code)];
+    let (divider, samples) = CODES[code as usize];
     let timer_hz = timer_clock_hz as f32;
     let sample_hz = if divider == 0 {
         timer_hz
@@ -94,7 +94,7 @@ pub fn timing(code: u8, timer_clock_hz: u32, ckd: Ckd) -> FilterTiming {
 
 /// Cycles per second of one encoder channel, Hz: `lines_per_motor_rev` cycles per motor
 /// turn, `gear_ratio` motor turns per wheel turn, the wheel at `wheel_speed_rad_s`.
-pub fn channel_frequency_hz(
+pub const fn channel_frequency_hz(
     lines_per_motor_rev: u32,
     gear_ratio: f32,
     wheel_speed_rad_s: f32,
@@ -104,7 +104,7 @@ pub fn channel_frequency_hz(
 
 /// The shortest high or low time of one channel, s, at `wheel_speed_rad_s`, when the
 /// encoder's duty cycle may be as low as `min_duty` (0.5 for an ideal encoder).
-pub fn shortest_pulse_s(
+pub const fn shortest_pulse_s(
     lines_per_motor_rev: u32,
     gear_ratio: f32,
     wheel_speed_rad_s: f32,
@@ -116,13 +116,15 @@ pub fn shortest_pulse_s(
 /// The filter that rejects the longest glitches while still passing any level held for
 /// `max_pass_s`: among the codes with [`FilterTiming::pass_s`] ≤ `max_pass_s`, the one
 /// with the longest [`FilterTiming::reject_s`]. Code 0 (no filter) if none fits.
-pub fn strongest_filter(timer_clock_hz: u32, ckd: Ckd, max_pass_s: f32) -> FilterTiming {
+pub const fn strongest_filter(timer_clock_hz: u32, ckd: Ckd, max_pass_s: f32) -> FilterTiming {
     let mut best = timing(0, timer_clock_hz, ckd);
-    for code in 1..16u8 {
+    let mut code = 1;
+    while code < 16 {
         let t = timing(code, timer_clock_hz, ckd);
         if t.pass_s() <= max_pass_s && t.reject_s() > best.reject_s() {
             best = t;
         }
+        code += 1;
     }
     best
 }

@@ -1,6 +1,6 @@
-//! The system clock: HSI → PLL → [`SYSCLK_HZ`](crate::board::SYSCLK_HZ), with the voltage
+//! The system clock: HSI → PLL → `board::SYSCLK_HZ`, with the voltage
 //! scale the datasheet requires, then a read-back of every register against
-//! [`CLOCK_PLAN`](crate::board::CLOCK_PLAN).
+//! `board::CLOCK_PLAN`.
 //!
 //! RM0383 (PWR_CR.VOS) allows the voltage scale to change only while the PLL is off, and
 //! the new scale takes effect only once the PLL is on; PWR_CSR.VOSRDY rises when the

@@ -90,7 +90,7 @@ impl Encoders {
     }
 
     /// Ticks counted since the previous call, forward positive (see
-    /// [`polarity`](crate::board::polarity)).
+    /// `board::polarity`).
     pub fn read(&mut self) -> TickDeltas {
         let left = self.left_count.delta(reading(self.left.count()).1);
         let right = self.right_count.delta(reading(self.right.count()).1);

@@ -10,7 +10,7 @@
 //!    the voltage scale it needs ([`clock`]), configures the pins ([`board`]), starts
 //!    20 kHz PWM with the driver in standby, the two quadrature encoders with their input
 //!    filters, the supply ADC ([`supply`]), builds the controller for this robot
-//!    ([`robot`]) and its safety [`Supervisor`], starts the 1 kHz tick ([`tick`]) and,
+//!    ([`robot`]) and its safety `Supervisor`, starts the 1 kHz tick ([`tick`]) and,
 //!    last, shortens the watchdog to 10 ms ([`watchdog`]).
 //! 2. [`app::control`] runs on every tick (a compare on a free-running hardware timer, so
 //!    drift-free, and it counts the periods it missed): read the encoders, the button and
@@ -23,7 +23,7 @@
 //!    sleeps.
 //!
 //! Everything that decides what the motors get lives in `controller_core::supervisor`,
-//! where host tests exercise it. If anything panics or faults, [`panic`] and `HardFault`
+//! where host tests exercise it. If anything panics or faults, [`panic()`] and `HardFault`
 //! force the PWM outputs and the driver's inputs low first, then write the panic record,
 //! then log.
 

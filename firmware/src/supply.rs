@@ -1,5 +1,5 @@
 //! The supply voltage on PA1 (ADC1 channel 1) through the divider of
-//! [`SUPPLY_DIVIDER`](crate::board::SUPPLY_DIVIDER), read without ever waiting.
+//! `board::SUPPLY_DIVIDER`, read without ever waiting.
 //!
 //! One software-started conversion per control step: [`Supply::start`] at the end of a
 //! step, [`Supply::read_volts`] at the start of the next, 1 ms later, long after the

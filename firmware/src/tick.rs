@@ -1,5 +1,5 @@
 //! The control tick: TIM5 (32 bits) counting freely at
-//! [`TICK_TIMER_HZ`](crate::board::TICK_TIMER_HZ), its channel-1 compare interrupt at the
+//! `board::TICK_TIMER_HZ`, its channel-1 compare interrupt at the
 //! next point of a fixed grid (`robot_app::hw::tick`).
 //!
 //! Registers (RM0383 §13.4, TIM2–TIM5): PSC = f_TIM / 1 MHz − 1 (99 on the F411), loaded

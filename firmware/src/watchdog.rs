@@ -10,7 +10,7 @@
 //! and RLR, wait for PVU = RVU = 0, feed.
 //!
 //! With a 10 ms watchdog a debugger's breakpoint resets the chip; see the
-//! `halt-stops-watchdog` feature ([`stop_while_halted`]).
+//! `halt-stops-watchdog` feature (`stop_while_halted`).
 
 use core::fmt;
 

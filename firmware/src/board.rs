@@ -15,7 +15,7 @@
 //! | Arm button (active low)     | PA0 / PC13 | GPIO in         | KEY (PA0)  | B1 USER (PC13)  |
 //! | Status LED                  | PC13 / PA5 | GPIO out        | C13 (low = on) | LD2 (PA5, high = on) |
 //! | Supply sense (divider)      | PA1  | ADC1_IN1, analog      | A1         | A1 (CN8-2)      |
-//! | Control tick                | —    | TIM5 update IRQ, 1 kHz | —         | —               |
+//! | Control tick                | —    | TIM5 CC1 IRQ, 1 kHz   | —          | —               |
 //! | SWD (probe)                 | PA13 / PA14 | SWDIO / SWCLK  | SWD header | ST-LINK         |
 //!
 //! The encoder inputs get the internal pull-ups (30–50 kΩ) and a digital filter
@@ -134,7 +134,8 @@ pub type LeftEncoderTimer = pac::TIM2;
 pub type RightEncoderTimer = pac::TIM4;
 /// Timer of both motor PWM channels.
 pub type PwmTimer = pac::TIM3;
-/// Timer whose update interrupt is the 1 kHz control tick (interrupt `TIM5`).
+/// Timer whose channel-1 compare is the 1 kHz control tick (interrupt `TIM5`), counting
+/// freely at 1 MHz.
 pub type TickTimer = pac::TIM5;
 
 /// Motor driver direction / standby output.

@@ -5,12 +5,18 @@
 //! The scripts are passed here rather than in `.cargo/config.toml` because another
 //! `no_std` program in the workspace (in `tests/`) is built for the same target without
 //! defmt.
+//!
+//! `link.x` says `INCLUDE memory.x`, and the linker looks in its working directory (the
+//! workspace root, where cargo runs rustc) before the search path: a `memory.x` there
+//! would silently replace the chip's map written here (it did: the STM32F401 build used
+//! the F411's 128 KiB of RAM). So the F411 map lives in `memory/stm32f411.x`, and this
+//! script refuses to build while a `memory.x` sits in the workspace root.
 
 use std::env;
 use std::fs;
 use std::path::PathBuf;
 
-/// `memory.x` of the port examples (the F411's is the workspace's top-level `memory.x`).
+/// `memory.x` of the port examples (the F411's is `memory/stm32f411.x`).
 const MEMORY_F401: &str = "/* STM32F401CC: 256 KiB flash, 64 KiB SRAM. */
 MEMORY
 {
@@ -29,15 +35,22 @@ MEMORY
 fn main() {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets it"));
-    let top_level = manifest.join("..").join("memory.x");
+    let f411 = manifest.join("memory").join("stm32f411.x");
+    let shadowing = manifest.join("..").join("memory.x");
+    println!("cargo:rerun-if-changed={}", shadowing.display());
+    assert!(
+        !shadowing.exists(),
+        "{} would replace the chip's memory map at link time; remove it",
+        shadowing.display()
+    );
 
     let memory = if env::var_os("CARGO_FEATURE_STM32F401").is_some() {
         MEMORY_F401.to_owned()
     } else if env::var_os("CARGO_FEATURE_STM32F446").is_some() {
         MEMORY_F446.to_owned()
     } else {
-        println!("cargo:rerun-if-changed={}", top_level.display());
-        fs::read_to_string(&top_level).expect("read the workspace's memory.x")
+        println!("cargo:rerun-if-changed={}", f411.display());
+        fs::read_to_string(&f411).expect("read memory/stm32f411.x")
     };
     fs::write(out.join("memory.x"), memory).expect("write memory.x to OUT_DIR");
 

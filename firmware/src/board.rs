@@ -14,33 +14,105 @@
 //! | DRV8833 only: AIN2 / BIN2   | PB0 / PB1 | TIM3 CH3 / CH4   | B0 / B1    | A3 / CN10-24    |
 //! | Arm button (active low)     | PA0 / PC13 | GPIO in         | KEY (PA0)  | B1 USER (PC13)  |
 //! | Status LED                  | PC13 / PA5 | GPIO out        | C13 (low = on) | LD2 (PA5, high = on) |
-//! | Control tick                | —    | TIM5 update IRQ, 1 kHz | —         | —               |
+//! | Supply sense (divider)      | PA1  | ADC1_IN1, analog      | A1         | A1 (CN8-2)      |
+//! | Control tick                | —    | TIM5 CC1 IRQ, 1 kHz   | —          | —               |
 //! | SWD (probe)                 | PA13 / PA14 | SWDIO / SWCLK  | SWD header | ST-LINK         |
 //!
-//! The encoder inputs get the internal pull-ups (≈ 40 kΩ), enough for open-collector Hall
-//! encoders. Put a 10 kΩ pull-down on STBY so the driver stays in standby while the MCU
-//! is in reset (its pins float then).
+//! The encoder inputs get the internal pull-ups (30–50 kΩ) and a digital filter
+//! ([`encoder`](crate::encoder)); add 4.7 kΩ pull-ups to 3.3 V at the MCU for
+//! open-collector encoders next to the motor wires. Put a 10 kΩ pull-down on STBY so the
+//! driver stays in standby while the MCU is in reset (its pins float then). The supply
+//! divider is 39 kΩ (supply to PA1) over 10 kΩ (PA1 to GND) with 100 nF from PA1 to GND
+//! ([`supply`](crate::supply)).
+//!
+//! Everything chip-specific the firmware writes is derived here from [`CHIP`] and
+//! [`SYSCLK_HZ`] through `robot_app::hw`, whose host tests check it against the
+//! reference manuals.
 
 use core::convert::Infallible;
 
-use stm32f4xx_hal::gpio::{self, Input, Output, PushPull};
+use robot_app::hw::chip::{Chip, HSI_HZ};
+use robot_app::hw::clock::{self, ClockPlan};
+use robot_app::hw::supply::{AdcPrescaler, Divider, SampleTime};
+use robot_app::hw::watchdog::IwdgConfig;
+use stm32f4xx_hal::gpio::{self, Analog, Input, Output, PushPull};
 use stm32f4xx_hal::hal::digital::InputPin;
 use stm32f4xx_hal::pac;
 
-/// System clock from HSI (16 MHz RC) through the PLL, Hz. No crystal needed, so the same
-/// binary runs on a Black Pill (25 MHz crystal) and a Nucleo (no crystal, 8 MHz MCO).
+/// The part this build is for (one cargo feature each).
+#[cfg(feature = "stm32f411")]
+pub const CHIP: Chip = Chip::F411;
+/// The part this build is for (one cargo feature each).
+#[cfg(feature = "stm32f401")]
+pub const CHIP: Chip = Chip::F401;
+/// The part this build is for (one cargo feature each).
+#[cfg(feature = "stm32f446")]
+pub const CHIP: Chip = Chip::F446;
+
+/// System clock from the HSI (16 MHz RC) through the PLL, Hz. No crystal needed, so the
+/// same binary runs on a Black Pill (25 MHz crystal) and a Nucleo (no crystal).
 #[cfg(not(feature = "stm32f401"))]
 pub const SYSCLK_HZ: u32 = 100_000_000;
-/// System clock from HSI through the PLL, Hz (84 MHz is the STM32F401's maximum).
+/// System clock of the STM32F401, Hz: 72 MHz, not its 84 MHz maximum, because for 84 MHz
+/// from the HSI stm32f4xx-hal writes PLLN = 168, below RM0368's minimum of 192; for 72 MHz
+/// it writes M = 8, N = 216, P = 6, which RM0368 allows.
 #[cfg(feature = "stm32f401")]
-pub const SYSCLK_HZ: u32 = 84_000_000;
+pub const SYSCLK_HZ: u32 = 72_000_000;
+
+/// The clock configuration for [`CHIP`] at [`SYSCLK_HZ`]: PLL, bus dividers, flash wait
+/// states, voltage scale (`robot_app::hw::clock::plan`). `clock::configure` checks the
+/// registers against it after the HAL has written them.
+pub const CLOCK_PLAN: ClockPlan = match clock::plan(CHIP, HSI_HZ, SYSCLK_HZ) {
+    Ok(plan) => plan,
+    Err(_) => panic!("SYSCLK_HZ is not reachable within the chip's limits"),
+};
 
 /// Motor PWM frequency, Hz: above hearing.
 pub const PWM_HZ: u32 = 20_000;
+const _: () = assert!(
+    CLOCK_PLAN.tree.timclk1_hz % PWM_HZ == 0 && CLOCK_PLAN.tree.timclk1_hz / PWM_HZ <= 65_536,
+    "the PWM period must be a whole number of 16-bit timer counts"
+);
 
-/// Independent-watchdog timeout, ms, at the LSI's nominal 32 kHz (the LSI spreads over
-/// 17–47 kHz: the real timeout is 34–94 ms). The control task feeds it every 1 ms step.
-pub const WATCHDOG_TIMEOUT_MS: u32 = 50;
+/// Counting rate of the free-running tick timer (TIM5), Hz: 1 µs resolution.
+pub const TICK_TIMER_HZ: u32 = 1_000_000;
+const _: () = assert!(CLOCK_PLAN.tree.timclk1_hz % TICK_TIMER_HZ == 0);
+
+/// Independent watchdog while `init` runs: 250 ms at the typical LSI (170–471 ms over its
+/// spread), started before the clock set-up so that no wait in `init` can hang forever.
+pub const WATCHDOG_INIT: IwdgConfig = match IwdgConfig::for_timeout_us(250_000, CHIP.lsi_hz().1) {
+    Ok(config) => config,
+    Err(_) => panic!("init watchdog timeout out of range"),
+};
+
+/// Independent watchdog from the end of `init` on: 10 ms at the typical LSI (÷4, reload
+/// 79; 6.8–18.8 ms over the LSI's 17–47 kHz). The control task feeds it every 1 ms step.
+pub const WATCHDOG_RUN: IwdgConfig = match IwdgConfig::for_timeout_us(10_000, CHIP.lsi_hz().1) {
+    Ok(config) => config,
+    Err(_) => panic!("watchdog timeout out of range"),
+};
+
+/// The supply divider: 39 kΩ from the supply to PA1, 10 kΩ from PA1 to GND (ratio
+/// 0.2041, full scale 16.2 V at 3.3 V), with 100 nF from PA1 to GND (corner 200 Hz).
+pub const SUPPLY_DIVIDER: Divider = Divider {
+    top_ohm: 39_000.0,
+    bottom_ohm: 10_000.0,
+};
+
+/// V_DDA = V_REF+ on both boards (the 3.3 V regulator), V: the ADC's reference. Its
+/// tolerance (typically ±1–2 %) is the supply reading's.
+pub const ADC_REFERENCE_V: f32 = 3.3;
+
+/// ADCCLK prescaler: the smallest that keeps ADCCLK ≤ 36 MHz (25 MHz on the F411).
+pub const ADC_PRESCALER: AdcPrescaler =
+    match AdcPrescaler::for_pclk2(CLOCK_PLAN.tree.pclk2_hz, CHIP.max_adc_clock_hz()) {
+        Some(prescaler) => prescaler,
+        None => panic!("PCLK2 too fast for the ADC"),
+    };
+
+/// Supply sampling time: 480 ADCCLK cycles (19.2 µs at 25 MHz), long enough for a
+/// 276 kΩ source; the divider's 8 kΩ needs only 28 cycles.
+pub const SUPPLY_SAMPLE_TIME: SampleTime = SampleTime::Cycles480;
 
 /// Wiring polarity: set so that a positive duty drives the wheel forward and forward
 /// wheel rotation counts up. Flip after the bring-up check in the README.
@@ -62,7 +134,8 @@ pub type LeftEncoderTimer = pac::TIM2;
 pub type RightEncoderTimer = pac::TIM4;
 /// Timer of both motor PWM channels.
 pub type PwmTimer = pac::TIM3;
-/// Timer whose update interrupt is the 1 kHz control tick (interrupt `TIM5`).
+/// Timer whose channel-1 compare is the 1 kHz control tick (interrupt `TIM5`), counting
+/// freely at 1 MHz.
 pub type TickTimer = pac::TIM5;
 
 /// Motor driver direction / standby output.
@@ -113,6 +186,8 @@ pub struct Pins {
     pub button: ButtonPin,
     /// The status LED, off.
     pub led: Led,
+    /// The supply divider's output (ADC1 channel 1), analog mode.
+    pub supply: gpio::PA1<Analog>,
 }
 
 /// GPIOB pins that [`force_motors_off`] drives low: STBY (PB10) and the four direction
@@ -171,6 +246,7 @@ impl Pins {
             standby: gpiob.pb10.into_push_pull_output_in_state(Low),
             button,
             led,
+            supply: gpioa.pa1.into_analog(),
         }
     }
 }
@@ -198,9 +274,11 @@ impl Led {
     }
 }
 
-/// Stops both motors from any context, whatever owns the peripherals: TB6612 STBY and the
-/// direction inputs low, every PWM channel of [`PwmTimer`] forced inactive (low) and its
-/// compare registers zeroed. Used by the panic and hard-fault handlers.
+/// Stops both motors from any context, whatever owns the peripherals: the driver's enable
+/// line (TB6612 STBY, DRV8833 nSLEEP) and the direction inputs low, every PWM channel of
+/// [`PwmTimer`] forced inactive (low, at once: OCxM is not preloaded) and its compare
+/// registers zeroed. Both drivers then leave the motors coasting. Used by the panic and
+/// hard-fault handlers.
 ///
 /// # Safety
 ///
@@ -223,6 +301,12 @@ pub unsafe fn force_motors_off() {
 }
 
 /// Why the chip reset, read from RCC_CSR; clears the flags for the next boot.
+///
+/// RM0383 §6.3, RCC_CSR: BORRSTF is set "when a POR/PDR or BOR reset occurs", so after a
+/// power-on both PORRSTF and BORRSTF are set; a brown-out alone is BORRSTF without
+/// PORRSTF. Every internal reset also drives NRST low, so PINRSTF accompanies the other
+/// flags; a pin reset alone is PINRSTF with nothing else. (With the factory option bytes
+/// BOR is off and only the POR/PDR threshold resets the chip.)
 pub fn take_reset_flags(rcc: &pac::RCC) -> controller_core::supervisor::ResetFlags {
     let csr = rcc.csr().read();
     let flags = controller_core::supervisor::ResetFlags {

@@ -31,6 +31,11 @@ pub struct Report {
     pub faults: Faults,
     /// Overrun steps since boot.
     pub overruns: u32,
+    /// Control periods that passed without a step of their own since boot (a step that
+    /// started more than one period late counts the periods it missed).
+    pub missed_ticks: u32,
+    /// Supply voltage at the motor driver, V (`None` until the first conversion).
+    pub supply_v: Option<f32>,
     /// CPU cycles of the last control step (encoders → supervisor → PWM), DWT CYCCNT.
     pub cycles: u32,
     /// Longest control step since boot, cycles.
@@ -39,8 +44,15 @@ pub struct Report {
 
 impl Report {
     /// The report of the step `step` that produced `out` and the controller telemetry `t`,
-    /// which took `cycles` CPU cycles (longest so far: `max_cycles`).
-    pub fn new(step: u32, out: &Supervised, t: &Telemetry, cycles: u32, max_cycles: u32) -> Self {
+    /// which took `cycles` CPU cycles (longest so far: `max_cycles`), with `timing`'s
+    /// missed ticks and the supply.
+    pub fn new(
+        step: u32,
+        out: &Supervised,
+        t: &Telemetry,
+        timing: StepTiming,
+        supply_v: Option<f32>,
+    ) -> Self {
         Self {
             step,
             state: out.state,
@@ -52,10 +64,23 @@ impl Report {
             duty: out.duty,
             faults: out.faults,
             overruns: out.overruns_total,
-            cycles,
-            max_cycles,
+            missed_ticks: timing.missed_ticks,
+            supply_v,
+            cycles: timing.cycles,
+            max_cycles: timing.max_cycles,
         }
     }
+}
+
+/// Timing of the control steps, for a [`Report`].
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepTiming {
+    /// CPU cycles of the last step.
+    pub cycles: u32,
+    /// Longest step since boot, cycles.
+    pub max_cycles: u32,
+    /// Control periods without a step of their own since boot.
+    pub missed_ticks: u32,
 }
 
 /// The status LED at control step `step`: off while disarmed except a 50 ms blink every

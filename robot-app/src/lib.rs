@@ -6,11 +6,14 @@
 //! numbers come from (timers, ADC, USART) and where they go (PWM, pins).
 //!
 //! - [`hw`] — register arithmetic of the STM32F4 boards (clock tree, watchdog, encoder
-//!   input filter), as pure functions with host tests, so that the constants the firmware
-//!   writes are checked without hardware.
+//!   input filter, motor bridge, supply ADC, tick), as pure functions with host tests, so
+//!   that the values the firmware writes are checked without hardware.
+//! - [`panic_record`] — the record of the last panic or hard fault that the firmware keeps
+//!   in RAM across a reset: layout, bounded text, CRC.
 
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
 pub mod hw;
+pub mod panic_record;

@@ -13,6 +13,8 @@
 //! Every step runs even if an earlier one failed, so one CI log shows every problem.
 
 mod elf_size;
+#[cfg(test)]
+mod firmware_logger;
 mod panic_check;
 mod qemu;
 mod setup;

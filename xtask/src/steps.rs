@@ -16,7 +16,7 @@ pub const TARGET_ONLY_PACKAGES: [&str; 2] = ["firmware", "qemu-m4f"];
 
 /// What every step needs: where the workspace is and which `cargo` runs it.
 pub struct Context {
-    /// The workspace root (where `Cargo.toml` and `memory.x` are).
+    /// The workspace root (where the workspace's `Cargo.toml` is).
     pub root: PathBuf,
     /// The `cargo` that started xtask (`$CARGO`), so nested builds use the same toolchain.
     cargo: OsString,

@@ -1,0 +1,22 @@
+//! Register arithmetic of the STM32F4 boards, as pure functions with host tests, so that
+//! every value the firmware writes to a clock, timer, watchdog or ADC register is
+//! computed and checked here, against the reference manual's and the datasheet's figures,
+//! without hardware.
+//!
+//! | module | what it decides |
+//! |---|---|
+//! | [`chip`] | the supported parts and their limits (clock, buses, flash, PLL, LSI, ADC) |
+//! | [`clock`] | PLL M/N/P/Q, flash wait states, voltage scale, APB dividers, timer clocks |
+//! | [`watchdog`] | IWDG prescaler and reload for a timeout, and its spread over the LSI |
+//! | [`tick`] | control periods elapsed since the last step, from a free-running counter |
+//! | [`encoder_filter`] | the quadrature inputs' digital filter against the fastest real edge |
+//! | [`bridge`] | H-bridge input states (TB6612FNG, DRV8833) and safe transitions |
+//! | [`supply`] | the supply divider, ADC clock and sampling time, raw reading to volts |
+
+pub mod bridge;
+pub mod chip;
+pub mod clock;
+pub mod encoder_filter;
+pub mod supply;
+pub mod tick;
+pub mod watchdog;

@@ -227,7 +227,7 @@ mod app {
             Err(e) => defmt::panic!("reference: {}", e),
         };
         let controller = Controller::new(params, reference, robot::LAW, robot::PATH.start_pose());
-        let supervisor = match Supervisor::new(robot::supervisor_config(), reset) {
+        let supervisor = match Supervisor::new(robot::supervisor_config(), &params, reset) {
             Ok(supervisor) => supervisor,
             Err(e) => defmt::panic!("robot::supervisor_config(): {}", e),
         };
@@ -293,16 +293,21 @@ mod app {
         let supply_v = l.supply.read_volts();
         let input = Inputs {
             ticks: l.encoders.read(),
+            periods: elapsed,
+            // No conversion ready reads as NaN: the supervisor treats an unreadable supply
+            // as a low one (after its debounce).
+            supply_v: supply_v.unwrap_or(f32::NAN),
             button_pressed: board::button_pressed(l.button),
             overrun: *l.overran,
             background_heartbeat: HEARTBEAT.load(Ordering::Relaxed),
+            command: None,
         };
 
         // Decide: the supervisor steps the controller and says what the motors get.
         let out = l.supervisor.step(l.controller, input);
 
         // Act.
-        l.drive.apply(out.duty, out.driver_enabled);
+        l.drive.apply(out.duty, out.bridge.enabled());
         if out.feed_watchdog {
             l.watchdog.feed();
         }

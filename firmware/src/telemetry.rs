@@ -84,11 +84,13 @@ pub struct StepTiming {
 }
 
 /// The status LED at control step `step`: off while disarmed except a 50 ms blink every
-/// second (alive), steady while armed, 5 Hz flashing while faulted.
+/// second (alive), steady while armed, 5 Hz flashing while faulted, 1 Hz while writing
+/// flash.
 pub fn led_on(state: State, step: u32) -> bool {
     match state {
         State::Disarmed => step % 1000 < 50,
         State::Armed => true,
         State::Faulted => step % 200 < 100,
+        State::Persisting => step % 1000 < 500,
     }
 }

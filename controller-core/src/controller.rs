@@ -23,7 +23,7 @@
 
 use core::num::NonZeroU32;
 
-use crate::drive::{SupplyFilter, WheelDrive, WheelLoopReport};
+use crate::drive::{SupplyFilter, WheelDrive, WheelLoopReport, WheelVolts};
 use crate::encoder::SpeedEstimator;
 use crate::kinematics::{
     tracking_error_with_heading, BodyVelocity, Pose, TrackingError, WheelSpeeds,
@@ -110,6 +110,9 @@ pub enum Mode {
     FollowPath,
     /// Hold these wheel speeds (rad/s) with the wheel loops only (bring-up).
     HoldWheelSpeeds(WheelSpeeds),
+    /// Apply these voltages open loop (V, within the voltage cap and the current limit,
+    /// no slew limit): identification, see [`crate::tune`].
+    ApplyVolts(WheelVolts),
 }
 
 /// Latched fault flags. Any flag set means both motors are commanded to 0.
@@ -293,6 +296,11 @@ impl Controller {
         if mode == self.mode {
             return;
         }
+        // New voltages for an open-loop run are not a new mode: nothing to restart.
+        if let (Mode::ApplyVolts(_), Mode::ApplyVolts(_)) = (self.mode, mode) {
+            self.mode = mode;
+            return;
+        }
         if mode == Mode::FollowPath {
             self.schedule = Schedule::default();
             self.reference.restart();
@@ -345,7 +353,7 @@ impl Controller {
             Mode::HoldWheelSpeeds(speeds) => self.capped_wheel_speeds(speeds),
             // Until the first steering step, hold the wheels where they are.
             Mode::FollowPath => measured,
-            Mode::Idle => WheelSpeeds::default(),
+            Mode::Idle | Mode::ApplyVolts(_) => WheelSpeeds::default(),
         };
         self.ramp = SetpointRamp {
             target: self.telemetry.wheel_setpoint,
@@ -416,21 +424,31 @@ impl Controller {
                 Mode::HoldWheelSpeeds(speeds) => {
                     self.telemetry.wheel_setpoint = self.capped_wheel_speeds(speeds);
                 }
-                Mode::Idle => self.telemetry.wheel_setpoint = WheelSpeeds::default(),
+                Mode::Idle | Mode::ApplyVolts(_) => {
+                    self.telemetry.wheel_setpoint = WheelSpeeds::default();
+                }
             }
             let t = &mut self.telemetry;
-            if self.mode == Mode::Idle {
-                self.drive.stop();
-                t.wheel_loop = WheelLoopReport::default();
-                t.duty = MotorCommand::STOP;
-            } else {
-                t.duty = self.drive.step(
-                    t.wheel_setpoint,
-                    t.wheel_speed,
-                    t.supply_v,
-                    periods.get() as f32,
-                    &mut t.wheel_loop,
-                );
+            match self.mode {
+                Mode::Idle => {
+                    self.drive.stop();
+                    t.wheel_loop = WheelLoopReport::default();
+                    t.duty = MotorCommand::STOP;
+                }
+                Mode::ApplyVolts(volts) => {
+                    t.duty =
+                        self.drive
+                            .apply_volts(volts, t.wheel_speed, t.supply_v, &mut t.wheel_loop);
+                }
+                Mode::FollowPath | Mode::HoldWheelSpeeds(_) => {
+                    t.duty = self.drive.step(
+                        t.wheel_setpoint,
+                        t.wheel_speed,
+                        t.supply_v,
+                        periods.get() as f32,
+                        &mut t.wheel_loop,
+                    );
+                }
             }
             // One check for all: NaN and ±∞ propagate through a sum (∞ − ∞ is NaN), and a
             // sum that overflows comes from values no robot has.
@@ -796,6 +814,29 @@ pub(crate) mod tests {
         let max = (0.85 * 6.0 - 0.33) / 0.157;
         assert!((c.telemetry().wheel_setpoint.left_rad_s - max).abs() < 1e-3);
         assert!((c.telemetry().wheel_setpoint.right_rad_s + max).abs() < 1e-3);
+    }
+
+    #[test]
+    fn open_loop_volts_reach_the_duty_directly() {
+        let mut c = controller();
+        c.set_mode(Mode::ApplyVolts(WheelVolts {
+            left_v: 1.5,
+            right_v: -1.5,
+        }));
+        // 1.5 V on 6 V, at once (no slew, no PID).
+        let duty = step(&mut c, ticks(0, 0));
+        assert_eq!(
+            duty,
+            MotorCommand {
+                left: 0.25,
+                right: -0.25
+            }
+        );
+        c.set_mode(Mode::ApplyVolts(WheelVolts {
+            left_v: 3.0,
+            right_v: 0.0,
+        }));
+        assert_eq!(step(&mut c, ticks(0, 0)).left, 0.5);
     }
 
     #[test]

@@ -88,6 +88,10 @@ pub struct WheelLoopReport {
     pub setpoint: WheelSpeeds,
 }
 
+/// Largest supply measurement taken as a reading, V; above it (or NaN, or negative) the
+/// measurement is ignored.
+const MAX_SUPPLY_READING_V: f32 = 1000.0;
+
 /// Low-pass filter of the supply measurement, V.
 #[derive(Clone, Copy, Debug)]
 pub struct SupplyFilter {
@@ -115,11 +119,15 @@ impl SupplyFilter {
     }
 
     /// Adds a measurement `supply_v` (V) and returns the filtered supply, V (0 until a
-    /// valid measurement arrives). A NaN, infinite or negative measurement is ignored:
-    /// the filter holds its value and the caller's range checks judge it.
+    /// valid measurement arrives). A NaN, negative or absurd (≥ 1 kV) measurement is
+    /// ignored: the filter holds its value and the caller's range checks judge it.
     pub fn update(&mut self, supply_v: f32) -> f32 {
-        // NaN fails both comparisons.
-        if (0.0..f32::INFINITY).contains(&supply_v) {
+        // NaN fails both comparisons; no battery reads a kilovolt. (Written as two float
+        // compares: a test against infinity compiles to a 20-instruction bit
+        // classification on the Cortex-M4F.)
+        #[allow(clippy::manual_range_contains)]
+        let valid = supply_v >= 0.0 && supply_v < MAX_SUPPLY_READING_V;
+        if valid {
             self.filtered_v += self.weight * (supply_v - self.filtered_v);
             self.weight = self.alpha;
         }
@@ -276,15 +284,7 @@ impl WheelDrive {
         let slew = self.slew_per_period_v * periods;
         report.setpoint = WheelSpeeds::new(sp[0], sp[1]);
         for (i, wheel) in self.wheels.iter_mut().enumerate() {
-            // Voltage cap and current limit around the back-EMF of the measured speed
-            // (min ≤ max holds unless the wheel is back-driven beyond the cap; then the
-            // cap, the voltage nearest to the current limit, wins).
-            let back_emf = wheel.config.kv_v_per_rad_s * ms[i];
-            let max = min(back_emf + self.current_window_v, cap);
-            let limits = Bounds {
-                min: min(max_of(back_emf - self.current_window_v, -cap), max),
-                max,
-            };
+            let limits = physical_limits(wheel, ms[i], self.current_window_v, cap);
             let error = sp[i] - ms[i];
             let ff = wheel.feed_forward(sp[i]);
             // The PID's bounds are the physical limits, so its anti-windup knows them.
@@ -303,11 +303,34 @@ impl WheelDrive {
             report.saturated[i] = wheel.saturated;
         }
         report.volts = self.volts();
-        let per_volt = if supply_v > 0.0 { 1.0 / supply_v } else { 0.0 };
-        MotorCommand {
-            left: math::clamp(report.volts.left_v * per_volt, -1.0, 1.0),
-            right: math::clamp(report.volts.right_v * per_volt, -1.0, 1.0),
+        duty_for(report.volts, supply_v)
+    }
+
+    /// Open loop, for identification: applies `volts` (V, per wheel) directly, within the
+    /// voltage cap and the current limit but with no PID and no slew limit (the tune
+    /// routine's own steps must reach the motor as commanded). `measured` (rad/s) sets the
+    /// current limit's window; `supply_v` (V, filtered) turns volts into duty. The loops
+    /// are left so that [`WheelDrive::restart`] can take over bumplessly.
+    pub fn apply_volts(
+        &mut self,
+        volts: WheelVolts,
+        measured: WheelSpeeds,
+        supply_v: f32,
+        report: &mut WheelLoopReport,
+    ) -> MotorCommand {
+        let cap = min(supply_v, self.rated_voltage_v);
+        let ms = [measured.left_rad_s, measured.right_rad_s];
+        let wanted = [volts.left_v, volts.right_v];
+        for (i, wheel) in self.wheels.iter_mut().enumerate() {
+            let limits = physical_limits(wheel, ms[i], self.current_window_v, cap);
+            let applied = limits.clamp(wanted[i]);
+            wheel.saturated = applied != wanted[i];
+            wheel.volts = applied;
+            report.saturated[i] = wheel.saturated;
         }
+        report.setpoint = measured;
+        report.volts = self.volts();
+        duty_for(report.volts, supply_v)
     }
 
     /// Coordinated saturation (module doc): the set-points the PIDs should chase.
@@ -327,6 +350,28 @@ impl WheelDrive {
         };
         sp[other] *= achieved;
         sp
+    }
+}
+
+/// The voltage cap ±`cap` and the current limit `back-EMF ± window` (V) of `wheel`
+/// turning at `measured` (rad/s). min ≤ max holds unless the wheel is back-driven beyond
+/// the cap; then the cap, the voltage nearest to the current limit, wins.
+fn physical_limits(wheel: &WheelLoop, measured: f32, window: f32, cap: f32) -> Bounds {
+    let back_emf = wheel.config.kv_v_per_rad_s * measured;
+    let max = min(back_emf + window, cap);
+    Bounds {
+        min: min(max_of(back_emf - window, -cap), max),
+        max,
+    }
+}
+
+/// The duties for `volts` on a supply of `supply_v` (V): volts / supply, in [−1, 1]; 0
+/// without a supply.
+fn duty_for(volts: WheelVolts, supply_v: f32) -> MotorCommand {
+    let per_volt = if supply_v > 0.0 { 1.0 / supply_v } else { 0.0 };
+    MotorCommand {
+        left: math::clamp(volts.left_v * per_volt, -1.0, 1.0),
+        right: math::clamp(volts.right_v * per_volt, -1.0, 1.0),
     }
 }
 
@@ -557,6 +602,52 @@ mod tests {
         assert_eq!(f.update(f32::NAN), v);
         assert_eq!(f.update(-1.0), v);
         assert_eq!(SupplyFilter::new(0.0, 0.001).update(5.0), 5.0);
+    }
+
+    #[test]
+    fn open_loop_volts_keep_the_cap_and_the_current_limit_but_not_the_slew() {
+        let mut d = drive();
+        let mut r = WheelLoopReport::default();
+        // 3 V at once from rest (no 1.2 V/step slew), on 12 V: duty 0.25.
+        let duty = d.apply_volts(
+            WheelVolts {
+                left_v: 3.0,
+                right_v: -3.0,
+            },
+            STILL,
+            12.0,
+            &mut r,
+        );
+        assert_eq!(
+            duty,
+            MotorCommand {
+                left: 0.25,
+                right: -0.25
+            }
+        );
+        assert!(!r.saturated[0]);
+        // 9 V from rest: the current limit (4.8 V) and then the rated 6 V cap hold.
+        d.apply_volts(
+            WheelVolts {
+                left_v: 9.0,
+                right_v: 9.0,
+            },
+            STILL,
+            12.0,
+            &mut r,
+        );
+        assert_eq!(r.volts.left_v, 4.8);
+        assert!(r.saturated[0]);
+        d.apply_volts(
+            WheelVolts {
+                left_v: 9.0,
+                right_v: 9.0,
+            },
+            WheelSpeeds::new(30.0, 30.0),
+            12.0,
+            &mut r,
+        );
+        assert_eq!(r.volts.left_v, 6.0);
     }
 
     #[test]

@@ -19,6 +19,7 @@
 
 use crate::compensated::CompensatedSum;
 use crate::kinematics::{BodyVelocity, Point, Pose};
+use crate::math;
 use crate::path::{Path, PathSample};
 
 /// How far behind the previous projection the path-following search looks, m.
@@ -167,14 +168,21 @@ impl Reference {
     /// (0 for the first sample after [`Reference::restart`]), for a robot at `robot`
     /// (world frame).
     pub fn sample(&mut self, elapsed_s: f32, robot: &Pose) -> ReferenceState {
-        let s = match self.mode {
-            ReferenceMode::TimeIndexed { .. } => self.advance(elapsed_s),
+        let length = self.path.length_m();
+        let (progress_m, finished) = match self.mode {
+            // Already wrapped into [0, length) on a closed path; held near the end of an
+            // open one.
+            ReferenceMode::TimeIndexed { .. } => {
+                let s = self.advance(elapsed_s);
+                let finished = !self.path.is_closed() && s >= length;
+                (math::clamp(s, 0.0, length), finished)
+            }
             ReferenceMode::PathFollowing { lookahead_m } => {
-                self.project(robot.position()) + lookahead_m
+                let s = self.project(robot.position()) + lookahead_m;
+                let finished = !self.path.is_closed() && s >= length;
+                (self.path.normalize_m(s), finished)
             }
         };
-        let finished = !self.path.is_closed() && s >= self.path.length_m();
-        let progress_m = self.path.normalize_m(s);
         let PathSample {
             point,
             heading_rad,

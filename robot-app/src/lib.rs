@@ -8,6 +8,8 @@
 //! - [`hw`] — register arithmetic of the STM32F4 boards (clock tree, watchdog, encoder
 //!   input filter, motor bridge, supply ADC, tick), as pure functions with host tests, so
 //!   that the values the firmware writes are checked without hardware.
+//! - [`metrics`] — run metrics (settle time, final and windowed errors) accumulated at the
+//!   control rate in fixed memory, the same on the robot and in the simulator.
 //! - [`panic_record`] — the record of the last panic or hard fault that the firmware keeps
 //!   in RAM across a reset: layout, bounded text, CRC.
 
@@ -16,4 +18,5 @@
 #![forbid(unsafe_code)]
 
 pub mod hw;
+pub mod metrics;
 pub mod panic_record;

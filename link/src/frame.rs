@@ -1,0 +1,196 @@
+//! Encoding a message into a frame, and the frame's size limits.
+//!
+//! ```text
+//! payload = header (5 bytes: version, schema hash LE) ++ postcard(message)
+//! wire    = COBS(payload ++ CRC-32 LE(payload)) ++ 0x00
+//! ```
+//!
+//! The encoder writes straight into the caller's buffer (postcard's COBS and CRC
+//! flavors, no intermediate copy) and reports, never panics, when the buffer or the
+//! protocol's limit is too small.
+
+use core::fmt;
+
+use postcard::ser_flavors::crc::CrcModifier;
+use postcard::ser_flavors::{Cobs, Flavor, Slice};
+use serde::Serialize;
+
+use crate::checksum::CRC32;
+use crate::message::Message;
+use crate::protocol::{ProtocolId, HEADER_LEN};
+
+/// Largest postcard body a frame may carry, bytes. The largest messages,
+/// [`Request::SetParams`](crate::Request) and its twin [`Reply::Params`](crate::Reply),
+/// measured 136 and 138 bytes with the core's default configuration (see the crate
+/// doc); 256 leaves room for about 30 more `f32` fields in the configuration.
+pub const MAX_BODY_LEN: usize = 256;
+
+/// Bytes of CRC after the payload.
+pub const CRC_LEN: usize = 4;
+
+/// Most bytes a frame with a `body_len`-byte body can take on the wire: header, body and
+/// CRC after COBS (at most one extra byte per 254, plus one), and the 0x00 delimiter.
+/// Exact when header + body + CRC < 254 bytes, as for every message but the
+/// configuration.
+pub const fn max_wire_len(body_len: usize) -> usize {
+    let stuffed = HEADER_LEN + body_len + CRC_LEN;
+    stuffed + stuffed / 254 + 1 + 1
+}
+
+/// Most bytes a frame takes on the wire (delimiter included): the size of a buffer that
+/// holds any frame. The [`Decoder`](crate::Decoder) drops longer frames as overflows.
+pub const MAX_FRAME_LEN: usize = max_wire_len(MAX_BODY_LEN);
+
+/// Why a frame could not be encoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EncodeError {
+    /// The caller's buffer is shorter than the frame; `needed` is a size that fits it
+    /// (at most [`MAX_FRAME_LEN`]).
+    BufferTooSmall {
+        /// Bytes that suffice for this frame.
+        needed: usize,
+        /// Bytes the buffer had.
+        available: usize,
+    },
+    /// The message's body exceeds [`MAX_BODY_LEN`]: no peer could receive it.
+    TooLarge {
+        /// The body's length, bytes.
+        body_len: usize,
+    },
+    /// postcard cannot encode the value (not the case of any link message).
+    Unencodable,
+}
+
+impl fmt::Display for EncodeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            EncodeError::BufferTooSmall { needed, available } => write!(
+                f,
+                "frame buffer too small: {available} bytes, the frame needs up to {needed}"
+            ),
+            EncodeError::TooLarge { body_len } => write!(
+                f,
+                "message of {body_len} bytes exceeds the link's limit of {MAX_BODY_LEN}"
+            ),
+            EncodeError::Unencodable => f.write_str("the value cannot be encoded by postcard"),
+        }
+    }
+}
+
+impl core::error::Error for EncodeError {}
+
+/// Encodes `message` as one frame (delimiter included) at the start of `out`; returns
+/// the frame's length. Sends with [`ProtocolId::OURS`] in the header.
+pub fn encode<M: Message>(message: &M, out: &mut [u8]) -> Result<usize, EncodeError> {
+    encode_with(ProtocolId::OURS, message, out)
+}
+
+/// [`encode`] into a `heapless::Vec` (cleared first; left empty on error).
+pub fn encode_to_vec<M: Message, const N: usize>(
+    message: &M,
+    out: &mut heapless::Vec<u8, N>,
+) -> Result<(), EncodeError> {
+    out.clear();
+    // Capacity N: filling with zeros cannot fail.
+    let _ = out.resize_default(N);
+    match encode(message, out) {
+        Ok(len) => {
+            out.truncate(len);
+            Ok(())
+        }
+        Err(e) => {
+            out.clear();
+            Err(e)
+        }
+    }
+}
+
+/// Frames `body` (already-encoded postcard bytes, or anything else) under the header of
+/// `id`: for tests and tools that need frames a normal sender would not make.
+pub fn encode_raw(id: ProtocolId, body: &[u8], out: &mut [u8]) -> Result<usize, EncodeError> {
+    encode_with(id, body, out)
+}
+
+/// The frame of `value` under the header of `id`. `value` is a message or a byte slice
+/// (a `[u8]` goes in as it is).
+fn encode_with<T: Encodable + ?Sized>(
+    id: ProtocolId,
+    value: &T,
+    out: &mut [u8],
+) -> Result<usize, EncodeError> {
+    let available = out.len();
+    let limit = available.min(MAX_FRAME_LEN);
+    let attempt = frame_into(id, value, out.get_mut(..limit).unwrap_or_default());
+    match attempt {
+        Ok(len) => Ok(len),
+        Err(()) => {
+            let body_len = value.body_len().ok_or(EncodeError::Unencodable)?;
+            if body_len > MAX_BODY_LEN {
+                Err(EncodeError::TooLarge { body_len })
+            } else {
+                Err(EncodeError::BufferTooSmall {
+                    needed: max_wire_len(body_len),
+                    available,
+                })
+            }
+        }
+    }
+}
+
+/// Header, body and CRC through COBS into `out`; the frame's length, or `Err` when `out`
+/// is full (or the value cannot be encoded).
+fn frame_into<T: Encodable + ?Sized>(
+    id: ProtocolId,
+    value: &T,
+    out: &mut [u8],
+) -> Result<usize, ()> {
+    let cobs = Cobs::try_new(Slice::new(out)).map_err(drop)?;
+    let mut flavor = CrcModifier::new(cobs, CRC32.digest());
+    flavor.try_extend(&id.to_header()).map_err(drop)?;
+    value.write(flavor)
+}
+
+/// What can go into a frame's body: a message (postcard) or raw bytes (as they are).
+trait Encodable {
+    /// Writes the body through `flavor` and finalises the frame; its length.
+    fn write<F>(&self, flavor: F) -> Result<usize, ()>
+    where
+        F: Flavor,
+        F::Output: AsRef<[u8]>;
+    /// The body's length, bytes; `None` when it cannot be encoded.
+    fn body_len(&self) -> Option<usize>;
+}
+
+impl<M: Serialize> Encodable for M {
+    fn write<F>(&self, flavor: F) -> Result<usize, ()>
+    where
+        F: Flavor,
+        F::Output: AsRef<[u8]>,
+    {
+        postcard::serialize_with_flavor(self, flavor)
+            .map(|frame| frame.as_ref().len())
+            .map_err(drop)
+    }
+
+    fn body_len(&self) -> Option<usize> {
+        postcard::experimental::serialized_size(self).ok()
+    }
+}
+
+impl Encodable for [u8] {
+    fn write<F>(&self, mut flavor: F) -> Result<usize, ()>
+    where
+        F: Flavor,
+        F::Output: AsRef<[u8]>,
+    {
+        flavor.try_extend(self).map_err(drop)?;
+        flavor
+            .finalize()
+            .map(|frame| frame.as_ref().len())
+            .map_err(drop)
+    }
+
+    fn body_len(&self) -> Option<usize> {
+        Some(self.len())
+    }
+}

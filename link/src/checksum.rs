@@ -47,11 +47,14 @@ struct DigestFlavor<'a> {
 impl Flavor for DigestFlavor<'_> {
     type Output = ();
 
+    // Not inlined, like the frame encoder's output: postcard calls these from every field.
+    #[inline(never)]
     fn try_push(&mut self, data: u8) -> postcard::Result<()> {
         self.digest.update(&[data]);
         Ok(())
     }
 
+    #[inline(never)]
     fn try_extend(&mut self, data: &[u8]) -> postcard::Result<()> {
         self.digest.update(data);
         Ok(())

@@ -11,7 +11,7 @@
 
 use core::fmt;
 
-use postcard::ser_flavors::crc::CrcModifier;
+use crc::Digest;
 use postcard::ser_flavors::{Cobs, Flavor, Slice};
 use serde::Serialize;
 
@@ -144,10 +144,47 @@ fn frame_into<T: Encodable + ?Sized>(
     value: &T,
     out: &mut [u8],
 ) -> Result<usize, ()> {
-    let cobs = Cobs::try_new(Slice::new(out)).map_err(drop)?;
-    let mut flavor = CrcModifier::new(cobs, CRC32.digest());
-    flavor.try_extend(&id.to_header()).map_err(drop)?;
-    value.write(flavor)
+    let mut framer = Framer {
+        cobs: Cobs::try_new(Slice::new(out)).map_err(drop)?,
+        crc: CRC32.digest(),
+    };
+    framer.try_extend(&id.to_header()).map_err(drop)?;
+    value.write(framer)
+}
+
+/// postcard's output for a frame: every byte goes into the CRC and through COBS into the
+/// caller's buffer; `finalize` appends the CRC and the delimiter.
+///
+/// Pushing a byte is deliberately not inlined: postcard calls it from every field of
+/// every message, and inlining the CRC and COBS steps there multiplied the code size on
+/// the target (measured: the uplink encoder shrank from about 10 KiB to a few hundred
+/// bytes of `.text`).
+struct Framer<'a> {
+    cobs: Cobs<Slice<'a>>,
+    crc: Digest<'static, u32>,
+}
+
+impl<'a> Flavor for Framer<'a> {
+    type Output = &'a mut [u8];
+
+    #[inline(never)]
+    fn try_push(&mut self, byte: u8) -> postcard::Result<()> {
+        self.crc.update(&[byte]);
+        self.cobs.try_push(byte)
+    }
+
+    #[inline(never)]
+    fn try_extend(&mut self, bytes: &[u8]) -> postcard::Result<()> {
+        bytes.iter().try_for_each(|&b| self.try_push(b))
+    }
+
+    fn finalize(mut self) -> postcard::Result<Self::Output> {
+        let crc = self.crc.finalize();
+        for byte in crc.to_le_bytes() {
+            self.cobs.try_push(byte)?;
+        }
+        self.cobs.finalize()
+    }
 }
 
 /// What can go into a frame's body: a message (postcard) or raw bytes (as they are).

@@ -2,15 +2,17 @@
 //!
 //! | command | what it does |
 //! |---|---|
-//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU program), host tests, firmware build and size budget, the core on an emulated Cortex-M4F. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
+//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, firmware build and size budget, the core and the link on an emulated Cortex-M4F. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
 //! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` |
 //! | `size` | builds the firmware and checks it against the flash and RAM budget |
 //! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
+//! | `link-qemu` | runs the link crate under QEMU and talks to it over its USART: replies, corrupted frames, counters |
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
 //!
 //! Every step runs even if an earlier one failed, so one CI log shows every problem.
 
 mod elf_size;
+mod link_qemu;
 mod qemu;
 mod setup;
 mod steps;
@@ -29,6 +31,8 @@ commands:
   setup   install what is missing: ARM target, flip-link, qemu-system-arm
   size    build the firmware and check its flash / static RAM budget
   qemu    run the core on an emulated Cortex-M4F and compare with the host
+  link-qemu
+          run the link on an emulated Cortex-M4F and talk to it over its USART
   size-of ELF
           flash and static RAM of an ARM ELF against the firmware budget (no build)";
 
@@ -52,6 +56,7 @@ fn run() -> Result<bool> {
         ["setup"] => vec![steps::setup()],
         ["size"] => vec![steps::setup(), steps::firmware_size()],
         ["qemu"] => vec![steps::setup(), steps::qemu()],
+        ["link-qemu"] => vec![steps::setup(), steps::link_qemu()],
         ["size-of", elf] => {
             let elf = PathBuf::from(elf);
             vec![Step::new("size of an ELF", move |_| {

@@ -14,7 +14,7 @@ use super::bounded;
 /// Capacity of [`FieldProblem::field`], bytes of UTF-8.
 pub const FIELD_CAP: usize = 40;
 /// Capacity of [`FieldProblem::problem`], bytes of UTF-8.
-pub const PROBLEM_CAP: usize = 64;
+pub const PROBLEM_CAP: usize = 48;
 
 /// A refused request. `Display` reads as a sentence for a terminal.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Schema)]

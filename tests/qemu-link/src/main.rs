@@ -104,6 +104,12 @@ fn report(decoder: &Decoder, frames_sent: u32, lost: u32) {
         frames_sent,
         lost
     );
+    hprintln!(
+        "link state on Cortex-M4F: Decoder {} B, PathAssembler {} B, frame buffer {} B",
+        core::mem::size_of::<Decoder>(),
+        core::mem::size_of::<link::PathAssembler>(),
+        MAX_FRAME_LEN
+    );
 }
 
 fn fail(message: &str) -> ! {

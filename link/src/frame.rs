@@ -147,9 +147,9 @@ fn frame_into<T: Encodable + ?Sized>(
 /// caller's buffer; `finalize` appends the CRC and the delimiter.
 ///
 /// Pushing a byte is deliberately not inlined: postcard calls it from every field of
-/// every message, and inlining the CRC and COBS steps there multiplied the code size on
-/// the target (measured: the uplink encoder shrank from about 10 KiB to a few hundred
-/// bytes of `.text`).
+/// every message, and inlining the CRC and COBS steps there multiplies the code. Measured
+/// on `tests/qemu-link` at opt-level 3, the program's `.text` went from 49 024 B (with
+/// postcard's inlined CRC and COBS flavors) to 39 328 B.
 struct Framer<'a> {
     cobs: Cobs<Slice<'a>>,
     crc: Digest<'static, u32>,

@@ -23,7 +23,8 @@
 //! - **The header** is five fixed bytes, not postcard, and its layout never changes:
 //!   [`PROTOCOL_VERSION`] and [`SCHEMA_HASH`], a 32-bit digest of the shape of both
 //!   message enums computed at compile time from their postcard-schema `SCHEMA` (every
-//!   field and variant, their names and types, recursively), and of [`MAX_BODY_LEN`]. A
+//!   field and variant, their names and types, recursively), and of the capacities the
+//!   schema does not show ([`MAX_BODY_LEN`], bounded strings and vectors). A
 //!   side reads it before decoding the body, so a peer built from other message types is
 //!   recognised on *any* frame, even one whose body it could not decode, and the user is
 //!   told both versions ([`Mismatch`]): `robot speaks protocol v1 schema 0x…, this station

@@ -18,8 +18,13 @@ use postcard_schema::key::hash::fnv1a64::hash_ty_path;
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
+use controller_core::path::MAX_SEGMENTS;
+
 use crate::frame::MAX_BODY_LEN;
-use crate::message::{Downlink, Uplink};
+use crate::message::{
+    Downlink, Uplink, FIELD_CAP, GIT_HASH_CAP, NAME_CAP, PROBLEM_CAP, SEGMENTS_PER_CHUNK,
+    VERSION_CAP,
+};
 
 /// Version of the protocol's rules (framing, request/reply semantics). Bump it when the
 /// meaning of messages changes without their shape changing; shape changes are caught by
@@ -31,12 +36,28 @@ pub const HEADER_LEN: usize = 5;
 
 /// A 32-bit digest of the shape of [`Downlink`] and [`Uplink`] (every field and variant
 /// name and type, recursively, as described by their postcard-schema `SCHEMA`) and of
-/// [`MAX_BODY_LEN`]. Computed at compile time; two builds agree on it exactly when they
-/// encode and decode the same bytes the same way.
+/// the capacities the schema does not describe ([`MAX_BODY_LEN`], the bounded strings'
+/// and vectors' capacities, the core's `MAX_SEGMENTS`). Computed at compile time; two
+/// builds agree on it exactly when they encode and decode the same bytes the same way.
 pub const SCHEMA_HASH: u32 = {
-    let state = fnv1a64_u64(FNV_BASIS, schema_hash64::<Downlink>("link/downlink"));
-    let state = fnv1a64_u64(state, schema_hash64::<Uplink>("link/uplink"));
-    fold(fnv1a64_u64(state, MAX_BODY_LEN as u64))
+    let mut state = fnv1a64_u64(FNV_BASIS, schema_hash64::<Downlink>("link/downlink"));
+    state = fnv1a64_u64(state, schema_hash64::<Uplink>("link/uplink"));
+    let capacities = [
+        MAX_BODY_LEN,
+        VERSION_CAP,
+        GIT_HASH_CAP,
+        NAME_CAP,
+        FIELD_CAP,
+        PROBLEM_CAP,
+        SEGMENTS_PER_CHUNK,
+        MAX_SEGMENTS,
+    ];
+    let mut i = 0;
+    while i < capacities.len() {
+        state = fnv1a64_u64(state, capacities[i] as u64);
+        i += 1;
+    }
+    fold(state)
 };
 
 /// The schema hash of any postcard-schema type `T`, folded to 32 bits: what

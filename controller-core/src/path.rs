@@ -17,6 +17,15 @@ use crate::math;
 /// with rounded corners uses 2n.
 pub const MAX_SEGMENTS: usize = 32;
 
+/// How far apart (m) the end of one segment and the start of the next may be for
+/// [`Path::from_segments`] to accept them as joined: 1 mm, well above the f32 rounding of
+/// segments computed on a host and well below anything a robot could follow as a step.
+pub const JOINT_TOLERANCE_M: f32 = 1e-3;
+
+/// How far apart (rad) the direction at the end of one segment and at the start of the
+/// next may be for [`Path::from_segments`]: 0.01 rad (0.57°).
+pub const JOINT_TOLERANCE_RAD: f32 = 1e-2;
+
 /// One piece of a path, world frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -113,6 +122,40 @@ impl Segment {
         }
     }
 
+    /// Checks that every value is finite and the length and radius positive.
+    fn check(&self) -> Result<(), PathError> {
+        let finite = match *self {
+            Segment::Line {
+                start,
+                heading_rad,
+                length_m,
+            } => finite_point(start) && heading_rad.is_finite() && length_m.is_finite(),
+            Segment::Arc {
+                center,
+                radius_m,
+                start_angle_rad,
+                sweep_rad,
+            } => {
+                finite_point(center)
+                    && radius_m.is_finite()
+                    && start_angle_rad.is_finite()
+                    && sweep_rad.is_finite()
+            }
+        };
+        let length_m = self.length_m();
+        if !(finite && length_m.is_finite()) {
+            return Err(PathError::NonFinite);
+        }
+        let radius_ok = match *self {
+            Segment::Line { .. } => true,
+            Segment::Arc { radius_m, .. } => radius_m > 0.0,
+        };
+        if !(radius_ok && length_m > 0.0) {
+            return Err(PathError::NonPositiveSize);
+        }
+        Ok(())
+    }
+
     /// Arc length (m, from the segment's start) of the segment's point closest to `p`.
     fn closest_m(&self, p: Point) -> f32 {
         match *self {
@@ -177,6 +220,20 @@ pub enum PathError {
     CornerTooTight,
     /// The path needs more than [`MAX_SEGMENTS`] segments.
     TooManySegments,
+    /// A chain of segments was empty.
+    NoSegments,
+    /// Segment `segment` does not start where the one before it ends (further apart than
+    /// [`JOINT_TOLERANCE_M`]).
+    Gap {
+        /// Index of the segment in the slice (≥ 1).
+        segment: u8,
+    },
+    /// Segment `segment` does not start in the direction the one before it ends (more
+    /// than [`JOINT_TOLERANCE_RAD`] apart): the path would have a corner.
+    Kink {
+        /// Index of the segment in the slice.
+        segment: u8,
+    },
 }
 
 impl core::fmt::Display for PathError {
@@ -190,6 +247,24 @@ impl core::fmt::Display for PathError {
                 "a corner fillet does not fit between its waypoints, or the path turns back"
             }
             PathError::TooManySegments => "the path needs more than 32 segments",
+            PathError::NoSegments => "a path needs at least one segment",
+            PathError::Gap { segment } => {
+                return write!(
+                    f,
+                    "segment {segment} does not start where segment {} ends (gap > {} m)",
+                    segment.saturating_sub(1),
+                    JOINT_TOLERANCE_M
+                )
+            }
+            PathError::Kink { segment } => {
+                return write!(
+                    f,
+                    "segment {segment} does not start in the direction segment {} ends \
+                     (corner > {} rad)",
+                    segment.saturating_sub(1),
+                    JOINT_TOLERANCE_RAD
+                )
+            }
         })
     }
 }
@@ -204,12 +279,40 @@ pub struct Path {
     closed: bool,
 }
 
+/// How the end of one segment meets the start of the next.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Joint {
+    /// Same point and direction, within [`JOINT_TOLERANCE_M`] and [`JOINT_TOLERANCE_RAD`].
+    Smooth,
+    /// The points are further apart.
+    Gap,
+    /// Same point, different directions.
+    Kink,
+}
+
+impl Joint {
+    fn between(before: &Segment, after: &Segment) -> Joint {
+        let end = before.sample(before.length_m());
+        let start = after.sample(0.0);
+        if end.point.distance_to(start.point) > JOINT_TOLERANCE_M {
+            Joint::Gap
+        } else if math::abs(math::wrap_angle(start.heading_rad - end.heading_rad))
+            > JOINT_TOLERANCE_RAD
+        {
+            Joint::Kink
+        } else {
+            Joint::Smooth
+        }
+    }
+}
+
 fn finite_point(p: Point) -> bool {
     p.x_m.is_finite() && p.y_m.is_finite()
 }
 
 impl Path {
-    fn from_segments(segments: &[Segment], closed: bool) -> Result<Self, PathError> {
+    /// A path of `segments` taken as they are (no checks), `closed` or not.
+    fn chain(segments: &[Segment], closed: bool) -> Result<Self, PathError> {
         let mut path = Path {
             segments: Vec::new(),
             starts_m: Vec::new(),
@@ -233,6 +336,45 @@ impl Path {
         Ok(())
     }
 
+    /// A path through `segments` (world frame), as they are, after checking them:
+    ///
+    /// - 1 to [`MAX_SEGMENTS`] segments ([`PathError::NoSegments`],
+    ///   [`PathError::TooManySegments`]);
+    /// - every value finite ([`PathError::NonFinite`]), every length and radius > 0
+    ///   ([`PathError::NonPositiveSize`]);
+    /// - each segment starts where the one before ends, within [`JOINT_TOLERANCE_M`]
+    ///   ([`PathError::Gap`]), and in the direction it ends, within
+    ///   [`JOINT_TOLERANCE_RAD`] ([`PathError::Kink`]).
+    ///
+    /// The path is closed when the last segment ends where the first starts, in its
+    /// direction, within the same tolerances. [`Path::segments`] gives the segments back
+    /// unchanged, so a host can send any path with it and the robot rebuild it with this.
+    pub fn from_segments(segments: &[Segment]) -> Result<Self, PathError> {
+        if segments.is_empty() {
+            return Err(PathError::NoSegments);
+        }
+        if segments.len() > MAX_SEGMENTS {
+            return Err(PathError::TooManySegments);
+        }
+        for segment in segments {
+            segment.check()?;
+        }
+        let joints = segments.iter().zip(segments.iter().skip(1));
+        for (index, (before, after)) in joints.enumerate() {
+            let segment = u8::try_from(index + 1).unwrap_or(u8::MAX);
+            match Joint::between(before, after) {
+                Joint::Smooth => {}
+                Joint::Gap => return Err(PathError::Gap { segment }),
+                Joint::Kink => return Err(PathError::Kink { segment }),
+            }
+        }
+        let closed = match (segments.last(), segments.first()) {
+            (Some(last), Some(first)) => Joint::between(last, first) == Joint::Smooth,
+            _ => false,
+        };
+        Self::chain(segments, closed)
+    }
+
     /// A closed circle about `center` (m) of `radius_m` (m), starting at the point at polar
     /// angle `start_angle_rad` about the centre, travelled counter-clockwise when
     /// `counter_clockwise` (else clockwise).
@@ -249,7 +391,7 @@ impl Path {
             return Err(PathError::NonPositiveSize);
         }
         let sweep_rad = if counter_clockwise { TAU } else { -TAU };
-        Self::from_segments(
+        Self::chain(
             &[Segment::Arc {
                 center,
                 radius_m,
@@ -269,7 +411,7 @@ impl Path {
         if length_m <= 0.0 {
             return Err(PathError::NonPositiveSize);
         }
-        Self::from_segments(
+        Self::chain(
             &[Segment::Line {
                 start,
                 heading_rad: math::wrap_angle(heading_rad),
@@ -301,7 +443,7 @@ impl Path {
             start_angle_rad: 0.0,
             sweep_rad: TAU,
         };
-        Self::from_segments(&[right, left], true)
+        Self::chain(&[right, left], true)
     }
 
     /// A polyline through `waypoints` (world frame, m) whose corners are rounded with
@@ -633,5 +775,188 @@ mod tests {
         // Near the seam of a closed path the windowed search wraps.
         let s = circle.project(Point::new(1.0, -0.05), 0.02, 0.2, 0.5);
         assert!(close(s, -0.05, 2e-3), "s = {s}");
+    }
+
+    fn line(x: f32, y: f32, heading_rad: f32, length_m: f32) -> Segment {
+        Segment::Line {
+            start: Point::new(x, y),
+            heading_rad,
+            length_m,
+        }
+    }
+
+    #[test]
+    fn from_segments_rebuilds_every_kind_of_path() {
+        let square = [
+            Point::new(0.0, 0.0),
+            Point::new(2.0, 0.0),
+            Point::new(2.0, 2.0),
+            Point::new(0.0, 2.0),
+        ];
+        let paths = [
+            Path::polyline(&square, 0.3, true).unwrap(),
+            Path::polyline(&square, 0.3, false).unwrap(),
+            Path::figure_eight(Point::new(1.0, -1.0), 0.75).unwrap(),
+            Path::circle(Point::new(3.0, 4.0), 1.25, -2.27, true).unwrap(),
+            Path::circle(Point::new(0.0, 0.0), 0.5, 1.0, false).unwrap(),
+            Path::line(Point::new(-1.0, 2.0), 0.3, 4.0).unwrap(),
+        ];
+        for original in &paths {
+            let rebuilt = Path::from_segments(original.segments()).unwrap();
+            assert_eq!(rebuilt.segments(), original.segments());
+            assert_eq!(rebuilt.is_closed(), original.is_closed());
+            assert_eq!(rebuilt.length_m(), original.length_m());
+        }
+    }
+
+    #[test]
+    fn from_segments_checks_counts_values_and_sizes() {
+        assert_eq!(Path::from_segments(&[]).unwrap_err(), PathError::NoSegments);
+        let chain: [Segment; MAX_SEGMENTS + 1] =
+            core::array::from_fn(|i| line(i as f32, 0.0, 0.0, 1.0));
+        assert!(Path::from_segments(&chain[..MAX_SEGMENTS]).is_ok());
+        assert_eq!(
+            Path::from_segments(&chain).unwrap_err(),
+            PathError::TooManySegments
+        );
+        for bad in [
+            line(f32::NAN, 0.0, 0.0, 1.0),
+            line(0.0, 0.0, f32::INFINITY, 1.0),
+            line(0.0, 0.0, 0.0, f32::NAN),
+            Segment::Arc {
+                center: Point::new(0.0, 0.0),
+                radius_m: 1.0,
+                start_angle_rad: 0.0,
+                sweep_rad: f32::NAN,
+            },
+            Segment::Arc {
+                center: Point::new(0.0, 0.0),
+                radius_m: f32::MAX,
+                start_angle_rad: 0.0,
+                sweep_rad: 4.0,
+            },
+        ] {
+            assert_eq!(
+                Path::from_segments(&[bad]).unwrap_err(),
+                PathError::NonFinite,
+                "{bad:?}"
+            );
+        }
+        for bad in [
+            line(0.0, 0.0, 0.0, 0.0),
+            line(0.0, 0.0, 0.0, -1.0),
+            Segment::Arc {
+                center: Point::new(0.0, 0.0),
+                radius_m: -1.0,
+                start_angle_rad: 0.0,
+                sweep_rad: -1.0,
+            },
+            Segment::Arc {
+                center: Point::new(0.0, 0.0),
+                radius_m: 1.0,
+                start_angle_rad: 0.0,
+                sweep_rad: 0.0,
+            },
+        ] {
+            assert_eq!(
+                Path::from_segments(&[bad]).unwrap_err(),
+                PathError::NonPositiveSize,
+                "{bad:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn from_segments_checks_the_joints_within_the_stated_tolerances() {
+        let first = line(0.0, 0.0, 0.0, 1.0);
+        // Within tolerance: 0.5 mm off, 0.005 rad turned.
+        let near = line(1.0, 0.0005, 0.005, 1.0);
+        assert!(Path::from_segments(&[first, near]).is_ok());
+        // 2 mm off.
+        let second = line(1.0, 0.0, 0.0, 1.0);
+        let gap = line(2.0, 0.002, 0.0, 1.0);
+        assert_eq!(
+            Path::from_segments(&[first, second, gap]).unwrap_err(),
+            PathError::Gap { segment: 2 }
+        );
+        // Right place, turned 0.02 rad.
+        let kink = line(1.0, 0.0, 0.02, 1.0);
+        assert_eq!(
+            Path::from_segments(&[first, kink]).unwrap_err(),
+            PathError::Kink { segment: 1 }
+        );
+        // An arc joined to a line: leaving (1, 0) heading +x, turning left about (1, 1).
+        let arc = Segment::Arc {
+            center: Point::new(1.0, 1.0),
+            radius_m: 1.0,
+            start_angle_rad: -FRAC_PI_2,
+            sweep_rad: FRAC_PI_2,
+        };
+        let path = Path::from_segments(&[first, arc]).unwrap();
+        assert!(!path.is_closed());
+        assert!(close(path.length_m(), 1.0 + FRAC_PI_2, 1e-6));
+        // Turning right instead (clockwise about (1, −1)) joins smoothly too...
+        let right = Segment::Arc {
+            center: Point::new(1.0, -1.0),
+            radius_m: 1.0,
+            start_angle_rad: FRAC_PI_2,
+            sweep_rad: -FRAC_PI_2,
+        };
+        assert!(Path::from_segments(&[first, right]).is_ok());
+        // ...but the same circle counter-clockwise leaves (1, 0) heading −x: a reversal.
+        let backwards = Segment::Arc {
+            center: Point::new(1.0, -1.0),
+            radius_m: 1.0,
+            start_angle_rad: FRAC_PI_2,
+            sweep_rad: FRAC_PI_2,
+        };
+        assert_eq!(
+            Path::from_segments(&[first, backwards]).unwrap_err(),
+            PathError::Kink { segment: 1 }
+        );
+    }
+
+    #[test]
+    fn closed_only_when_the_end_meets_the_start_in_its_direction() {
+        // Out and back along a line pair with a U-turn arc: ends where it started but
+        // heading the other way.
+        let out = line(0.0, 0.0, 0.0, 1.0);
+        let turn = Segment::Arc {
+            center: Point::new(1.0, 0.5),
+            radius_m: 0.5,
+            start_angle_rad: -FRAC_PI_2,
+            sweep_rad: PI,
+        };
+        let back = line(1.0, 1.0, PI, 1.0);
+        let u = Path::from_segments(&[out, turn, back]).unwrap();
+        assert!(!u.is_closed());
+        // A second U-turn closes it.
+        let home = Segment::Arc {
+            center: Point::new(0.0, 0.5),
+            radius_m: 0.5,
+            start_angle_rad: FRAC_PI_2,
+            sweep_rad: PI,
+        };
+        let stadium = Path::from_segments(&[out, turn, back, home]).unwrap();
+        assert!(stadium.is_closed());
+        assert!(close(stadium.length_m(), 2.0 + TAU * 0.5, 1e-5));
+    }
+
+    #[test]
+    fn new_errors_read_well() {
+        extern crate std;
+        use std::string::ToString;
+        assert_eq!(
+            PathError::Gap { segment: 3 }.to_string(),
+            "segment 3 does not start where segment 2 ends (gap > 0.001 m)"
+        );
+        assert_eq!(
+            PathError::Kink { segment: 1 }.to_string(),
+            "segment 1 does not start in the direction segment 0 ends (corner > 0.01 rad)"
+        );
+        assert_eq!(
+            PathError::NoSegments.to_string(),
+            "a path needs at least one segment"
+        );
     }
 }

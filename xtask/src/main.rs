@@ -2,10 +2,15 @@
 //!
 //! | command | what it does |
 //! |---|---|
+<<<<<<< HEAD
 //! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU program), host tests, firmware build and size budget, the panic check, the core on an emulated Cortex-M4F. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
+=======
+//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, firmware build and size budget, the core and the link on an emulated Cortex-M4F. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
+>>>>>>> wip/link
 //! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` |
 //! | `size` | builds the firmware and checks it against the flash and RAM budget |
 //! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
+//! | `link-qemu` | runs the link crate under QEMU and talks to it over its USART: replies, corrupted frames, counters |
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
 //! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt reaches no panic and no indirect call |
 //! | `panic-check ELF [--root NAME:IRQ]…` | the same proof on a given ELF (no build), from the given interrupts (default `TIM5:50`) |
@@ -13,9 +18,13 @@
 //! Every step runs even if an earlier one failed, so one CI log shows every problem.
 
 mod elf_size;
+<<<<<<< HEAD
 #[cfg(test)]
 mod firmware_logger;
 mod panic_check;
+=======
+mod link_qemu;
+>>>>>>> wip/link
 mod qemu;
 mod setup;
 mod steps;
@@ -35,6 +44,8 @@ commands:
   setup   install what is missing: ARM target, flip-link, qemu-system-arm
   size    build the firmware and check its flash / static RAM budget
   qemu    run the core on an emulated Cortex-M4F and compare with the host
+  link-qemu
+          run the link on an emulated Cortex-M4F and talk to it over its USART
   size-of ELF
           flash and static RAM of an ARM ELF against the firmware budget (no build)
   panic-check
@@ -63,6 +74,7 @@ fn run() -> Result<bool> {
         ["setup"] => vec![steps::setup()],
         ["size"] => vec![steps::setup(), steps::firmware_size()],
         ["qemu"] => vec![steps::setup(), steps::qemu()],
+        ["link-qemu"] => vec![steps::setup(), steps::link_qemu()],
         ["size-of", elf] => {
             let elf = PathBuf::from(elf);
             vec![Step::new("size of an ELF", move |_| {

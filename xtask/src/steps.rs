@@ -7,12 +7,12 @@ use std::time::Instant;
 
 use anyhow::{bail, Context as _, Result};
 
-use crate::{elf_size, panic_check, qemu, setup};
+use crate::{elf_size, link_qemu, panic_check, qemu, setup};
 
 /// The ARM target of the firmware and the QEMU program.
 pub const TARGET: &str = "thumbv7em-none-eabihf";
 /// Packages built only for [`TARGET`], never for the host.
-pub const TARGET_ONLY_PACKAGES: [&str; 2] = ["firmware", "qemu-m4f"];
+pub const TARGET_ONLY_PACKAGES: [&str; 3] = ["firmware", "qemu-m4f", "qemu-link"];
 
 /// What every step needs: where the workspace is and which `cargo` runs it.
 pub struct Context {
@@ -199,6 +199,9 @@ pub fn ci() -> Vec<Step> {
         Step::new("clippy: qemu-m4f (thumbv7em-none-eabihf)", |ctx| {
             clippy_for_target(ctx, "qemu-m4f", &[])
         }),
+        Step::new("clippy: qemu-link (thumbv7em-none-eabihf)", |ctx| {
+            clippy_for_target(ctx, "qemu-link", &[])
+        }),
         Step::new("tests: host crates", |ctx| {
             // --no-fail-fast: one failing crate must not hide the others' results.
             let mut args = vec!["test", "--workspace", "--no-fail-fast"];
@@ -210,6 +213,7 @@ pub fn ci() -> Vec<Step> {
         firmware_size(),
         panic_check(),
         qemu(),
+        link_qemu(),
     ]
 }
 
@@ -259,5 +263,13 @@ pub fn qemu() -> Step {
     Step::new(
         "qemu: core on an emulated Cortex-M4F (digest vs host, instruction budget)",
         qemu::check,
+    )
+}
+
+/// The link crate on an emulated Cortex-M4F, driven over its USART from the host.
+pub fn link_qemu() -> Step {
+    Step::new(
+        "link-qemu: the link on an emulated Cortex-M4F (USART1 over TCP, corrupted frames)",
+        link_qemu::check,
     )
 }

@@ -1,0 +1,301 @@
+//! The messages: what the host asks ([`Downlink`] = `seq` + [`Request`]) and what the
+//! robot sends back ([`Uplink`]: replies, telemetry, events, statistics).
+//!
+//! Every request gets exactly one [`Uplink::Reply`] carrying the request's `seq` and
+//! either a [`Reply`] or a [`Refusal`]:
+//!
+//! | request | reply when accepted |
+//! |---|---|
+//! | [`Request::Info`] | [`Reply::Info`] |
+//! | [`Request::Ping`] | [`Reply::Pong`] with the same nonce |
+//! | [`Request::GetParams`] | [`Reply::Params`] |
+//! | [`Request::SetParams`] | [`Reply::ParamsApplied`] with the new [`params_hash`](crate::params_hash) |
+//! | [`Request::PathChunk`] | [`Reply::PathChunkStored`] |
+//! | [`Request::PathCommit`] | [`Reply::PathCommitted`] |
+//! | [`Request::GetStats`] | [`Reply::Stats`] |
+//! | every other request | [`Reply::Ack`] |
+//!
+//! The other [`Uplink`] messages are sent by the robot on its own: [`Uplink::Telemetry`]
+//! at the rate set by [`Request::SetTelemetryRate`], [`Uplink::Event`] on each supervisor
+//! state change, [`Uplink::GroundTruth`] from the simulator only, [`Uplink::Stats`]
+//! whenever the robot chooses, and [`Uplink::VersionMismatch`] in answer to a frame whose
+//! header names another protocol.
+//!
+//! **Compatibility:** the wire encoding of an enum is its variant's index. New variants
+//! and fields go at the end; any change of shape changes
+//! [`SCHEMA_HASH`](crate::SCHEMA_HASH), and peers with different hashes refuse each
+//! other's frames (see [`protocol`](crate::protocol)).
+
+mod path;
+mod refusal;
+mod telemetry;
+
+use controller_core::kinematics::{BodyVelocity, WheelSpeeds};
+use controller_core::params::RobotConfig;
+use controller_core::supervisor::{Event, SupervisorConfig};
+use heapless::String;
+use postcard_schema::Schema;
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+
+pub use self::path::{CommitSummary, PathBegin, PathChunk, PathCommit, SEGMENTS_PER_CHUNK};
+pub use self::refusal::{FieldProblem, NotPermitted, PathProblem, Refusal, FIELD_CAP, PROBLEM_CAP};
+pub use self::telemetry::{GroundTruth, LinkStats, PidParts, Stats, TelemetryFrame};
+use crate::protocol::ProtocolId;
+
+/// Capacity of [`RobotInfo::firmware_version`], bytes of UTF-8.
+pub const VERSION_CAP: usize = 16;
+/// Capacity of [`RobotInfo::git_hash`], bytes of UTF-8 (a 12-digit hash plus `-dirty`).
+pub const GIT_HASH_CAP: usize = 20;
+/// Capacity of [`RobotInfo::chip`] and [`RobotInfo::robot_name`], bytes of UTF-8.
+pub const NAME_CAP: usize = 24;
+
+/// A top-level message type of the link: [`Downlink`] or [`Uplink`]. Sealed: the schema
+/// hash covers exactly these two.
+pub trait Message: Serialize + DeserializeOwned + Schema + sealed::Sealed {}
+
+mod sealed {
+    pub trait Sealed {}
+    impl Sealed for super::Downlink {}
+    impl Sealed for super::Uplink {}
+}
+
+impl Message for Downlink {}
+impl Message for Uplink {}
+
+/// Host → robot: one request and the sequence number its reply echoes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Schema)]
+pub struct Downlink {
+    /// Chosen by the host (typically incremented per request, wrapping); echoed in
+    /// [`Uplink::Reply::seq`].
+    pub seq: u16,
+    /// What is asked.
+    pub request: Request,
+}
+
+/// What the host asks the robot. See the module doc for the reply each one gets.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Schema)]
+pub enum Request {
+    /// Who are you: protocol, firmware, chip, robot and active parameters.
+    Info,
+    /// Echo `nonce` back ([`Reply::Pong`]).
+    Ping {
+        /// Any value; the reply carries it back.
+        nonce: u32,
+    },
+    /// The whole active configuration ([`Reply::Params`]).
+    GetParams,
+    /// Replace the configuration. The robot validates it with the core's `Params::new`
+    /// and `SupervisorConfig::validate` ([`Refusal::InvalidParams`]) and refuses while
+    /// armed ([`Refusal::Armed`]). Not persisted until [`Request::PersistParams`].
+    SetParams(ParamSet),
+    /// Save the active configuration to flash; only while disarmed.
+    PersistParams,
+    /// Start a path upload (see [`PathAssembler`](crate::PathAssembler)); only while
+    /// disarmed.
+    PathBegin(PathBegin),
+    /// Some segments of the upload begun with the same `upload_id`.
+    PathChunk(PathChunk),
+    /// Check and activate the upload atomically; only while disarmed.
+    PathCommit(PathCommit),
+    /// Arm the motors.
+    Arm {
+        /// What to do while armed.
+        mode: ArmMode,
+        /// "Arm in motion": the operator asserts the robot is already moving at this body
+        /// velocity (robot frame, m/s and rad/s), so the controller and its limiter start
+        /// from it instead of from rest (simulations that start in motion). `None`: at
+        /// rest.
+        initial_motion: Option<BodyVelocity>,
+    },
+    /// Disarm (motors off, driver disabled).
+    Disarm,
+    /// Stop now, whatever the state: disarm and zero the motors. Always accepted.
+    EmergencyStop,
+    /// Acknowledge latched faults (the robot is then disarmed).
+    ClearFaults,
+    /// Keep-alive. The robot disarms when heartbeats stop for its configured timeout
+    /// (counted in control steps); the reply lets the host measure the round trip.
+    Heartbeat,
+    /// Telemetry frames per second, 1…100 ([`TELEMETRY_RATE_HZ`](crate::TELEMETRY_RATE_HZ);
+    /// refused otherwise with [`Refusal::InvalidArgument`]).
+    SetTelemetryRate {
+        /// Rate, Hz.
+        hz: u8,
+    },
+    /// Timing and link statistics ([`Reply::Stats`]).
+    GetStats,
+}
+
+impl Request {
+    /// The request's name, for logs (`"SetParams"`, …).
+    pub const fn name(&self) -> &'static str {
+        match self {
+            Request::Info => "Info",
+            Request::Ping { .. } => "Ping",
+            Request::GetParams => "GetParams",
+            Request::SetParams(_) => "SetParams",
+            Request::PersistParams => "PersistParams",
+            Request::PathBegin(_) => "PathBegin",
+            Request::PathChunk(_) => "PathChunk",
+            Request::PathCommit(_) => "PathCommit",
+            Request::Arm { .. } => "Arm",
+            Request::Disarm => "Disarm",
+            Request::EmergencyStop => "EmergencyStop",
+            Request::ClearFaults => "ClearFaults",
+            Request::Heartbeat => "Heartbeat",
+            Request::SetTelemetryRate { .. } => "SetTelemetryRate",
+            Request::GetStats => "GetStats",
+        }
+    }
+}
+
+/// What the robot does once armed.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+pub enum ArmMode {
+    /// Follow the committed path from its start pose.
+    FollowPath,
+    /// Hold these wheel speeds (rad/s) with the wheel PIDs only (bring-up).
+    HoldWheelSpeeds(WheelSpeeds),
+    /// The robot's tuning mode (wheel-PID experiments driven by the robot service).
+    Tune,
+}
+
+/// The robot's whole configuration: what [`Request::SetParams`] sends and
+/// [`Reply::Params`] returns.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+pub struct ParamSet {
+    /// Geometry, encoder, rates, limits and gains (SI units; see the core).
+    pub robot: RobotConfig,
+    /// Supervisor settings (times in control steps).
+    pub supervisor: SupervisorConfig,
+}
+
+/// Robot → host.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Schema)]
+pub enum Uplink {
+    /// The answer to the request that carried `seq`.
+    Reply {
+        /// [`Downlink::seq`] of the request answered.
+        seq: u16,
+        /// What was done, or why not.
+        result: Result<Reply, Refusal>,
+    },
+    /// One telemetry sample.
+    Telemetry(TelemetryFrame),
+    /// A supervisor state change.
+    Event {
+        /// Control step at which it happened.
+        step: u32,
+        /// What happened.
+        event: Event,
+    },
+    /// The simulated robot's true state (the virtual robot only; never from hardware).
+    GroundTruth(GroundTruth),
+    /// Statistics sent unasked.
+    Stats(Stats),
+    /// A frame arrived whose header names `received`, not this robot's protocol; it was
+    /// not decoded. The header of this message names the robot's own protocol, so a host
+    /// of another version can still print both (see [`Mismatch`](crate::Mismatch)).
+    VersionMismatch {
+        /// What the refused frame's header said.
+        received: ProtocolId,
+    },
+}
+
+/// The payload of an accepted request's reply.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Schema)]
+pub enum Reply {
+    /// Done; nothing to report.
+    Ack,
+    /// Answer to [`Request::Info`].
+    Info(RobotInfo),
+    /// Answer to [`Request::Ping`].
+    Pong {
+        /// The ping's nonce.
+        nonce: u32,
+    },
+    /// Answer to [`Request::GetParams`]: the active configuration.
+    Params(ParamSet),
+    /// Answer to [`Request::SetParams`]: the configuration is active.
+    ParamsApplied {
+        /// [`params_hash`](crate::params_hash) of the configuration now active.
+        params_hash: u32,
+    },
+    /// Answer to [`Request::PathChunk`]: the chunk is stored.
+    PathChunkStored {
+        /// The upload.
+        upload_id: u16,
+        /// Distinct segments received so far.
+        received: u8,
+        /// Segments announced by [`PathBegin::segment_count`].
+        expected: u8,
+    },
+    /// Answer to [`Request::PathCommit`]: the path is active.
+    PathCommitted(CommitSummary),
+    /// Answer to [`Request::GetStats`].
+    Stats(Stats),
+}
+
+/// Who the robot is: answer to [`Request::Info`].
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
+pub struct RobotInfo {
+    /// The protocol the robot speaks (the same as its frame headers).
+    pub protocol: ProtocolId,
+    /// Firmware version, e.g. `0.1.0`.
+    pub firmware_version: String<VERSION_CAP>,
+    /// Git commit of the firmware build, e.g. `e39f8b3c41aa` or `e39f8b3c41aa-dirty`.
+    pub git_hash: String<GIT_HASH_CAP>,
+    /// Chip, e.g. `STM32F411CEU6`, or the simulator's name.
+    pub chip: String<NAME_CAP>,
+    /// The robot's name.
+    pub robot_name: String<NAME_CAP>,
+    /// [`params_hash`](crate::params_hash) of the active configuration.
+    pub params_hash: u32,
+}
+
+/// `text` as a bounded string, cut at a character boundary when longer than `N` bytes.
+pub fn bounded<const N: usize>(text: &str) -> String<N> {
+    let mut out = String::new();
+    for c in text.chars() {
+        if out.push(c).is_err() {
+            break;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounded_cuts_at_a_character_boundary() {
+        assert_eq!(bounded::<8>("abc").as_str(), "abc");
+        assert_eq!(bounded::<4>("abcdef").as_str(), "abcd");
+        // "é" is 2 bytes: 3 bytes of room hold "aé", not half of the next "é".
+        assert_eq!(bounded::<4>("aéé").as_str(), "aé");
+        assert_eq!(bounded::<0>("abc").as_str(), "");
+    }
+
+    #[test]
+    fn every_request_has_a_distinct_name() {
+        let names = [
+            Request::Info.name(),
+            Request::Ping { nonce: 0 }.name(),
+            Request::GetParams.name(),
+            Request::PersistParams.name(),
+            Request::Disarm.name(),
+            Request::EmergencyStop.name(),
+            Request::ClearFaults.name(),
+            Request::Heartbeat.name(),
+            Request::SetTelemetryRate { hz: 1 }.name(),
+            Request::GetStats.name(),
+        ];
+        for (i, a) in names.iter().enumerate() {
+            for b in &names[i + 1..] {
+                assert_ne!(a, b);
+            }
+        }
+    }
+}

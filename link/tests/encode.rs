@@ -1,0 +1,141 @@
+//! The encoder: exact sizes, and errors (never panics) when a frame does not fit.
+
+mod support;
+
+use controller_core::kinematics::{Pose, WheelSpeeds};
+use controller_core::params::RobotConfig;
+use controller_core::supervisor::SupervisorConfig;
+use link::bandwidth::largest_telemetry;
+use link::{
+    encode, encode_raw, encode_to_vec, max_wire_len, Downlink, EncodeError, ParamSet, ProtocolId,
+    Reply, Request, Uplink, MAX_BODY_LEN, MAX_FRAME_LEN,
+};
+use proptest::prelude::*;
+use support::{random_value, Tape};
+
+fn set_params() -> Downlink {
+    Downlink {
+        seq: u16::MAX,
+        request: Request::SetParams(ParamSet {
+            robot: RobotConfig::REFERENCE_ROBOT,
+            supervisor: SupervisorConfig::at_rate(
+                1000,
+                Pose::new(-1.0, -1.2, 2.0),
+                WheelSpeeds::new(5.0, 5.0),
+            ),
+        }),
+    }
+}
+
+proptest! {
+    /// The frame is never longer than `max_wire_len` of its body, and exactly that long
+    /// when header + body + CRC stay under 254 bytes.
+    #[test]
+    fn wire_length_matches_the_bound(tape in prop::collection::vec(any::<u8>(), 0..600)) {
+        let (message, body) = random_value::<Uplink>(&mut Tape::new(&tape), None);
+        let mut wire = [0u8; MAX_FRAME_LEN];
+        let len = encode(&message, &mut wire).unwrap();
+        prop_assert!(len <= max_wire_len(body.len()));
+        if body.len() + 9 < 254 {
+            prop_assert_eq!(len, max_wire_len(body.len()));
+        }
+    }
+
+    /// Every buffer size: the frame or `BufferTooSmall`, never a panic or a short frame.
+    #[test]
+    fn small_buffers_are_reported(tape in prop::collection::vec(any::<u8>(), 0..600)) {
+        let (message, _) = random_value::<Downlink>(&mut Tape::new(&tape), None);
+        let mut full = [0u8; MAX_FRAME_LEN];
+        let len = encode(&message, &mut full).unwrap();
+        for size in 0..len {
+            let mut buf = vec![0u8; size];
+            prop_assert_eq!(
+                encode(&message, &mut buf),
+                Err(EncodeError::BufferTooSmall { available: size })
+            );
+        }
+        let mut exact = vec![0u8; len];
+        prop_assert_eq!(encode(&message, &mut exact), Ok(len));
+        prop_assert_eq!(&exact[..], &full[..len]);
+    }
+}
+
+#[test]
+fn the_configuration_fits_with_room_to_grow() {
+    let body = postcard::to_allocvec(&set_params()).unwrap().len();
+    let reply = Uplink::Reply {
+        seq: u16::MAX,
+        result: Ok(match set_params().request {
+            Request::SetParams(p) => Reply::Params(p),
+            _ => unreachable!(),
+        }),
+    };
+    let reply_body = postcard::to_allocvec(&reply).unwrap().len();
+    // Room for at least 25 more f32 fields before the limit.
+    for len in [body, reply_body] {
+        assert!(
+            len + 25 * 4 <= MAX_BODY_LEN,
+            "{len} bytes leave too little margin"
+        );
+    }
+}
+
+#[test]
+fn telemetry_stays_near_110_bytes() {
+    let body = postcard::to_allocvec(&largest_telemetry()).unwrap().len();
+    assert!((100..=115).contains(&body), "telemetry body {body} bytes");
+}
+
+#[test]
+fn encode_to_vec_fills_or_reports() {
+    let mut big: heapless::Vec<u8, MAX_FRAME_LEN> = heapless::Vec::new();
+    encode_to_vec(&set_params(), &mut big).unwrap();
+    let mut slice = [0u8; MAX_FRAME_LEN];
+    let len = encode(&set_params(), &mut slice).unwrap();
+    assert_eq!(&big[..], &slice[..len]);
+
+    let mut small: heapless::Vec<u8, 64> = heapless::Vec::new();
+    small.extend_from_slice(&[1, 2, 3]).unwrap();
+    assert_eq!(
+        encode_to_vec(&set_params(), &mut small),
+        Err(EncodeError::BufferTooSmall { available: 64 })
+    );
+    assert!(small.is_empty());
+}
+
+#[test]
+fn a_body_over_the_limit_is_refused() {
+    let mut wire = vec![0u8; 2 * MAX_FRAME_LEN];
+    let at_limit = vec![1u8; MAX_BODY_LEN];
+    assert!(encode_raw(ProtocolId::OURS, &at_limit, &mut wire).is_ok());
+    let over = vec![1u8; MAX_BODY_LEN + 1];
+    assert_eq!(
+        encode_raw(ProtocolId::OURS, &over, &mut wire),
+        Err(EncodeError::TooLarge)
+    );
+    // Not written past the limit.
+    assert!(wire[MAX_FRAME_LEN..].iter().all(|&b| b == 0));
+    // With a buffer too small for any frame, the buffer is what is reported.
+    let mut small = [0u8; 16];
+    assert_eq!(
+        encode_raw(ProtocolId::OURS, &over, &mut small),
+        Err(EncodeError::BufferTooSmall { available: 16 })
+    );
+}
+
+#[test]
+fn the_header_opens_the_payload() {
+    // A frame of a 1-byte body: COBS leaves short zero-free payloads readable.
+    let id = ProtocolId {
+        version: 3,
+        schema_hash: 0x0403_0201,
+    };
+    let mut wire = [0u8; 32];
+    let len = encode_raw(id, &[0x42], &mut wire).unwrap();
+    let mut payload = wire[..len - 1].to_vec();
+    let n = cobs::decode_in_place(&mut payload).unwrap();
+    assert_eq!(&payload[..6], &[3, 1, 2, 3, 4, 0x42]);
+    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(&payload[..6]);
+    assert_eq!(&payload[6..n], &crc.to_le_bytes());
+    assert_eq!(n, 10);
+}

@@ -56,7 +56,8 @@
 //! ```
 //!
 //! A bad file gets an error naming the key and the problem, e.g.
-//! `robot.wheel_radius_m must be > 0, got -0.03`; nothing in here panics on input.
+//! `robot.wheel_radius_m must be > 0, got -0.03`; an array key of the wrong length, e.g.
+//! `path.center_m must have exactly 2 numbers, got 3`. Nothing in here panics on input.
 
 use std::fmt;
 use std::path::Path as FsPath;
@@ -155,14 +156,14 @@ enum PathKind {
 #[serde(deny_unknown_fields)]
 struct FilePath {
     kind: PathKind,
-    center_m: Option<[f64; 2]>,
+    center_m: Option<RawValue>,
     radius_m: Option<f64>,
     start_angle_rad: Option<f64>,
     counter_clockwise: Option<bool>,
-    start_m: Option<[f64; 2]>,
+    start_m: Option<RawValue>,
     heading_rad: Option<f64>,
     length_m: Option<f64>,
-    waypoints_m: Option<Vec<[f64; 2]>>,
+    waypoints_m: Option<RawValue>,
     corner_radius_m: Option<f64>,
     closed: Option<bool>,
     lobe_radius_m: Option<f64>,
@@ -354,6 +355,121 @@ struct ScenarioFile {
     plant: FilePlant,
     #[serde(default)]
     sweep: FileSweep,
+}
+
+// ---------------------------------------------------------------------------------------
+// Fixed-length number arrays. serde reads `[f64; N]` as a tuple of N elements, and the
+// `toml` crate (1.x) does not check that the array ends there: `center_m = [5.0, 0.0,
+// "junk"]` read as (5, 0). So every such key is read as a `RawValue`, which accepts any
+// TOML value, and checked by `numbers` with its key: a wrong length, a non-number element
+// or a non-array each get an error naming the key.
+
+/// Any TOML value, kept just well enough to check it and to describe it in an error.
+#[derive(Clone, Debug, PartialEq)]
+enum RawValue {
+    /// An integer or a float (integers as the nearest f64).
+    Number(f64),
+    /// An array of values.
+    Array(Vec<RawValue>),
+    /// Anything else, described for the error (`string "junk"`, `boolean true`, …).
+    Other(String),
+}
+
+impl fmt::Display for RawValue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RawValue::Number(v) => write!(f, "{v}"),
+            RawValue::Array(items) => write!(f, "an array of {} elements", items.len()),
+            RawValue::Other(what) => f.write_str(what),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for RawValue {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserializer.deserialize_any(RawValueVisitor)
+    }
+}
+
+struct RawValueVisitor;
+
+impl<'de> serde::de::Visitor<'de> for RawValueVisitor {
+    type Value = RawValue;
+
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("any TOML value")
+    }
+
+    fn visit_bool<E>(self, v: bool) -> Result<RawValue, E> {
+        Ok(RawValue::Other(format!("boolean {v}")))
+    }
+
+    fn visit_i64<E>(self, v: i64) -> Result<RawValue, E> {
+        Ok(RawValue::Number(v as f64))
+    }
+
+    fn visit_u64<E>(self, v: u64) -> Result<RawValue, E> {
+        Ok(RawValue::Number(v as f64))
+    }
+
+    fn visit_f64<E>(self, v: f64) -> Result<RawValue, E> {
+        Ok(RawValue::Number(v))
+    }
+
+    fn visit_str<E>(self, v: &str) -> Result<RawValue, E> {
+        Ok(RawValue::Other(format!("string {v:?}")))
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<RawValue, A::Error> {
+        let mut items = Vec::new();
+        while let Some(item) = seq.next_element()? {
+            items.push(item);
+        }
+        Ok(RawValue::Array(items))
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<RawValue, A::Error> {
+        while map
+            .next_entry::<serde::de::IgnoredAny, serde::de::IgnoredAny>()?
+            .is_some()
+        {}
+        Ok(RawValue::Other("a table".to_string()))
+    }
+}
+
+/// The elements of `raw` (at `key`) if it is an array.
+fn array<'a>(key: &str, raw: &'a RawValue, what: &str) -> Result<&'a [RawValue], ScenarioError> {
+    match raw {
+        RawValue::Array(items) => Ok(items),
+        other => Err(ScenarioError::invalid(
+            key,
+            format!("must be an array of {what}, got {other}"),
+        )),
+    }
+}
+
+/// `raw` (at `key`) as exactly `N` numbers.
+fn numbers<const N: usize>(key: &str, raw: &RawValue) -> Result<[f64; N], ScenarioError> {
+    let items = array(key, raw, &format!("{N} numbers"))?;
+    if items.len() != N {
+        return Err(ScenarioError::invalid(
+            key,
+            format!("must have exactly {N} numbers, got {}", items.len()),
+        ));
+    }
+    let mut out = [0.0; N];
+    for (i, (o, item)) in out.iter_mut().zip(items).enumerate() {
+        match item {
+            RawValue::Number(v) => *o = *v,
+            other => {
+                return Err(ScenarioError::invalid(
+                    format!("{key}[{i}]"),
+                    format!("must be a number, got {other}"),
+                ))
+            }
+        }
+    }
+    Ok(out)
 }
 
 // ---------------------------------------------------------------------------------------
@@ -597,6 +713,11 @@ fn required<T: Copy>(value: Option<T>, key: &str, kind: &str) -> Result<T, Scena
     value.ok_or_else(|| ScenarioError::invalid(key, format!("is required for kind = \"{kind}\"")))
 }
 
+/// The point at `key`, (0, 0) if the key is absent.
+fn optional_point(key: &str, raw: Option<&RawValue>) -> Result<Point, ScenarioError> {
+    point(key, raw.map_or(Ok([0.0, 0.0]), |raw| numbers(key, raw))?)
+}
+
 fn point(key: &str, p: [f64; 2]) -> Result<Point, ScenarioError> {
     let x = as_f32(&format!("{key}[0]"), finite(&format!("{key}[0]"), p[0])?)?;
     let y = as_f32(&format!("{key}[1]"), finite(&format!("{key}[1]"), p[1])?)?;
@@ -663,7 +784,7 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
     }
     let path = match p.kind {
         PathKind::Circle => {
-            let center = point("path.center_m", p.center_m.unwrap_or([0.0, 0.0]))?;
+            let center = optional_point("path.center_m", p.center_m.as_ref())?;
             let r = positive(
                 "path.radius_m",
                 required(p.radius_m, "path.radius_m", kind_name)?,
@@ -677,10 +798,10 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
             )
         }
         PathKind::Line => {
-            let start = point(
-                "path.start_m",
-                required(p.start_m, "path.start_m", kind_name)?,
-            )?;
+            let raw = p.start_m.as_ref().ok_or_else(|| {
+                ScenarioError::invalid("path.start_m", "is required for kind = \"line\"")
+            })?;
+            let start = point("path.start_m", numbers("path.start_m", raw)?)?;
             let h = finite("path.heading_rad", p.heading_rad.unwrap_or(0.0))?;
             let l = positive(
                 "path.length_m",
@@ -693,12 +814,14 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
             )
         }
         PathKind::Polyline => {
-            let raw = p.waypoints_m.as_deref().ok_or_else(|| {
+            let raw = p.waypoints_m.as_ref().ok_or_else(|| {
                 ScenarioError::invalid("path.waypoints_m", "is required for kind = \"polyline\"")
             })?;
+            let raw = array("path.waypoints_m", raw, "[x, y] points")?;
             let mut points = Vec::with_capacity(raw.len());
             for (i, w) in raw.iter().enumerate() {
-                points.push(point(&format!("path.waypoints_m[{i}]"), *w)?);
+                let key = format!("path.waypoints_m[{i}]");
+                points.push(point(&key, numbers(&key, w)?)?);
             }
             let r = non_negative("path.corner_radius_m", p.corner_radius_m.unwrap_or(0.0))?;
             Path::polyline(
@@ -708,7 +831,7 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
             )
         }
         PathKind::FigureEight => {
-            let center = point("path.center_m", p.center_m.unwrap_or([0.0, 0.0]))?;
+            let center = optional_point("path.center_m", p.center_m.as_ref())?;
             let r = positive(
                 "path.lobe_radius_m",
                 required(p.lobe_radius_m, "path.lobe_radius_m", kind_name)?,

@@ -256,3 +256,109 @@ fn no_bad_integer_panics_or_hangs() {
         .to_string();
     assert!(e.starts_with("sim.duration_s"), "{e}");
 }
+
+/// `text` with `from` replaced by `to`, loaded: the error message, or `Ok`.
+fn replaced(text: &str, from: &str, to: &str) -> Result<Scenario, String> {
+    assert!(text.contains(from), "{from}");
+    Scenario::from_toml(&text.replace(from, to), "t").map_err(|e| e.to_string())
+}
+
+fn replaced_error(text: &str, from: &str, to: &str) -> String {
+    match replaced(text, from, to) {
+        Ok(_) => panic!("accepted: {to}"),
+        Err(e) => e,
+    }
+}
+
+/// Fixed-length arrays: a wrong length, a non-number element or a non-array is an error
+/// naming the key, not silently cut to the first elements.
+#[test]
+fn array_keys_take_exactly_their_numbers() {
+    let circle = BUILTIN[0].1;
+    let center = "center_m = [0.0, 0.0]";
+    let cases = [
+        (
+            r#"center_m = [5.0, 0.0, "junk"]"#,
+            "path.center_m must have exactly 2 numbers, got 3",
+        ),
+        (
+            "center_m = [5.0, 0.0, 1.0]",
+            "path.center_m must have exactly 2 numbers, got 3",
+        ),
+        (
+            "center_m = [5.0]",
+            "path.center_m must have exactly 2 numbers, got 1",
+        ),
+        (
+            "center_m = []",
+            "path.center_m must have exactly 2 numbers, got 0",
+        ),
+        (
+            r#"center_m = [5.0, "junk"]"#,
+            r#"path.center_m[1] must be a number, got string "junk""#,
+        ),
+        (
+            "center_m = [[1.0, 2.0], 0.0]",
+            "path.center_m[0] must be a number, got an array of 2 elements",
+        ),
+        (
+            "center_m = 5.0",
+            "path.center_m must be an array of 2 numbers, got 5",
+        ),
+        (
+            "center_m = { x = 1.0 }",
+            "path.center_m must be an array of 2 numbers, got a table",
+        ),
+        (
+            "center_m = [nan, 0.0]",
+            "path.center_m[0] must be finite, got NaN",
+        ),
+    ];
+    for (to, expected) in cases {
+        assert_eq!(replaced_error(circle, center, to), expected, "{to}");
+    }
+    // Integers are numbers.
+    let s = replaced(circle, center, "center_m = [1, -2]").unwrap();
+    let p = s.path.sample(0.0).point;
+    let r = 1.25;
+    let from_centre = ((p.x_m - 1.0).powi(2) + (p.y_m + 2.0).powi(2)).sqrt();
+    assert!((from_centre - r).abs() < 1e-5, "{p:?}");
+
+    let line = BUILTIN[1].1;
+    let start = "start_m = [0.0, 0.0]";
+    assert_eq!(
+        replaced_error(line, start, "start_m = [0.0, 0.0, 1.0]"),
+        "path.start_m must have exactly 2 numbers, got 3"
+    );
+    assert_eq!(
+        replaced_error(line, start, "start_m = [true, 0.0]"),
+        "path.start_m[0] must be a number, got boolean true"
+    );
+    let s = replaced(line, start, "start_m = [1, -2]").unwrap();
+    let p = s.path.sample(0.0).point;
+    assert_eq!((p.x_m, p.y_m), (1.0, -2.0));
+
+    let square = BUILTIN[2].1;
+    let second = "[2.0, 0.0], [2.0, 2.0]";
+    assert_eq!(
+        replaced_error(square, second, "[2.0, 0.0, 9.0], [2.0, 2.0]"),
+        "path.waypoints_m[1] must have exactly 2 numbers, got 3"
+    );
+    assert_eq!(
+        replaced_error(square, second, "[2.0], [2.0, 2.0]"),
+        "path.waypoints_m[1] must have exactly 2 numbers, got 1"
+    );
+    assert_eq!(
+        replaced_error(square, second, r#"[2.0, 0.0], [2.0, "x"]"#),
+        r#"path.waypoints_m[2][1] must be a number, got string "x""#
+    );
+    assert_eq!(
+        replaced_error(square, second, "7, [2.0, 2.0]"),
+        "path.waypoints_m[1] must be an array of 2 numbers, got 7"
+    );
+    let all = "waypoints_m = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]]";
+    assert_eq!(
+        replaced_error(square, all, "waypoints_m = 5"),
+        "path.waypoints_m must be an array of [x, y] points, got 5"
+    );
+}

@@ -43,17 +43,24 @@
 //!                            # [robot.limits], [robot.wheel_pid], [robot.law.paper|tracking|kanayama]
 //!
 //! [plant]                    # the simulated robot (defaults: see `plant`)
-//! supply_v = 6.0
-//! pwm_levels = 1000
-//! dead_band_duty = 0.02
+//! driver = "tb6612"          # or "drv8833": bridge on-resistance and supply limit
+//! supply_v = 6.0             # ≤ the driver's absolute maximum (15 V, 11.8 V)
+//! pwm_levels = 5000          # compare value of 100 % (TIM3: 100 MHz / 20 kHz)
+//! dead_band_duty = 0.02      # |duty| below this brakes (u = 0)
 //! encoder_noise_ticks_rms = 0.0
 //! [plant.motor]              # resistance_ohm, torque_constant_nm_per_a, …
-//! [plant.body]               # mass_kg, yaw_inertia_kg_m2, wheel_inertia_kg_m2
+//! [plant.body]               # mass_kg, yaw_inertia_kg_m2 (about the axle midpoint),
+//!                            # wheel_inertia_kg_m2, com_ahead_of_axle_m (default 0)
 //! [plant.mismatch]           # wheel_radius_pct, wheel_radius_left_right_pct, track_width_pct
 //! [plant.slip]               # left, right (slip ratios in [0, 1))
 //!
 //! [sweep]                    # Monte-Carlo spreads for `host-sim sweep` (see SweepSpec)
 //! ```
+//!
+//! The plant's bridge runs in slow decay like the firmware's (duty 0 = short brake; coasting
+//! only when the driver is disabled or a motor disconnected), and the chassis' yaw inertia
+//! is about the axle midpoint with the centre of mass `com_ahead_of_axle_m` ahead of the
+//! axle (0 = on it); see [`crate::plant`].
 //!
 //! A bad file gets an error naming the key and the problem, e.g.
 //! `robot.wheel_radius_m must be > 0, got -0.03`; an array key of the wrong length, e.g.
@@ -69,7 +76,7 @@ use controller_core::prelude::Point;
 use controller_core::reference::ReferenceMode;
 use serde::Deserialize;
 
-use crate::plant::{BodyParams, DriverParams, MotorParams};
+use crate::plant::{BodyParams, DriverKind, DriverParams, MotorParams};
 
 /// The built-in scenarios: (name, TOML text).
 pub const BUILTIN: [(&str, &str); 4] = [
@@ -290,6 +297,7 @@ struct FileBody {
     mass_kg: Option<f64>,
     yaw_inertia_kg_m2: Option<f64>,
     wheel_inertia_kg_m2: Option<f64>,
+    com_ahead_of_axle_m: Option<f64>,
 }
 
 #[derive(Deserialize, Default)]
@@ -307,9 +315,17 @@ struct FileSlip {
     right: Option<f64>,
 }
 
+#[derive(Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum DriverName {
+    Tb6612,
+    Drv8833,
+}
+
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct FilePlant {
+    driver: Option<DriverName>,
     supply_v: Option<f64>,
     pwm_levels: Option<u32>,
     dead_band_duty: Option<f64>,
@@ -956,8 +972,25 @@ fn build_plant(p: &FilePlant) -> Result<PlantSpec, ScenarioError> {
         "must be > 0",
         pwm_levels,
     )?;
+    let kind = match p.driver {
+        None => d.driver.kind,
+        Some(DriverName::Tb6612) => DriverKind::Tb6612,
+        Some(DriverName::Drv8833) => DriverKind::Drv8833,
+    };
+    let supply_v = positive("plant.supply_v", p.supply_v.unwrap_or(d.driver.supply_v))?;
+    check(
+        supply_v <= kind.max_supply_v(),
+        "plant.supply_v",
+        &format!(
+            "must be ≤ {} V, the {}'s absolute maximum (plant.driver)",
+            kind.max_supply_v(),
+            kind.name()
+        ),
+        supply_v,
+    )?;
     let driver = DriverParams {
-        supply_v: positive("plant.supply_v", p.supply_v.unwrap_or(d.driver.supply_v))?,
+        kind,
+        supply_v,
         pwm_levels,
         dead_band_duty: in_range(
             "plant.dead_band_duty",
@@ -978,7 +1011,22 @@ fn build_plant(p: &FilePlant) -> Result<PlantSpec, ScenarioError> {
             "plant.body.wheel_inertia_kg_m2",
             b.wheel_inertia_kg_m2.unwrap_or(d.body.wheel_inertia_kg_m2),
         )?,
+        com_ahead_of_axle_m: finite(
+            "plant.body.com_ahead_of_axle_m",
+            b.com_ahead_of_axle_m.unwrap_or(d.body.com_ahead_of_axle_m),
+        )?,
     };
+    // The yaw inertia is about the axle, so it contains the centre of mass' own m d².
+    let d_com = body.com_ahead_of_axle_m;
+    check(
+        body.mass_kg * d_com * d_com <= body.yaw_inertia_kg_m2,
+        "plant.body.com_ahead_of_axle_m",
+        &format!(
+            "must satisfy mass_kg · d² ≤ yaw_inertia_kg_m2 (the inertia about the axle includes m d²; |d| ≤ {:.4} m here)",
+            (body.yaw_inertia_kg_m2 / body.mass_kg).sqrt()
+        ),
+        d_com,
+    )?;
     let pct = |key: &str, v: Option<f64>| {
         in_range(
             key,

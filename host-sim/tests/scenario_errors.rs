@@ -1,6 +1,7 @@
 //! A bad scenario file gets an error that names the key and the problem, and never
 //! panics.
 
+use host_sim::plant::DriverKind;
 use host_sim::scenario::BUILTIN;
 use host_sim::{run_scenario_with, RunOptions, Scenario};
 
@@ -361,4 +362,55 @@ fn array_keys_take_exactly_their_numbers() {
         replaced_error(square, all, "waypoints_m = 5"),
         "path.waypoints_m must be an array of [x, y] points, got 5"
     );
+}
+
+#[test]
+fn driver_supply_and_centre_of_mass_are_checked_with_their_key() {
+    // Defaults: the TB6612 with the firmware's 5 000-level PWM, centre of mass on the axle.
+    let s = with("").unwrap();
+    assert_eq!(s.plant.driver.kind, DriverKind::Tb6612);
+    assert_eq!(s.plant.driver.pwm_levels, 5000);
+    assert_eq!(s.plant.body.com_ahead_of_axle_m, 0.0);
+
+    let s = with("[plant]\ndriver = \"drv8833\"\nsupply_v = 7.4").unwrap();
+    assert_eq!(s.plant.driver.kind, DriverKind::Drv8833);
+    let e = error("[plant]\ndriver = \"l298n\"");
+    assert!(
+        e.contains("driver") && e.contains("unknown variant `l298n`"),
+        "{e}"
+    );
+    assert_eq!(
+        error("[plant]\ndriver = \"drv8833\"\nsupply_v = 12.0"),
+        "plant.supply_v must be ≤ 11.8 V, the drv8833's absolute maximum (plant.driver), got 12"
+    );
+    assert_eq!(
+        error("[plant]\nsupply_v = 16.0"),
+        "plant.supply_v must be ≤ 15 V, the tb6612's absolute maximum (plant.driver), got 16"
+    );
+    assert_eq!(
+        error("[plant]\npwm_levels = 0"),
+        "plant.pwm_levels must be > 0, got 0"
+    );
+    assert_eq!(
+        error("[plant.body]\ncom_ahead_of_axle_m = nan"),
+        "plant.body.com_ahead_of_axle_m must be finite, got NaN"
+    );
+    // 0.5 kg at 0.1 m is 5e-3 kg·m², more than the whole 1.8e-3 kg·m² about the axle.
+    let e = error("[plant.body]\ncom_ahead_of_axle_m = 0.1");
+    assert!(
+        e.starts_with(
+            "plant.body.com_ahead_of_axle_m must satisfy mass_kg · d² ≤ yaw_inertia_kg_m2"
+        ) && e.ends_with("got 0.1"),
+        "{e}"
+    );
+    // An offset centre of mass loads and runs.
+    let mut s = with("[plant.body]\ncom_ahead_of_axle_m = -0.03").unwrap();
+    assert_eq!(s.plant.body.com_ahead_of_axle_m, -0.03);
+    s.duration_s = 0.5;
+    let r = run_scenario_with(
+        &s,
+        controller_core::law::LawKind::Tracking,
+        RunOptions::at_steering_rate(&s),
+    );
+    assert!(r.is_ok());
 }

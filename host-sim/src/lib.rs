@@ -4,10 +4,14 @@
 //! where gains are tuned before flashing, where Jin & Tack (2011)'s experiments are
 //! reproduced, and where CI proves the loop closes.
 //!
-//! - [`plant`] — per wheel a DC motor driven by PWM duty × supply voltage (armature
-//!   resistance, K_t, K_e, inertia reflected through the gearbox, viscous and Coulomb
-//!   friction, dead-band), coupled through the chassis' mass and yaw inertia, integrated
-//!   with RK4 at ≥ 10 × the control rate; wheel slip; the true pose.
+//! - [`plant`] — per wheel an H-bridge in slow decay (PWM duty × supply, quantised as the
+//!   firmware writes it; duty 0 brakes, a disabled driver or a disconnected motor coasts)
+//!   and a DC motor (armature and bridge resistance, K_t, K_e, gearbox efficiency by
+//!   power-flow direction, inertia reflected through the gearbox, viscous and Coulomb
+//!   friction), coupled through the chassis' mass, yaw inertia and centre of mass with
+//!   static friction that sees the coupling, integrated with RK4 at ≥ 10 × the control
+//!   rate; wheel slip; fault hooks (disconnected motor, jammed wheel, slip patch, supply
+//!   sag); the true pose.
 //! - [`encoder`] — quadrature quantisation (lines × 4 × gear) with optional edge jitter.
 //! - [`scenario`] — TOML scenarios with every quantity in SI units, validated with errors
 //!   that name the key; four built in (`paper-circle`, `paper-line`, `square-waypoints`,

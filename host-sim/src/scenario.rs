@@ -43,20 +43,28 @@
 //!                            # [robot.limits], [robot.wheel_pid], [robot.law.paper|tracking|kanayama]
 //!
 //! [plant]                    # the simulated robot (defaults: see `plant`)
-//! supply_v = 6.0
-//! pwm_levels = 1000
-//! dead_band_duty = 0.02
+//! driver = "tb6612"          # or "drv8833": bridge on-resistance and supply limit
+//! supply_v = 6.0             # ≤ the driver's absolute maximum (15 V, 11.8 V)
+//! pwm_levels = 5000          # compare value of 100 % (TIM3: 100 MHz / 20 kHz)
+//! dead_band_duty = 0.02      # |duty| below this brakes (u = 0)
 //! encoder_noise_ticks_rms = 0.0
 //! [plant.motor]              # resistance_ohm, torque_constant_nm_per_a, …
-//! [plant.body]               # mass_kg, yaw_inertia_kg_m2, wheel_inertia_kg_m2
+//! [plant.body]               # mass_kg, yaw_inertia_kg_m2 (about the axle midpoint),
+//!                            # wheel_inertia_kg_m2, com_ahead_of_axle_m (default 0)
 //! [plant.mismatch]           # wheel_radius_pct, wheel_radius_left_right_pct, track_width_pct
 //! [plant.slip]               # left, right (slip ratios in [0, 1))
 //!
 //! [sweep]                    # Monte-Carlo spreads for `host-sim sweep` (see SweepSpec)
 //! ```
 //!
+//! The plant's bridge runs in slow decay like the firmware's (duty 0 = short brake; coasting
+//! only when the driver is disabled or a motor disconnected), and the chassis' yaw inertia
+//! is about the axle midpoint with the centre of mass `com_ahead_of_axle_m` ahead of the
+//! axle (0 = on it); see [`crate::plant`].
+//!
 //! A bad file gets an error naming the key and the problem, e.g.
-//! `robot.wheel_radius_m must be > 0, got -0.03`; nothing in here panics on input.
+//! `robot.wheel_radius_m must be > 0, got -0.03`; an array key of the wrong length, e.g.
+//! `path.center_m must have exactly 2 numbers, got 3`. Nothing in here panics on input.
 
 use std::fmt;
 use std::path::Path as FsPath;
@@ -68,7 +76,7 @@ use controller_core::prelude::Point;
 use controller_core::reference::ReferenceMode;
 use serde::Deserialize;
 
-use crate::plant::{BodyParams, DriverParams, MotorParams};
+use crate::plant::{BodyParams, DriverKind, DriverParams, MotorParams};
 
 /// The built-in scenarios: (name, TOML text).
 pub const BUILTIN: [(&str, &str); 4] = [
@@ -155,14 +163,14 @@ enum PathKind {
 #[serde(deny_unknown_fields)]
 struct FilePath {
     kind: PathKind,
-    center_m: Option<[f64; 2]>,
+    center_m: Option<RawValue>,
     radius_m: Option<f64>,
     start_angle_rad: Option<f64>,
     counter_clockwise: Option<bool>,
-    start_m: Option<[f64; 2]>,
+    start_m: Option<RawValue>,
     heading_rad: Option<f64>,
     length_m: Option<f64>,
-    waypoints_m: Option<Vec<[f64; 2]>>,
+    waypoints_m: Option<RawValue>,
     corner_radius_m: Option<f64>,
     closed: Option<bool>,
     lobe_radius_m: Option<f64>,
@@ -289,6 +297,7 @@ struct FileBody {
     mass_kg: Option<f64>,
     yaw_inertia_kg_m2: Option<f64>,
     wheel_inertia_kg_m2: Option<f64>,
+    com_ahead_of_axle_m: Option<f64>,
 }
 
 #[derive(Deserialize, Default)]
@@ -306,9 +315,17 @@ struct FileSlip {
     right: Option<f64>,
 }
 
+#[derive(Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum DriverName {
+    Tb6612,
+    Drv8833,
+}
+
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct FilePlant {
+    driver: Option<DriverName>,
     supply_v: Option<f64>,
     pwm_levels: Option<u32>,
     dead_band_duty: Option<f64>,
@@ -354,6 +371,121 @@ struct ScenarioFile {
     plant: FilePlant,
     #[serde(default)]
     sweep: FileSweep,
+}
+
+// ---------------------------------------------------------------------------------------
+// Fixed-length number arrays. serde reads `[f64; N]` as a tuple of N elements, and the
+// `toml` crate (1.x) does not check that the array ends there: `center_m = [5.0, 0.0,
+// "junk"]` read as (5, 0). So every such key is read as a `RawValue`, which accepts any
+// TOML value, and checked by `numbers` with its key: a wrong length, a non-number element
+// or a non-array each get an error naming the key.
+
+/// Any TOML value, kept just well enough to check it and to describe it in an error.
+#[derive(Clone, Debug, PartialEq)]
+enum RawValue {
+    /// An integer or a float (integers as the nearest f64).
+    Number(f64),
+    /// An array of values.
+    Array(Vec<RawValue>),
+    /// Anything else, described for the error (`string "junk"`, `boolean true`, …).
+    Other(String),
+}
+
+impl fmt::Display for RawValue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RawValue::Number(v) => write!(f, "{v}"),
+            RawValue::Array(items) => write!(f, "an array of {} elements", items.len()),
+            RawValue::Other(what) => f.write_str(what),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for RawValue {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserializer.deserialize_any(RawValueVisitor)
+    }
+}
+
+struct RawValueVisitor;
+
+impl<'de> serde::de::Visitor<'de> for RawValueVisitor {
+    type Value = RawValue;
+
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("any TOML value")
+    }
+
+    fn visit_bool<E>(self, v: bool) -> Result<RawValue, E> {
+        Ok(RawValue::Other(format!("boolean {v}")))
+    }
+
+    fn visit_i64<E>(self, v: i64) -> Result<RawValue, E> {
+        Ok(RawValue::Number(v as f64))
+    }
+
+    fn visit_u64<E>(self, v: u64) -> Result<RawValue, E> {
+        Ok(RawValue::Number(v as f64))
+    }
+
+    fn visit_f64<E>(self, v: f64) -> Result<RawValue, E> {
+        Ok(RawValue::Number(v))
+    }
+
+    fn visit_str<E>(self, v: &str) -> Result<RawValue, E> {
+        Ok(RawValue::Other(format!("string {v:?}")))
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<RawValue, A::Error> {
+        let mut items = Vec::new();
+        while let Some(item) = seq.next_element()? {
+            items.push(item);
+        }
+        Ok(RawValue::Array(items))
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<RawValue, A::Error> {
+        while map
+            .next_entry::<serde::de::IgnoredAny, serde::de::IgnoredAny>()?
+            .is_some()
+        {}
+        Ok(RawValue::Other("a table".to_string()))
+    }
+}
+
+/// The elements of `raw` (at `key`) if it is an array.
+fn array<'a>(key: &str, raw: &'a RawValue, what: &str) -> Result<&'a [RawValue], ScenarioError> {
+    match raw {
+        RawValue::Array(items) => Ok(items),
+        other => Err(ScenarioError::invalid(
+            key,
+            format!("must be an array of {what}, got {other}"),
+        )),
+    }
+}
+
+/// `raw` (at `key`) as exactly `N` numbers.
+fn numbers<const N: usize>(key: &str, raw: &RawValue) -> Result<[f64; N], ScenarioError> {
+    let items = array(key, raw, &format!("{N} numbers"))?;
+    if items.len() != N {
+        return Err(ScenarioError::invalid(
+            key,
+            format!("must have exactly {N} numbers, got {}", items.len()),
+        ));
+    }
+    let mut out = [0.0; N];
+    for (i, (o, item)) in out.iter_mut().zip(items).enumerate() {
+        match item {
+            RawValue::Number(v) => *o = *v,
+            other => {
+                return Err(ScenarioError::invalid(
+                    format!("{key}[{i}]"),
+                    format!("must be a number, got {other}"),
+                ))
+            }
+        }
+    }
+    Ok(out)
 }
 
 // ---------------------------------------------------------------------------------------
@@ -597,6 +729,11 @@ fn required<T: Copy>(value: Option<T>, key: &str, kind: &str) -> Result<T, Scena
     value.ok_or_else(|| ScenarioError::invalid(key, format!("is required for kind = \"{kind}\"")))
 }
 
+/// The point at `key`, (0, 0) if the key is absent.
+fn optional_point(key: &str, raw: Option<&RawValue>) -> Result<Point, ScenarioError> {
+    point(key, raw.map_or(Ok([0.0, 0.0]), |raw| numbers(key, raw))?)
+}
+
 fn point(key: &str, p: [f64; 2]) -> Result<Point, ScenarioError> {
     let x = as_f32(&format!("{key}[0]"), finite(&format!("{key}[0]"), p[0])?)?;
     let y = as_f32(&format!("{key}[1]"), finite(&format!("{key}[1]"), p[1])?)?;
@@ -663,7 +800,7 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
     }
     let path = match p.kind {
         PathKind::Circle => {
-            let center = point("path.center_m", p.center_m.unwrap_or([0.0, 0.0]))?;
+            let center = optional_point("path.center_m", p.center_m.as_ref())?;
             let r = positive(
                 "path.radius_m",
                 required(p.radius_m, "path.radius_m", kind_name)?,
@@ -677,10 +814,10 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
             )
         }
         PathKind::Line => {
-            let start = point(
-                "path.start_m",
-                required(p.start_m, "path.start_m", kind_name)?,
-            )?;
+            let raw = p.start_m.as_ref().ok_or_else(|| {
+                ScenarioError::invalid("path.start_m", "is required for kind = \"line\"")
+            })?;
+            let start = point("path.start_m", numbers("path.start_m", raw)?)?;
             let h = finite("path.heading_rad", p.heading_rad.unwrap_or(0.0))?;
             let l = positive(
                 "path.length_m",
@@ -693,12 +830,14 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
             )
         }
         PathKind::Polyline => {
-            let raw = p.waypoints_m.as_deref().ok_or_else(|| {
+            let raw = p.waypoints_m.as_ref().ok_or_else(|| {
                 ScenarioError::invalid("path.waypoints_m", "is required for kind = \"polyline\"")
             })?;
+            let raw = array("path.waypoints_m", raw, "[x, y] points")?;
             let mut points = Vec::with_capacity(raw.len());
             for (i, w) in raw.iter().enumerate() {
-                points.push(point(&format!("path.waypoints_m[{i}]"), *w)?);
+                let key = format!("path.waypoints_m[{i}]");
+                points.push(point(&key, numbers(&key, w)?)?);
             }
             let r = non_negative("path.corner_radius_m", p.corner_radius_m.unwrap_or(0.0))?;
             Path::polyline(
@@ -708,7 +847,7 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
             )
         }
         PathKind::FigureEight => {
-            let center = point("path.center_m", p.center_m.unwrap_or([0.0, 0.0]))?;
+            let center = optional_point("path.center_m", p.center_m.as_ref())?;
             let r = positive(
                 "path.lobe_radius_m",
                 required(p.lobe_radius_m, "path.lobe_radius_m", kind_name)?,
@@ -833,8 +972,25 @@ fn build_plant(p: &FilePlant) -> Result<PlantSpec, ScenarioError> {
         "must be > 0",
         pwm_levels,
     )?;
+    let kind = match p.driver {
+        None => d.driver.kind,
+        Some(DriverName::Tb6612) => DriverKind::Tb6612,
+        Some(DriverName::Drv8833) => DriverKind::Drv8833,
+    };
+    let supply_v = positive("plant.supply_v", p.supply_v.unwrap_or(d.driver.supply_v))?;
+    check(
+        supply_v <= kind.max_supply_v(),
+        "plant.supply_v",
+        &format!(
+            "must be ≤ {} V, the {}'s absolute maximum (plant.driver)",
+            kind.max_supply_v(),
+            kind.name()
+        ),
+        supply_v,
+    )?;
     let driver = DriverParams {
-        supply_v: positive("plant.supply_v", p.supply_v.unwrap_or(d.driver.supply_v))?,
+        kind,
+        supply_v,
         pwm_levels,
         dead_band_duty: in_range(
             "plant.dead_band_duty",
@@ -855,7 +1011,22 @@ fn build_plant(p: &FilePlant) -> Result<PlantSpec, ScenarioError> {
             "plant.body.wheel_inertia_kg_m2",
             b.wheel_inertia_kg_m2.unwrap_or(d.body.wheel_inertia_kg_m2),
         )?,
+        com_ahead_of_axle_m: finite(
+            "plant.body.com_ahead_of_axle_m",
+            b.com_ahead_of_axle_m.unwrap_or(d.body.com_ahead_of_axle_m),
+        )?,
     };
+    // The yaw inertia is about the axle, so it contains the centre of mass' own m d².
+    let d_com = body.com_ahead_of_axle_m;
+    check(
+        body.mass_kg * d_com * d_com <= body.yaw_inertia_kg_m2,
+        "plant.body.com_ahead_of_axle_m",
+        &format!(
+            "must satisfy mass_kg · d² ≤ yaw_inertia_kg_m2 (the inertia about the axle includes m d²; |d| ≤ {:.4} m here)",
+            (body.yaw_inertia_kg_m2 / body.mass_kg).sqrt()
+        ),
+        d_com,
+    )?;
     let pct = |key: &str, v: Option<f64>| {
         in_range(
             key,

@@ -1,6 +1,7 @@
 //! A bad scenario file gets an error that names the key and the problem, and never
 //! panics.
 
+use host_sim::plant::DriverKind;
 use host_sim::scenario::BUILTIN;
 use host_sim::{run_scenario_with, RunOptions, Scenario};
 
@@ -255,4 +256,161 @@ fn no_bad_integer_panics_or_hangs() {
         .unwrap_err()
         .to_string();
     assert!(e.starts_with("sim.duration_s"), "{e}");
+}
+
+/// `text` with `from` replaced by `to`, loaded: the error message, or `Ok`.
+fn replaced(text: &str, from: &str, to: &str) -> Result<Scenario, String> {
+    assert!(text.contains(from), "{from}");
+    Scenario::from_toml(&text.replace(from, to), "t").map_err(|e| e.to_string())
+}
+
+fn replaced_error(text: &str, from: &str, to: &str) -> String {
+    match replaced(text, from, to) {
+        Ok(_) => panic!("accepted: {to}"),
+        Err(e) => e,
+    }
+}
+
+/// Fixed-length arrays: a wrong length, a non-number element or a non-array is an error
+/// naming the key, not silently cut to the first elements.
+#[test]
+fn array_keys_take_exactly_their_numbers() {
+    let circle = BUILTIN[0].1;
+    let center = "center_m = [0.0, 0.0]";
+    let cases = [
+        (
+            r#"center_m = [5.0, 0.0, "junk"]"#,
+            "path.center_m must have exactly 2 numbers, got 3",
+        ),
+        (
+            "center_m = [5.0, 0.0, 1.0]",
+            "path.center_m must have exactly 2 numbers, got 3",
+        ),
+        (
+            "center_m = [5.0]",
+            "path.center_m must have exactly 2 numbers, got 1",
+        ),
+        (
+            "center_m = []",
+            "path.center_m must have exactly 2 numbers, got 0",
+        ),
+        (
+            r#"center_m = [5.0, "junk"]"#,
+            r#"path.center_m[1] must be a number, got string "junk""#,
+        ),
+        (
+            "center_m = [[1.0, 2.0], 0.0]",
+            "path.center_m[0] must be a number, got an array of 2 elements",
+        ),
+        (
+            "center_m = 5.0",
+            "path.center_m must be an array of 2 numbers, got 5",
+        ),
+        (
+            "center_m = { x = 1.0 }",
+            "path.center_m must be an array of 2 numbers, got a table",
+        ),
+        (
+            "center_m = [nan, 0.0]",
+            "path.center_m[0] must be finite, got NaN",
+        ),
+    ];
+    for (to, expected) in cases {
+        assert_eq!(replaced_error(circle, center, to), expected, "{to}");
+    }
+    // Integers are numbers.
+    let s = replaced(circle, center, "center_m = [1, -2]").unwrap();
+    let p = s.path.sample(0.0).point;
+    let r = 1.25;
+    let from_centre = ((p.x_m - 1.0).powi(2) + (p.y_m + 2.0).powi(2)).sqrt();
+    assert!((from_centre - r).abs() < 1e-5, "{p:?}");
+
+    let line = BUILTIN[1].1;
+    let start = "start_m = [0.0, 0.0]";
+    assert_eq!(
+        replaced_error(line, start, "start_m = [0.0, 0.0, 1.0]"),
+        "path.start_m must have exactly 2 numbers, got 3"
+    );
+    assert_eq!(
+        replaced_error(line, start, "start_m = [true, 0.0]"),
+        "path.start_m[0] must be a number, got boolean true"
+    );
+    let s = replaced(line, start, "start_m = [1, -2]").unwrap();
+    let p = s.path.sample(0.0).point;
+    assert_eq!((p.x_m, p.y_m), (1.0, -2.0));
+
+    let square = BUILTIN[2].1;
+    let second = "[2.0, 0.0], [2.0, 2.0]";
+    assert_eq!(
+        replaced_error(square, second, "[2.0, 0.0, 9.0], [2.0, 2.0]"),
+        "path.waypoints_m[1] must have exactly 2 numbers, got 3"
+    );
+    assert_eq!(
+        replaced_error(square, second, "[2.0], [2.0, 2.0]"),
+        "path.waypoints_m[1] must have exactly 2 numbers, got 1"
+    );
+    assert_eq!(
+        replaced_error(square, second, r#"[2.0, 0.0], [2.0, "x"]"#),
+        r#"path.waypoints_m[2][1] must be a number, got string "x""#
+    );
+    assert_eq!(
+        replaced_error(square, second, "7, [2.0, 2.0]"),
+        "path.waypoints_m[1] must be an array of 2 numbers, got 7"
+    );
+    let all = "waypoints_m = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]]";
+    assert_eq!(
+        replaced_error(square, all, "waypoints_m = 5"),
+        "path.waypoints_m must be an array of [x, y] points, got 5"
+    );
+}
+
+#[test]
+fn driver_supply_and_centre_of_mass_are_checked_with_their_key() {
+    // Defaults: the TB6612 with the firmware's 5 000-level PWM, centre of mass on the axle.
+    let s = with("").unwrap();
+    assert_eq!(s.plant.driver.kind, DriverKind::Tb6612);
+    assert_eq!(s.plant.driver.pwm_levels, 5000);
+    assert_eq!(s.plant.body.com_ahead_of_axle_m, 0.0);
+
+    let s = with("[plant]\ndriver = \"drv8833\"\nsupply_v = 7.4").unwrap();
+    assert_eq!(s.plant.driver.kind, DriverKind::Drv8833);
+    let e = error("[plant]\ndriver = \"l298n\"");
+    assert!(
+        e.contains("driver") && e.contains("unknown variant `l298n`"),
+        "{e}"
+    );
+    assert_eq!(
+        error("[plant]\ndriver = \"drv8833\"\nsupply_v = 12.0"),
+        "plant.supply_v must be ≤ 11.8 V, the drv8833's absolute maximum (plant.driver), got 12"
+    );
+    assert_eq!(
+        error("[plant]\nsupply_v = 16.0"),
+        "plant.supply_v must be ≤ 15 V, the tb6612's absolute maximum (plant.driver), got 16"
+    );
+    assert_eq!(
+        error("[plant]\npwm_levels = 0"),
+        "plant.pwm_levels must be > 0, got 0"
+    );
+    assert_eq!(
+        error("[plant.body]\ncom_ahead_of_axle_m = nan"),
+        "plant.body.com_ahead_of_axle_m must be finite, got NaN"
+    );
+    // 0.5 kg at 0.1 m is 5e-3 kg·m², more than the whole 1.8e-3 kg·m² about the axle.
+    let e = error("[plant.body]\ncom_ahead_of_axle_m = 0.1");
+    assert!(
+        e.starts_with(
+            "plant.body.com_ahead_of_axle_m must satisfy mass_kg · d² ≤ yaw_inertia_kg_m2"
+        ) && e.ends_with("got 0.1"),
+        "{e}"
+    );
+    // An offset centre of mass loads and runs.
+    let mut s = with("[plant.body]\ncom_ahead_of_axle_m = -0.03").unwrap();
+    assert_eq!(s.plant.body.com_ahead_of_axle_m, -0.03);
+    s.duration_s = 0.5;
+    let r = run_scenario_with(
+        &s,
+        controller_core::law::LawKind::Tracking,
+        RunOptions::at_steering_rate(&s),
+    );
+    assert!(r.is_ok());
 }

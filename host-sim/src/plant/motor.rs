@@ -1,33 +1,40 @@
-//! One wheel's drive: H-bridge (PWM duty × supply voltage), brushed DC motor and gearbox.
+//! One wheel's motor and gearbox, driven through the H-bridge of [`super::driver`].
 //!
 //! ## Model
 //!
-//! The PWM frequency of a small robot's H-bridge (typically 20 kHz) is far above the
-//! motor's electrical and mechanical bandwidth, so the bridge is modelled by its average:
-//! the armature sees `u = d · V_s`, with the duty d first quantised to the timer's
-//! resolution, clamped to [−1, 1] (the supply is the most the bridge can apply) and zeroed
-//! inside the driver's dead-band.
-//!
 //! The armature inductance (≈ 1 mH on a 4 Ω motor: τ_e ≈ 0.25 ms) is far faster than the
-//! mechanics (τ_m ≈ 60–80 ms) and is neglected, so the current is algebraic:
+//! mechanics (τ_m ≈ 60–80 ms) and is neglected, so while the bridge drives (slow decay,
+//! averaged armature voltage u = d · V_s, u = 0 = short brake) the current is algebraic:
 //!
-//! i = (u − K_e · N · ω) / R_a
+//! i = (u − K_e · N · ω) / (R_a + R_bridge)
 //!
-//! with ω the **wheel** speed (rad/s) and N the gear ratio (motor turns per wheel turn).
-//! The torque delivered at the wheel, before the robot's inertia, is
+//! with ω the **wheel** speed (rad/s), N the gear ratio (motor turns per wheel turn) and
+//! R_bridge the driver's switch resistance ([`super::DriverKind::on_resistance_ohm`]).
+//! With the bridge high impedance (coasting) i = 0.
 //!
-//! τ = η · N · K_t · i − b · ω − τ_c · sgn(ω)
+//! The gearbox loses a fraction of the power flowing through it, whichever way it flows:
 //!
-//! with gearbox efficiency η, viscous friction b and Coulomb friction τ_c, both referred to
-//! the wheel shaft. At rest (ω = 0) Coulomb friction is static friction: it cancels any
-//! drive torque up to τ_c, so a wheel does not creep under a small duty
-//! ([`WheelDrive::wheel_torque_nm`]).
+//! - motoring (i and ω of the same sign, or ω = 0): the motor drives the wheel and the
+//!   wheel gets τ_e = η · N · K_t · i;
+//! - back-driven (i and ω of opposite signs: braking, generating): the wheel drives the
+//!   motor, and must supply the motor's torque plus the gear losses, τ_e = N · K_t · i / η.
+//!
+//! So for the same current a braking wheel sees 1/η² the torque of the motoring formula
+//! (1.56 × at η = 0.8). τ_e is continuous at i = 0, where the two meet. The net torque at
+//! the wheel, before the robot's inertia, is
+//!
+//! τ = τ_e − b · ω − τ_c · sgn(ω)
+//!
+//! with viscous friction b and Coulomb friction τ_c, both referred to the wheel shaft. At
+//! rest (ω = 0) Coulomb friction is static friction; whether it holds the wheel is decided
+//! with the other wheel's pull through the chassis ([`super::robot`]).
 
 /// Motor and gearbox constants of one wheel, SI units.
 ///
 /// The defaults ([`MotorParams::DEFAULT`]) describe a small 6 V brushed gear motor of the
-/// "N20 / TT, 1:30" class driving a 65 mm wheel: about 36 rad/s (1.2 m/s at the rim, 350
-/// rpm) at no load, 1.5 A and 0.18 N·m at the wheel when stalled.
+/// "N20 / TT, 1:30" class driving a 65 mm wheel. With 6 V across its terminals: 36.2 rad/s
+/// (1.18 m/s at the rim, 345 rpm) at no load, 1.5 A and 0.18 N·m at the wheel when
+/// stalled. Behind a TB6612's 0.5 Ω on a 6 V supply: 35.7 rad/s, 1.33 A, 0.16 N·m.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MotorParams {
     /// Armature resistance R_a, Ω.
@@ -38,7 +45,8 @@ pub struct MotorParams {
     pub back_emf_v_s_per_rad: f64,
     /// Rotor inertia, kg·m² (motor shaft); reflected to the wheel as × N².
     pub rotor_inertia_kg_m2: f64,
-    /// Gearbox efficiency η, 0 < η ≤ 1 (applied to the drive torque).
+    /// Gearbox efficiency η, 0 < η ≤ 1: × η on the torque when the motor drives the wheel,
+    /// ÷ η when the wheel drives the motor (see the module doc).
     pub gear_efficiency: f64,
     /// Viscous friction b at the wheel shaft, N·m·s/rad.
     pub viscous_friction_nm_s_per_rad: f64,
@@ -65,150 +73,191 @@ impl Default for MotorParams {
     }
 }
 
-/// The H-bridge that turns a duty into an armature voltage.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DriverParams {
-    /// Supply (battery) voltage V_s, V.
-    pub supply_v: f64,
-    /// PWM resolution: the duty is rounded to a multiple of 1 / `pwm_levels` (for example
-    /// a timer's auto-reload + 1).
-    pub pwm_levels: u32,
-    /// Dead-band: a quantised |duty| below this fraction gives 0 V (the bridge's minimum
-    /// pulse width), dimensionless in [0, 1).
-    pub dead_band_duty: f64,
+/// Which way power flows through one wheel's gearbox, and so which torque formula holds
+/// (see the module doc).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PowerFlow {
+    /// Bridge high impedance: no current, no electrical torque.
+    Coasting,
+    /// The motor drives the wheel (i · ω ≥ 0): τ_e = η · N · K_t · i.
+    Motoring,
+    /// The wheel drives the motor (i · ω < 0): τ_e = N · K_t · i / η.
+    BackDriven,
 }
 
-impl DriverParams {
-    /// 6 V supply, 1000-level PWM, 2 % dead-band.
-    pub const DEFAULT: DriverParams = DriverParams {
-        supply_v: 6.0,
-        pwm_levels: 1000,
-        dead_band_duty: 0.02,
-    };
-
-    /// The duty the bridge actually applies for a commanded `duty` (any f32, even NaN):
-    /// clamped to [−1, 1], quantised to the PWM resolution, zeroed in the dead-band.
-    /// A non-finite command gives 0.
-    pub fn applied_duty(&self, duty: f32) -> f64 {
-        let d = f64::from(duty);
-        if !d.is_finite() {
-            return 0.0;
-        }
-        let levels = f64::from(self.pwm_levels.max(1));
-        let q = (d.clamp(-1.0, 1.0) * levels).round() / levels;
-        if q.abs() < self.dead_band_duty {
-            0.0
-        } else {
-            q
-        }
-    }
-
-    /// Armature voltage for an applied duty (from [`DriverParams::applied_duty`]), V.
-    pub fn voltage_v(&self, applied_duty: f64) -> f64 {
-        applied_duty * self.supply_v
-    }
-}
-
-impl Default for DriverParams {
-    fn default() -> Self {
-        Self::DEFAULT
-    }
-}
-
-/// Motor and gearbox constants folded into wheel-shaft quantities, for the integrator.
+/// Motor, gearbox and bridge resistance folded into wheel-shaft quantities.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WheelDrive {
-    /// Stall torque per volt at the wheel, η N K_t / R_a, N·m/V.
+    /// Stall torque per volt at the wheel before the gear loss, N K_t / (R_a + R_bridge),
+    /// N·m/V.
     pub torque_per_volt: f64,
-    /// Total damping at the wheel, η N² K_t K_e / R_a + b, N·m·s/rad.
-    pub damping_nm_s_per_rad: f64,
-    /// Coulomb friction at the wheel, N·m.
+    /// Electrical damping at the wheel before the gear loss, N² K_t K_e / (R_a + R_bridge),
+    /// N·m·s/rad.
+    pub emf_damping_nm_s_per_rad: f64,
+    /// Gearbox efficiency η.
+    pub efficiency: f64,
+    /// Viscous friction b at the wheel, N·m·s/rad.
+    pub viscous_nm_s_per_rad: f64,
+    /// Coulomb (and static) friction τ_c at the wheel, N·m.
     pub coulomb_nm: f64,
-    /// Current per volt, 1/R_a, A/V.
-    current_per_volt: f64,
-    /// Current per wheel rad/s of back-EMF, N K_e / R_a, A·s/rad.
-    current_per_rad_s: f64,
+    /// Back-EMF per wheel rad/s, N K_e, V·s/rad.
+    pub back_emf_v_s_per_rad: f64,
+    /// Armature plus bridge resistance R_a + R_bridge, Ω.
+    pub circuit_resistance_ohm: f64,
 }
 
 impl WheelDrive {
-    /// Folds `motor` through a gearbox of `gear_ratio` (motor turns per wheel turn).
-    pub fn new(motor: &MotorParams, gear_ratio: f64) -> Self {
+    /// Folds `motor` through a gearbox of `gear_ratio` (motor turns per wheel turn), with
+    /// `bridge_resistance_ohm` (Ω) of driver switches in series with the armature.
+    pub fn new(motor: &MotorParams, gear_ratio: f64, bridge_resistance_ohm: f64) -> Self {
         let n = gear_ratio;
-        let torque_per_volt =
-            motor.gear_efficiency * n * motor.torque_constant_nm_per_a / motor.resistance_ohm;
+        let r = motor.resistance_ohm + bridge_resistance_ohm;
+        let torque_per_volt = n * motor.torque_constant_nm_per_a / r;
         Self {
             torque_per_volt,
-            damping_nm_s_per_rad: torque_per_volt * n * motor.back_emf_v_s_per_rad
-                + motor.viscous_friction_nm_s_per_rad,
+            emf_damping_nm_s_per_rad: torque_per_volt * n * motor.back_emf_v_s_per_rad,
+            efficiency: motor.gear_efficiency,
+            viscous_nm_s_per_rad: motor.viscous_friction_nm_s_per_rad,
             coulomb_nm: motor.coulomb_friction_nm,
-            current_per_volt: 1.0 / motor.resistance_ohm,
-            current_per_rad_s: n * motor.back_emf_v_s_per_rad / motor.resistance_ohm,
+            back_emf_v_s_per_rad: n * motor.back_emf_v_s_per_rad,
+            circuit_resistance_ohm: r,
         }
     }
 
-    /// Net torque at the wheel shaft, N·m, for armature voltage `volts` (V) and wheel speed
-    /// `speed_rad_s`. At exactly 0 rad/s the friction is static: it cancels the drive
-    /// torque up to τ_c.
-    #[inline]
-    pub fn wheel_torque_nm(&self, volts: f64, speed_rad_s: f64) -> f64 {
-        let drive = self.torque_per_volt * volts - self.damping_nm_s_per_rad * speed_rad_s;
-        let friction = if speed_rad_s > 0.0 {
-            -self.coulomb_nm
-        } else if speed_rad_s < 0.0 {
-            self.coulomb_nm
-        } else {
-            -drive.clamp(-self.coulomb_nm, self.coulomb_nm)
-        };
-        drive + friction
+    /// Armature current, A, while the bridge drives at `volts` (V, 0 = brake) and the
+    /// wheel turns at `speed_rad_s` (rad/s).
+    pub fn current_a(&self, volts: f64, speed_rad_s: f64) -> f64 {
+        (volts - self.back_emf_v_s_per_rad * speed_rad_s) / self.circuit_resistance_ohm
     }
 
-    /// Armature current, A, at `volts` (V) and wheel speed `speed_rad_s` (rad/s).
-    pub fn current_a(&self, volts: f64, speed_rad_s: f64) -> f64 {
-        self.current_per_volt * volts - self.current_per_rad_s * speed_rad_s
+    /// The power flow while driven at `volts` (V) at wheel speed `speed_rad_s` (rad/s).
+    /// Decided on u − K_e N ω, which has the sign of the current.
+    #[inline]
+    pub fn power_flow(&self, volts: f64, speed_rad_s: f64) -> PowerFlow {
+        if (volts - self.back_emf_v_s_per_rad * speed_rad_s) * speed_rad_s >= 0.0 {
+            PowerFlow::Motoring
+        } else {
+            PowerFlow::BackDriven
+        }
+    }
+
+    /// The gear factor on N K_t i for `flow`: η motoring, 1/η back-driven, 0 coasting.
+    #[inline]
+    pub fn gear_factor(&self, flow: PowerFlow) -> f64 {
+        match flow {
+            PowerFlow::Coasting => 0.0,
+            PowerFlow::Motoring => self.efficiency,
+            PowerFlow::BackDriven => 1.0 / self.efficiency,
+        }
+    }
+
+    /// Total damping at the wheel for `flow`: gear factor × electrical damping + viscous
+    /// friction, N·m·s/rad (the speed coefficient of the net torque away from rest).
+    pub fn damping_nm_s_per_rad(&self, flow: PowerFlow) -> f64 {
+        self.gear_factor(flow) * self.emf_damping_nm_s_per_rad + self.viscous_nm_s_per_rad
+    }
+
+    /// Electrical torque delivered to the wheel, N·m, while the bridge drives at `volts`
+    /// (V) and the wheel turns at `speed_rad_s` (rad/s): η N K_t i motoring, N K_t i / η
+    /// back-driven.
+    #[inline]
+    pub fn electrical_torque_nm(&self, volts: f64, speed_rad_s: f64) -> f64 {
+        let flow = self.power_flow(volts, speed_rad_s);
+        self.gear_factor(flow)
+            * (self.torque_per_volt * volts - self.emf_damping_nm_s_per_rad * speed_rad_s)
     }
 
     /// Steady-state wheel speed (rad/s) at constant `volts` with no load other than the
     /// motor's own friction (the no-load speed when `volts` is the supply).
     pub fn steady_speed_rad_s(&self, volts: f64) -> f64 {
-        let drive = self.torque_per_volt * volts.abs() - self.coulomb_nm;
+        let drive = self.efficiency * self.torque_per_volt * volts.abs() - self.coulomb_nm;
         if drive <= 0.0 {
             0.0
         } else {
-            volts.signum() * drive / self.damping_nm_s_per_rad
+            volts.signum() * drive / self.damping_nm_s_per_rad(PowerFlow::Motoring)
         }
+    }
+
+    /// The constant voltage (V) that holds the wheel at `speed_rad_s` (rad/s) against the
+    /// motor's own friction: the inverse of [`WheelDrive::steady_speed_rad_s`] for a
+    /// turning wheel.
+    pub fn steady_volts(&self, speed_rad_s: f64) -> f64 {
+        let torque =
+            self.damping_nm_s_per_rad(PowerFlow::Motoring) * speed_rad_s.abs() + self.coulomb_nm;
+        speed_rad_s.signum() * torque / (self.efficiency * self.torque_per_volt)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plant::DriverKind;
+
+    fn tb6612_drive() -> WheelDrive {
+        WheelDrive::new(
+            &MotorParams::DEFAULT,
+            30.0,
+            DriverKind::Tb6612.on_resistance_ohm(),
+        )
+    }
 
     #[test]
     fn default_motor_has_the_stated_no_load_speed_and_stall_torque() {
-        let d = WheelDrive::new(&MotorParams::DEFAULT, 30.0);
+        // The motor alone (no bridge resistance): 36.2 rad/s, 0.18 N·m, 1.5 A at 6 V.
+        let bare = WheelDrive::new(&MotorParams::DEFAULT, 30.0, 0.0);
+        assert!((bare.steady_speed_rad_s(6.0) - 36.17).abs() < 0.01);
+        assert!((bare.electrical_torque_nm(6.0, 0.0) - 0.18).abs() < 1e-12);
+        assert!((bare.current_a(6.0, 0.0) - 1.5).abs() < 1e-12);
+        // Behind the TB6612's 0.5 Ω: 4.5 Ω in the circuit.
+        let d = tb6612_drive();
         let no_load = d.steady_speed_rad_s(6.0);
-        assert!((35.0..40.0).contains(&no_load), "{no_load}");
-        let stall = d.torque_per_volt * 6.0;
-        assert!((stall - 0.18).abs() < 1e-9, "{stall}");
-        assert!((d.current_a(6.0, 0.0) - 1.5).abs() < 1e-12);
+        assert!((no_load - 35.71).abs() < 0.01, "{no_load}");
+        assert!((d.electrical_torque_nm(6.0, 0.0) - 0.16).abs() < 1e-12);
+        assert!((d.current_a(6.0, 0.0) - 6.0 / 4.5).abs() < 1e-12);
+        // steady_volts inverts steady_speed_rad_s.
+        assert!((d.steady_volts(no_load) - 6.0).abs() < 1e-12);
+        assert!((d.steady_volts(-no_load) + 6.0).abs() < 1e-12);
+        // At the no-load speed the motor still motors: it supplies the friction.
+        assert_eq!(d.power_flow(6.0, no_load), PowerFlow::Motoring);
     }
 
     #[test]
-    fn static_friction_holds_a_small_torque() {
-        let d = WheelDrive::new(&MotorParams::DEFAULT, 30.0);
-        // 0.1 V gives 0.003 N·m of drive, below τ_c = 0.01: no net torque at rest.
-        assert_eq!(d.wheel_torque_nm(0.1, 0.0), 0.0);
-        assert!(d.wheel_torque_nm(2.0, 0.0) > 0.0);
-        assert!(d.wheel_torque_nm(-2.0, 0.0) < 0.0);
-    }
-
-    #[test]
-    fn driver_quantises_clamps_and_dead_bands() {
-        let drv = DriverParams::DEFAULT;
-        assert_eq!(drv.applied_duty(0.12345), 0.123);
-        assert_eq!(drv.applied_duty(1.7), 1.0);
-        assert_eq!(drv.applied_duty(-0.015), 0.0);
-        assert_eq!(drv.applied_duty(f32::NAN), 0.0);
-        assert_eq!(drv.voltage_v(-0.5), -3.0);
+    fn gear_efficiency_follows_the_power_flow() {
+        let d = tb6612_drive();
+        let eta = d.efficiency;
+        let nkt_i = |volts: f64, w: f64| 30.0 * 0.005 * d.current_a(volts, w);
+        for w in [20.0_f64, -20.0] {
+            // Motoring: current and speed of the same sign.
+            let u = 6.0 * w.signum();
+            assert_eq!(d.power_flow(u, w), PowerFlow::Motoring);
+            let motoring = d.electrical_torque_nm(u, w);
+            assert!((motoring - eta * nkt_i(u, w)).abs() < 1e-15, "{motoring}");
+            assert!(motoring * w > 0.0);
+            // Short brake at the same speed: the wheel drives the motor.
+            assert_eq!(d.power_flow(0.0, w), PowerFlow::BackDriven);
+            let braking = d.electrical_torque_nm(0.0, w);
+            assert!((braking - nkt_i(0.0, w) / eta).abs() < 1e-15, "{braking}");
+            assert!(braking * w < 0.0, "a brake opposes the motion");
+            // The same current magnitude gives 1/η² the torque when back-driven: choose
+            // the drive voltage whose current mirrors the brake current.
+            let mirror = 2.0 * d.back_emf_v_s_per_rad * w;
+            assert!((d.current_a(mirror, w) + d.current_a(0.0, w)).abs() < 1e-12);
+            let ratio = -braking / d.electrical_torque_nm(mirror, w);
+            assert!((ratio - 1.0 / (eta * eta)).abs() < 1e-12, "{ratio}");
+        }
+        // Continuous where the current changes sign.
+        let w = 20.0;
+        let u0 = d.back_emf_v_s_per_rad * w;
+        assert!(d.electrical_torque_nm(u0, w).abs() < 1e-15);
+        assert!(d.electrical_torque_nm(u0 + 1e-9, w).abs() < 1e-9);
+        assert!(d.electrical_torque_nm(u0 - 1e-9, w).abs() < 1e-9);
+        // At rest the motor motors (η), whatever the voltage's sign.
+        assert_eq!(d.power_flow(-3.0, 0.0), PowerFlow::Motoring);
+        assert!((d.electrical_torque_nm(-3.0, 0.0) + eta * nkt_i(3.0, 0.0)).abs() < 1e-15);
+        // Back-driven damping exceeds motoring damping by the factor 1/η² on the EMF part.
+        let emf = |flow| d.damping_nm_s_per_rad(flow) - d.viscous_nm_s_per_rad;
+        let ratio = emf(PowerFlow::BackDriven) / emf(PowerFlow::Motoring);
+        assert!((ratio - 1.0 / (eta * eta)).abs() < 1e-12);
+        assert_eq!(emf(PowerFlow::Coasting), 0.0);
     }
 }

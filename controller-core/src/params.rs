@@ -268,6 +268,26 @@ impl ParamError {
     }
 }
 
+impl ParamError {
+    /// What the field must satisfy, without the value, e.g. `must be > 0` (for messages
+    /// that cannot afford to format a float).
+    pub const fn requirement(&self) -> &'static str {
+        match self {
+            ParamError::NonPositiveCountsPerRev
+            | ParamError::ZeroControlRate
+            | ParamError::ZeroSteeringDivider
+            | ParamError::NonPositive { .. } => "must be > 0",
+            ParamError::SpeedWindowOutOfRange(_) => "must be in 1..=64",
+            ParamError::SpeedQuantumTooCoarse { .. } => {
+                "is too short: one encoder tick is over 2 % of the top speed"
+            }
+            ParamError::Negative { .. } => "must be ≥ 0",
+            ParamError::NonFinite { .. } => "must be finite",
+            ParamError::SupplyRangeEmpty { .. } => "must be > drive.min_supply_v",
+        }
+    }
+}
+
 impl fmt::Display for ParamError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let field = self.field();
@@ -713,6 +733,36 @@ mod tests {
         );
         let e = with(|c| c.control_rate_hz = 100_000).unwrap_err();
         assert!(format!("{e}").starts_with("speed_window_steps is too short"));
+    }
+
+    #[test]
+    fn every_error_states_its_requirement_without_the_value() {
+        use ParamError::*;
+        let cases = [
+            (NonPositiveCountsPerRev, "must be > 0"),
+            (ZeroControlRate, "must be > 0"),
+            (ZeroSteeringDivider, "must be > 0"),
+            (NonPositive { field: "f", value: 0.0 }, "must be > 0"),
+            (SpeedWindowOutOfRange(0), "must be in 1..=64"),
+            (Negative { field: "f", value: -1.0 }, "must be ≥ 0"),
+            (NonFinite { field: "f", value: f32::NAN }, "must be finite"),
+            (
+                SupplyRangeEmpty {
+                    min_v: 5.0,
+                    max_v: 4.0,
+                },
+                "must be > drive.min_supply_v",
+            ),
+        ];
+        for (e, requirement) in cases {
+            assert_eq!(e.requirement(), requirement, "{e:?}");
+            assert!(format!("{e}").contains(requirement), "{e}");
+        }
+        let coarse = SpeedQuantumTooCoarse {
+            quantum_rad_s: 20.0,
+            top_speed_rad_s: 36.0,
+        };
+        assert!(coarse.requirement().starts_with("is too short"));
     }
 
     #[test]

@@ -50,7 +50,7 @@ const GUEST_NAME: &str = "qemu-link";
 
 /// The CI step (see the module doc).
 pub fn check(ctx: &Context) -> Result<()> {
-    let executables = build_target_executables(ctx, "qemu-link")?;
+    let executables = build_target_executables(ctx, "qemu-link", &[])?;
     let elf = executables
         .first()
         .context("building qemu-link produced no executable")?;

@@ -2,11 +2,8 @@
 //!
 //! | command | what it does |
 //! |---|---|
-<<<<<<< HEAD
 //! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU program), host tests, firmware build and size budget, the panic check, the core on an emulated Cortex-M4F. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
-=======
 //! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, firmware build and size budget, the core and the link on an emulated Cortex-M4F. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
->>>>>>> wip/link
 //! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` |
 //! | `size` | builds the firmware and checks it against the flash and RAM budget |
 //! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
@@ -18,13 +15,10 @@
 //! Every step runs even if an earlier one failed, so one CI log shows every problem.
 
 mod elf_size;
-<<<<<<< HEAD
 #[cfg(test)]
 mod firmware_logger;
 mod panic_check;
-=======
 mod link_qemu;
->>>>>>> wip/link
 mod qemu;
 mod setup;
 mod steps;

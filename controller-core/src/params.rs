@@ -742,10 +742,28 @@ mod tests {
             (NonPositiveCountsPerRev, "must be > 0"),
             (ZeroControlRate, "must be > 0"),
             (ZeroSteeringDivider, "must be > 0"),
-            (NonPositive { field: "f", value: 0.0 }, "must be > 0"),
+            (
+                NonPositive {
+                    field: "f",
+                    value: 0.0,
+                },
+                "must be > 0",
+            ),
             (SpeedWindowOutOfRange(0), "must be in 1..=64"),
-            (Negative { field: "f", value: -1.0 }, "must be ≥ 0"),
-            (NonFinite { field: "f", value: f32::NAN }, "must be finite"),
+            (
+                Negative {
+                    field: "f",
+                    value: -1.0,
+                },
+                "must be ≥ 0",
+            ),
+            (
+                NonFinite {
+                    field: "f",
+                    value: f32::NAN,
+                },
+                "must be finite",
+            ),
             (
                 SupplyRangeEmpty {
                     min_v: 5.0,

@@ -29,7 +29,7 @@ fn main() -> anyhow::Result<()> {
     let substeps = scenario.plant_rate_hz / control_hz;
     let steps = (scenario.duration_s * f64::from(control_hz)) as u32;
 
-    // The whole loop: encoders, controller, PWM, plant, metrics.
+    // The whole loop: encoders, supervisor and controller, PWM, plant, metrics.
     run_scenario_with(&scenario, LawKind::Tracking, options)?;
     let mut failed = None;
     let full = best_of(5, || {
@@ -52,6 +52,7 @@ fn main() -> anyhow::Result<()> {
         plant.reset(TruePose::default(), [7.0, 8.0]);
         let t = Instant::now();
         for k in 0..steps {
+            plant.set_driver_enabled(true);
             plant.set_duty(0.25 + 0.001 * (k % 7) as f32, 0.28);
             plant.advance(dt, substeps);
         }
@@ -78,7 +79,7 @@ fn main() -> anyhow::Result<()> {
                 left: 1 + (k % 3) as i32,
                 right: 2,
             };
-            sink += c.step(ticks).left;
+            sink += c.step(StepInput::on_time(ticks, 6.0)).left;
         }
         std::hint::black_box(sink);
         t.elapsed().as_secs_f64()

@@ -13,11 +13,16 @@
 //!   rate; wheel slip; fault hooks (disconnected motor, jammed wheel, slip patch, supply
 //!   sag); the true pose.
 //! - [`encoder`] — quadrature quantisation (lines × 4 × gear) with optional edge jitter.
+//! - [`robot_file`] — the `[robot]` and `[supervisor]` TOML sections, shared with the
+//!   ground station's robot files.
 //! - [`scenario`] — TOML scenarios with every quantity in SI units, validated with errors
 //!   that name the key; four built in (`paper-circle`, `paper-line`, `square-waypoints`,
 //!   `figure-eight`).
-//! - [`run`] — the loop that drives `controller_core::controller::Controller` exactly as
-//!   the firmware does (tick deltas in, duties out), and [`metrics`] of the result.
+//! - [`hardware`] — the simulated robot as the firmware sees it: encoder ticks, the supply
+//!   measurement and the button in, duties and the bridge state (drive, brake, coast) out,
+//!   with [`faults`] injected on a timeline.
+//! - [`run`] — the loop that runs the firmware's decision path, the supervisor around the
+//!   controller, against that hardware, and [`metrics`] of the result.
 //! - [`plot`] — SVG figures in the style of the paper's Figs. 5–7.
 //! - [`sweep`] — Monte-Carlo over mismatch, noise and start pose, on every core.
 //!
@@ -27,7 +32,7 @@
 //!
 //! let scenario = Scenario::load("paper-circle")?;
 //! let result = run_scenario(&scenario, LawKind::Tracking)?;
-//! println!("settled at {:?} s", result.summary.settle_time_s);
+//! println!("settled at {:?} s", result.summary.headline_error().settle_time_s);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
@@ -35,15 +40,18 @@
 #![forbid(unsafe_code)]
 
 pub mod encoder;
+pub mod faults;
+pub mod hardware;
 pub mod metrics;
 pub mod output;
 pub mod plant;
 pub mod plot;
 pub mod rng;
+pub mod robot_file;
 pub mod run;
 pub mod scenario;
 pub mod sweep;
 
-pub use metrics::{ErrorMetrics, Summary};
+pub use metrics::{ErrorReport, Summary};
 pub use run::{run_scenario, run_scenario_with, RunError, RunOptions, RunResult};
 pub use scenario::{Scenario, ScenarioError};

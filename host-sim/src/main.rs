@@ -190,14 +190,15 @@ fn print_table(scenario: &Scenario, results: &[(LawKind, RunResult)]) -> Result<
     );
     for (law, r) in results {
         let s = &r.summary;
+        let e = s.headline_error();
         say!(
             "{:<9} {:>12} {:>11.4} {:>12.2} {:>11.4} {:>11.4} {:>10.1} {:>6.2} {:>10.2}",
             law.name(),
-            settle_text(s.settle_time_s),
-            s.final_position_error_m,
-            s.final_heading_error_rad.to_degrees(),
-            s.rms_position_error_m,
-            s.max_position_error_m,
+            settle_text(e.settle_time_s),
+            e.final_position_error_m,
+            e.final_heading_error_rad.to_degrees(),
+            e.rms_position_error_m,
+            e.max_position_error_m,
             s.max_wheel_speed_rad_s,
             s.max_duty,
             r.distance_travelled_m
@@ -206,7 +207,12 @@ fn print_table(scenario: &Scenario, results: &[(LawKind, RunResult)]) -> Result<
     let expected = f64::from(scenario.reference_speed_m_s) * scenario.duration_s;
     say!(
         "\n(e: true position error — to the reference point, or to the path when \
-path-following; rms10/max10: last 10 s; the reference covers {expected:.2} m)"
+path-following; rms10/max10: last 10 s; the reference covers {expected:.2} m; {})",
+        if scenario.start.v_m_s != 0.0 || scenario.start.omega_rad_s != 0.0 {
+            "armed in motion at t = 0"
+        } else {
+            "armed at rest at t = 0"
+        }
     );
     if let controller_core::reference::ReferenceMode::PathFollowing { lookahead_m } =
         scenario.reference_mode
@@ -263,7 +269,7 @@ fn cmd_paper(out: Option<PathBuf>) -> Result<()> {
         let gamma = f64::from(scenario.robot.law.paper.gamma);
         let lag = f64::from(scenario.reference_speed_m_s) / gamma;
         for (law, r) in &results {
-            let s = &r.summary;
+            let s = r.summary.headline_error();
             match law {
                 LawKind::Paper => say!(
                     "  paper law (33)–(34): trails the moving reference by {:.4} m; a regulation \
@@ -365,14 +371,16 @@ fn cmd_step(scenario: &str, setpoint: f64, duration: f64, out: Option<PathBuf>) 
         anyhow::bail!("--setpoint-rad-s must be finite and --duration-s in (0, 60]");
     }
     let r = wheel_step_response(&scenario, setpoint, duration)?;
-    let pid = scenario.robot.wheel_pid;
+    let w = scenario.robot.left_wheel;
     say!(
-        "wheel-speed step 0 → {setpoint} rad/s from rest, K_p = {} duty/(rad/s), T_i = {} s, \
-T_d = {} s, K_ff = {} duty/(rad/s):",
-        pid.kp_duty_per_rad_s,
-        pid.ti_s,
-        pid.td_s,
-        pid.feed_forward_duty_per_rad_s
+        "wheel-speed step 0 → {setpoint} rad/s from rest on {} V, K_p = {} V/(rad/s), \
+T_i = {} s, T_d = {} s, feed-forward k_S = {} V, k_V = {} V/(rad/s):",
+        scenario.plant.driver.supply_v,
+        w.kp_v_per_rad_s,
+        w.ti_s,
+        w.td_s,
+        w.ks_v,
+        w.kv_v_per_rad_s
     );
     let opt = |v: Option<f64>| v.map_or("never".to_string(), |t| format!("{:.0} ms", t * 1e3));
     say!(

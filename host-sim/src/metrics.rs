@@ -1,99 +1,161 @@
-//! Run metrics: settle time, final and windowed errors, peaks.
+//! What a run amounted to: `summary.json`.
 //!
-//! Errors are sampled at every steering update (100 Hz by default), when the reference
-//! is fresh: sampling between updates would measure the reference's staleness (up to
-//! v_r·T_s = 2.5 mm at 0.25 m/s and 10 ms), which is a quarter of the 1 cm threshold.
+//! The error statistics are accumulated as the run goes by
+//! [`robot_app::metrics::ErrorStats`], the same code the robot runs on its own estimate,
+//! so a summary recorded from a robot over the link and one written by the simulator
+//! mean the same thing (settle time: 1 cm and 1° to the end; RMS and maximum over the
+//! last 10 s). Nothing here grows with the run: a day-long soak keeps one number per
+//! hour.
+//!
+//! Two sets of errors, named for what they are:
+//!
+//! - `true_error`: the true pose (what a ruler on the floor measures) against the
+//!   reference, at every steering period of the run, whatever the controller is doing —
+//!   a controller that faults before its first steering step still gets an error. Only a
+//!   simulation (or a robot with an absolute position fix) has it; a real robot's summary
+//!   leaves it out.
+//! - `estimated_error`: the controller's own estimate (odometry) against its own
+//!   reference, at its steering updates. The two differ when the robot is not what the
+//!   controller believes (mismatch, slip), which no feedback on odometry alone can see.
 
+use controller_core::supervisor::{Faults, State};
+use robot_app::metrics::ErrorSummary;
 use serde::Serialize;
 
-/// Position threshold of the settle criterion, m.
-pub const SETTLE_POSITION_M: f64 = 0.01;
-/// Heading threshold of the settle criterion, rad (1°).
-pub const SETTLE_HEADING_RAD: f64 = core::f64::consts::PI / 180.0;
+pub use robot_app::metrics::{
+    ErrorSample, ErrorStats, FINAL_WINDOW_BUCKETS, SETTLE_HEADING_RAD, SETTLE_POSITION_M,
+};
+
 /// Length of the final window of the RMS and max statistics, s.
-pub const FINAL_WINDOW_S: f64 = 10.0;
+pub const FINAL_WINDOW_S: f64 = FINAL_WINDOW_BUCKETS as f64;
 
-/// One error sample: time (s), position error (m, ≥ 0) and heading error (rad, signed,
-/// in (−π, π]).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ErrorSample {
-    /// Time since the start, s.
-    pub t_s: f64,
-    /// Distance to the reference (or to the path, when path-following), m.
-    pub position_m: f64,
-    /// Heading error θ_r − θ, rad.
-    pub heading_rad: f64,
-}
-
-/// Error statistics of one run, against one pose (true or estimated).
+/// One set of error statistics (see [`ErrorSummary`]), m, rad and s.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct ErrorMetrics {
-    /// First time after which position error < [`SETTLE_POSITION_M`] and |heading error| <
-    /// [`SETTLE_HEADING_RAD`] hold to the end, s; `None` if they do not hold at the end.
+pub struct ErrorReport {
+    /// First time after which position error < 1 cm and |heading error| < 1° hold to the
+    /// end, s from arming; `null` if they do not hold at the end.
     pub settle_time_s: Option<f64>,
     /// Position error at the last sample, m.
     pub final_position_error_m: f64,
     /// Heading error θ_r − θ at the last sample, rad (signed).
     pub final_heading_error_rad: f64,
-    /// RMS position error over the last [`FINAL_WINDOW_S`], m.
+    /// RMS position error over the last 10 s, m.
     pub rms_position_error_m: f64,
-    /// Largest position error over the last [`FINAL_WINDOW_S`], m.
+    /// Largest position error over the last 10 s, m.
     pub max_position_error_m: f64,
 }
 
-impl ErrorMetrics {
-    /// Statistics of `samples` (in time order). Empty input gives zeros and no settle time.
-    pub fn from_samples(samples: &[ErrorSample]) -> Self {
-        let Some(last) = samples.last() else {
-            return Self::default();
-        };
-        let settled = |s: &ErrorSample| {
-            s.position_m < SETTLE_POSITION_M && s.heading_rad.abs() < SETTLE_HEADING_RAD
-        };
-        // The sample after the last violation; all samples if there is none.
-        let settle_time_s = match samples.iter().rposition(|s| !settled(s)) {
-            None => Some(samples[0].t_s),
-            Some(i) => samples.get(i + 1).map(|s| s.t_s),
-        };
-        let from = last.t_s - FINAL_WINDOW_S;
-        let (mut sum2, mut n, mut max) = (0.0, 0usize, 0.0f64);
-        for s in samples.iter().filter(|s| s.t_s >= from) {
-            sum2 += s.position_m * s.position_m;
-            n += 1;
-            max = max.max(s.position_m);
-        }
+impl From<ErrorSummary> for ErrorReport {
+    fn from(s: ErrorSummary) -> Self {
         Self {
-            settle_time_s,
-            final_position_error_m: last.position_m,
-            final_heading_error_rad: last.heading_rad,
-            rms_position_error_m: (sum2 / n.max(1) as f64).sqrt(),
-            max_position_error_m: max,
+            settle_time_s: s.settle_time_s.map(f64::from),
+            final_position_error_m: f64::from(s.final_position_error_m),
+            final_heading_error_rad: f64::from(s.final_heading_error_rad),
+            rms_position_error_m: f64::from(s.rms_position_error_m),
+            max_position_error_m: f64::from(s.max_position_error_m),
         }
     }
 }
 
-/// The run summary written as `summary.json`: exactly these fields. Errors are of the
-/// **true** pose (what a ruler on the floor would measure), see [`crate::run`].
+/// How the supervisor ended the run.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SupervisorReport {
+    /// Its state at the end (`Disarmed`, `Armed`, `Faulted`, `Persisting`).
+    pub final_state: String,
+    /// The faults latched at the end, by name (empty if none).
+    pub faults: Vec<String>,
+    /// Control ticks missed (late steps) over the run.
+    pub missed_ticks: u32,
+    /// Overrun steps over the run.
+    pub overruns: u32,
+}
+
+impl SupervisorReport {
+    /// The report of `state` with `faults` latched.
+    pub fn new(state: State, faults: &Faults, missed_ticks: u32, overruns: u32) -> Self {
+        Self {
+            final_state: format!("{state:?}"),
+            faults: fault_names(faults)
+                .iter()
+                .map(|s| (*s).to_string())
+                .collect(),
+            missed_ticks,
+            overruns,
+        }
+    }
+}
+
+/// The names of the faults set in `faults` (the supervisor's and the core's).
+pub fn fault_names(faults: &Faults) -> Vec<&'static str> {
+    let flags = [
+        (faults.core.encoder_jump, "encoder_jump"),
+        (faults.core.non_finite, "non_finite"),
+        (faults.overrun, "overrun"),
+        (faults.missed_ticks, "missed_ticks"),
+        (faults.stall_left, "stall_left"),
+        (faults.stall_right, "stall_right"),
+        (faults.divergence, "divergence"),
+        (faults.geofence, "geofence"),
+        (faults.supply_low, "supply_low"),
+        (faults.supply_high, "supply_high"),
+        (faults.emergency_stop, "emergency_stop"),
+    ];
+    flags
+        .iter()
+        .filter(|(set, _)| *set)
+        .map(|(_, name)| *name)
+        .collect()
+}
+
+/// What one injected fault did.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FaultReport {
+    /// The fault's kind (`encoder-disconnect`, …).
+    pub fault: String,
+    /// When it was injected, s.
+    pub injected_s: f64,
+    /// True when the supervisor stopped driving after it (a fault, or a disarm).
+    pub detected: bool,
+    /// When it did, s (`null` if it did not).
+    pub detected_s: Option<f64>,
+    /// Detection latency, s (`null` if not detected).
+    pub latency_s: Option<f64>,
+    /// What stopped the robot: the latched faults' names or the disarm reason.
+    pub detected_by: Vec<String>,
+    /// When the duties reached 0, s (`null` if they did not).
+    pub motors_zero_s: Option<f64>,
+    /// When both true wheel speeds were below 0.1 rad/s after that, s (`null` if never).
+    pub wheels_stopped_s: Option<f64>,
+    /// True distance driven from the injection to the end of the run, m.
+    pub distance_after_m: f64,
+}
+
+/// The run summary written as `summary.json`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Summary {
     /// Scenario name.
     pub scenario: String,
     /// Steering law name (`paper`, `tracking` or `kanayama`).
     pub law: String,
-    /// See [`ErrorMetrics::settle_time_s`], s (null if not settled).
-    pub settle_time_s: Option<f64>,
-    /// Position error at the end, m.
-    pub final_position_error_m: f64,
-    /// Heading error θ_r − θ at the end, rad (signed).
-    pub final_heading_error_rad: f64,
-    /// RMS position error over the last 10 s, m.
-    pub rms_position_error_m: f64,
-    /// Largest position error over the last 10 s, m.
-    pub max_position_error_m: f64,
-    /// Largest true wheel speed of either wheel, rad/s.
+    /// What produced the summary: `simulator`, `virtual-robot`, `robot`, `pil`.
+    pub source: String,
+    /// The true pose's errors (module doc); `null` for a real robot.
+    pub true_error: Option<ErrorReport>,
+    /// The controller's own estimate's errors (module doc).
+    pub estimated_error: ErrorReport,
+    /// RMS true position error of each whole hour of a run longer than 2 h, m (a soak's
+    /// drift check); empty for shorter runs.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub hourly_rms_true_position_error_m: Vec<f64>,
+    /// Largest true wheel speed of either wheel, rad/s (the measured one for a robot).
     pub max_wheel_speed_rad_s: f64,
-    /// Largest |duty| the controller commanded, in [0, 1].
+    /// Largest |duty| the robot applied, in [0, 1].
     pub max_duty: f64,
+    /// How the supervisor ended the run.
+    pub supervisor: SupervisorReport,
+    /// What each injected fault did (empty without faults).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub injected_faults: Vec<FaultReport>,
     /// Simulated time, s.
     pub sim_time_s: f64,
     /// Wall-clock time of the simulation loop, s.
@@ -102,40 +164,81 @@ pub struct Summary {
     pub steps: u64,
 }
 
+impl Summary {
+    /// The errors to headline: the true ones when the summary has them, else the
+    /// estimate's.
+    pub fn headline_error(&self) -> ErrorReport {
+        self.true_error.unwrap_or(self.estimated_error)
+    }
+}
+
+/// RMS of one whole hour of samples, accumulated as they come.
+#[derive(Clone, Debug, Default)]
+pub struct HourlyRms {
+    hours: Vec<f64>,
+    sum_squares: f64,
+    count: u64,
+    hour: u64,
+}
+
+impl HourlyRms {
+    /// Adds a sample of `error_m` (m) taken at `t_s` (s).
+    pub fn push(&mut self, t_s: f64, error_m: f64) {
+        let hour = (t_s / 3600.0) as u64;
+        while hour > self.hour {
+            self.close_hour();
+        }
+        self.sum_squares += error_m * error_m;
+        self.count += 1;
+    }
+
+    fn close_hour(&mut self) {
+        let rms = if self.count > 0 {
+            (self.sum_squares / self.count as f64).sqrt()
+        } else {
+            0.0
+        };
+        self.hours.push(rms);
+        self.sum_squares = 0.0;
+        self.count = 0;
+        self.hour += 1;
+    }
+
+    /// The RMS of each completed hour, m; empty for runs under 2 h.
+    pub fn finish(self) -> Vec<f64> {
+        if self.hours.len() >= 2 {
+            self.hours
+        } else {
+            Vec::new()
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn s(t: f64, p: f64, h: f64) -> ErrorSample {
-        ErrorSample {
-            t_s: t,
-            position_m: p,
-            heading_rad: h,
+    #[test]
+    fn hourly_rms_closes_each_hour() {
+        let mut h = HourlyRms::default();
+        for k in 0..3 * 3600 {
+            let t = f64::from(k);
+            h.push(t, if k < 3600 { 3.0 } else { 4.0 });
         }
+        // The third hour is still open at the end: two complete hours.
+        assert_eq!(h.finish(), vec![3.0, 4.0]);
+        let mut short = HourlyRms::default();
+        short.push(10.0, 1.0);
+        short.push(4000.0, 1.0);
+        assert!(short.finish().is_empty());
     }
 
     #[test]
-    fn settle_time_is_after_the_last_violation() {
-        let samples = [
-            s(0.0, 0.5, 0.0),
-            s(1.0, 0.005, 0.0),
-            s(2.0, 0.02, 0.0),
-            s(3.0, 0.005, 0.001),
-            s(4.0, 0.001, -0.001),
-        ];
-        let m = ErrorMetrics::from_samples(&samples);
-        assert_eq!(m.settle_time_s, Some(3.0));
-        assert_eq!(m.final_position_error_m, 0.001);
-        // Window = last 10 s = everything: max 0.5.
-        assert_eq!(m.max_position_error_m, 0.5);
-    }
-
-    #[test]
-    fn unsettled_end_gives_none_and_settled_start_gives_zero() {
-        let m = ErrorMetrics::from_samples(&[s(0.0, 0.0, 0.0), s(1.0, 0.0, 0.1)]);
-        assert_eq!(m.settle_time_s, None);
-        let m = ErrorMetrics::from_samples(&[s(0.0, 0.0, 0.0), s(1.0, 0.0, 0.0)]);
-        assert_eq!(m.settle_time_s, Some(0.0));
-        assert_eq!(ErrorMetrics::from_samples(&[]).settle_time_s, None);
+    fn fault_names_list_what_is_set() {
+        let mut f = Faults::default();
+        assert!(fault_names(&f).is_empty());
+        f.stall_left = true;
+        f.core.encoder_jump = true;
+        assert_eq!(fault_names(&f), vec!["encoder_jump", "stall_left"]);
     }
 }

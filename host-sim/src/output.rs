@@ -37,14 +37,15 @@ pub fn write_run(dir: &FsPath, scenario: &Scenario, result: &RunResult) -> Resul
     fs::write(&summary, json + "\n").with_context(|| format!("writing {}", summary.display()))?;
     written.push(summary);
     let title = format!("{}, {} law", scenario.name, result.summary.law);
+    let settle = result.summary.headline_error().settle_time_s;
     let fig5 = dir.join("fig5_path.svg");
     plot::fig5_path(&fig5, &title, &scenario.path, &result.trace)?;
     written.push(fig5);
     let fig6 = dir.join("fig6_errors.svg");
-    plot::fig6_errors(&fig6, &title, &result.trace, result.summary.settle_time_s)?;
+    plot::fig6_errors(&fig6, &title, &result.trace, settle)?;
     written.push(fig6);
     let fig7 = dir.join("fig7_inputs.svg");
-    plot::fig7_inputs(&fig7, &title, &result.trace, result.summary.settle_time_s)?;
+    plot::fig7_inputs(&fig7, &title, &result.trace, settle)?;
     written.push(fig7);
     Ok(written)
 }
@@ -57,7 +58,8 @@ pub fn settle_text(settle: Option<f64>) -> String {
     }
 }
 
-/// A few lines for a person: what ran, whether and when it settled, the final errors.
+/// A few lines for a person: what ran, whether and when it settled, the final errors,
+/// what the supervisor did.
 pub fn human_summary(scenario: &Scenario, result: &RunResult) -> String {
     let s = &result.summary;
     let mut text = format!(
@@ -69,21 +71,32 @@ pub fn human_summary(scenario: &Scenario, result: &RunResult) -> String {
         s.sim_time_s / s.wall_time_s.max(1e-9),
         s.steps
     );
+    let e = s.headline_error();
+    let which = if s.true_error.is_some() {
+        "true"
+    } else {
+        "estimated"
+    };
     text += &format!(
-        "  settle time (|e| < {:.0} mm and |θ_e| < {:.0}° to the end): {}\n",
-        SETTLE_POSITION_M * 1e3,
-        SETTLE_HEADING_RAD.to_degrees(),
-        settle_text(s.settle_time_s)
+        "  settle time ({which} |e| < {:.0} mm and |θ_e| < {:.0}° to the end): {}\n",
+        f64::from(SETTLE_POSITION_M) * 1e3,
+        f64::from(SETTLE_HEADING_RAD).to_degrees(),
+        settle_text(e.settle_time_s)
     );
     text += &format!(
         "  final error: {:.4} m, {:+.4} rad ({:+.2}°); last 10 s: RMS {:.4} m, max {:.4} m\n",
-        s.final_position_error_m,
-        s.final_heading_error_rad,
-        s.final_heading_error_rad.to_degrees(),
-        s.rms_position_error_m,
-        s.max_position_error_m
+        e.final_position_error_m,
+        e.final_heading_error_rad,
+        e.final_heading_error_rad.to_degrees(),
+        e.rms_position_error_m,
+        e.max_position_error_m
     );
-    let r = f64::from(scenario.robot.wheel_radius_m);
+    let r = f64::from(
+        scenario
+            .robot
+            .wheel_radius_left_m
+            .min(scenario.robot.wheel_radius_right_m),
+    );
     text += &format!(
         "  peaks: wheel {:.1} rad/s ({:.2} m/s rim, cap {:.2} m/s), duty {:.2}, current {:.2} A\n",
         s.max_wheel_speed_rad_s,
@@ -92,18 +105,31 @@ pub fn human_summary(scenario: &Scenario, result: &RunResult) -> String {
         s.max_duty,
         result.max_current_a
     );
-    let settle_differs = match (result.estimated.settle_time_s, s.settle_time_s) {
-        (Some(a), Some(b)) => (a - b).abs() > 0.1,
-        (None, None) => false,
-        _ => true,
-    };
-    if settle_differs
-        || (result.estimated.final_position_error_m - s.final_position_error_m).abs() > 0.005
-    {
+    if let Some(t) = &s.true_error {
+        let est = &s.estimated_error;
+        let settle_differs = match (est.settle_time_s, t.settle_time_s) {
+            (Some(a), Some(b)) => (a - b).abs() > 0.1,
+            (None, None) => false,
+            _ => true,
+        };
+        if settle_differs || (est.final_position_error_m - t.final_position_error_m).abs() > 0.005 {
+            text += &format!(
+                "  controller's own estimate: settle {}, final error {:.4} m (odometry ≠ truth)\n",
+                settle_text(est.settle_time_s),
+                est.final_position_error_m
+            );
+        }
+    }
+    for f in &s.injected_faults {
         text += &format!(
-            "  controller's own estimate: settle {}, final error {:.4} m (odometry ≠ truth)\n",
-            settle_text(result.estimated.settle_time_s),
-            result.estimated.final_position_error_m
+            "  fault {} at {:.2} s: {}\n",
+            f.fault,
+            f.injected_s,
+            match (f.detected, f.latency_s) {
+                (true, Some(l)) =>
+                    format!("stopped after {l:.3} s by {}", f.detected_by.join(", ")),
+                _ => "not detected".to_string(),
+            }
         );
     }
     let expected = f64::from(scenario.reference_speed_m_s) * s.sim_time_s;
@@ -113,8 +139,13 @@ pub fn human_summary(scenario: &Scenario, result: &RunResult) -> String {
             result.distance_travelled_m, expected
         );
     }
-    if result.faults.any() {
-        text += &format!("  FAULT latched: {:?} (motors stopped)\n", result.faults);
+    text += &format!("  supervisor: {}", s.supervisor.final_state);
+    if !s.supervisor.faults.is_empty() {
+        text += &format!(
+            ", faults {} (motors stopped)",
+            s.supervisor.faults.join(", ")
+        );
     }
+    text.push('\n');
     text
 }

@@ -487,7 +487,7 @@ pub fn compare(
                 *name,
                 *colour,
                 false,
-                trace.iter().map(|r| r.true_error.position_m).collect(),
+                trace.iter().map(|r| r.true_error.0).collect(),
             )
         })
         .collect();

@@ -1,47 +1,55 @@
-//! The simulation loop: the controller driven exactly as the firmware drives it, against
-//! the plant.
+//! The simulation loop: the firmware's decision path — the [`Supervisor`] around the
+//! [`Controller`] — against the simulated hardware.
 //!
-//! Each control step k (t = k·T, T = 1 / control rate, time kept as the integer k):
+//! Each control step (time kept as an integer count of control periods):
 //!
-//! 1. read both encoders at the plant's true wheel angles → [`TickDeltas`] (quantised,
-//!    optionally jittered), as the firmware reads its timers;
-//! 2. `Controller::step(ticks)` → duties in [−1, 1];
-//! 3. the duties are quantised to the PWM resolution, dead-banded, × supply voltage, and
-//!    held while the plant integrates one control period with RK4 at the plant rate.
+//! 1. the hardware says how many periods the step covers (1, or more under a
+//!    `late-steps` fault) and what the firmware reads: encoder ticks, the supply
+//!    measurement, the button ([`SimHardware`]);
+//! 2. `Supervisor::step` steps the controller and decides the duties, the bridge state
+//!    (drive, brake, coast) and the watchdog, exactly as on the robot;
+//! 3. the hardware applies them and the plant integrates one period.
 //!
-//! ## A start in motion
+//! ## Arming and a start in motion
 //!
-//! The paper's robot is already moving at t = 0 (v = 0.4 m/s, ω = 0.3 rad/s). The plant's
-//! wheels are spun up to match (inverse kinematics with the **true** geometry), and the
-//! controller is given the encoder history of that motion: for one speed-estimator window
-//! before t = 0 it is stepped in `Mode::Idle` with the ticks the moving wheels would have
-//! produced, then its pose is set to the start pose and `Mode::FollowPath` is entered. So
-//! at t = 0 its speed estimate, its limiter and its PIDs start from the true motion, as
-//! they would on a robot that had been driving — not from a standstill it is not in.
+//! Unless the scenario's `[start]` says `arm = "none"`, the run arms at step 0 through the
+//! supervisor, as an operator at the robot would (no link, so no heartbeat is needed).
+//! The paper's experiments start in motion (v = 0.4 m/s, ω = 0.3 rad/s at t = 0): the
+//! plant's wheels are spun up to that motion and the arm request asserts it
+//! ([`ArmRequest::initial_motion`]), so the controller's speed estimate and ramp start
+//! from the motion instead of from rest. The runtime link's `Arm` carries the same
+//! assertion, which is how a processor-in-the-loop run reproduces these numbers. Figures
+//! from such runs say "armed in motion".
 //!
 //! ## Errors
 //!
-//! Every metric is measured on the **true** pose at each steering update, against the
-//! reference the controller used at that update. In time-indexed mode the error is the
-//! distance to the reference point and θ_r − θ; in path-following mode, where the
-//! reference may be placed ahead of the robot on purpose, it is the distance to the
-//! closest point of the path and the path's heading there minus θ. The same statistics of
-//! the controller's own estimate (odometry) are kept in [`RunResult::estimated`]: the two
-//! differ when the true robot does not match what the controller believes (mismatch,
-//! slip), which no feedback on odometry alone can see.
+//! The true error is measured at every steering period of the run against the scenario's
+//! own reference, evaluated here, independently of the controller: in time-indexed mode
+//! the reference point at that time and its heading; in path-following mode, where the
+//! controller may aim ahead on purpose, the closest point of the path and the path's
+//! heading there. The controller's own estimate is measured against its own reference at
+//! its steering updates. See [`crate::metrics`].
 
 use std::time::Instant;
 
 use controller_core::prelude::*;
+use controller_core::supervisor::{
+    ArmRequest, Bridge, Event, Inputs, RunMode, State, Supervised, Supervisor,
+};
+use robot_app::metrics::{ErrorSample, ErrorStats};
 
-use crate::encoder::Encoder;
-use crate::metrics::{ErrorMetrics, ErrorSample, Summary};
-use crate::plant::{Plant, PlantError, PlantParams, TrueGeometry, TruePose};
-use crate::rng::Rng;
+use crate::faults::Fault;
+use crate::hardware::{Actuation, SimHardware};
+use crate::metrics::{fault_names, ErrorReport, FaultReport, HourlyRms, Summary, SupervisorReport};
+use crate::plant::{PlantError, PlantParams, TrueGeometry, TruePose};
 use crate::scenario::{Scenario, ScenarioError};
 
+/// Most trace rows a run keeps: longer runs are decimated to about this many, so memory
+/// and file sizes stay flat however long the run.
+pub const MAX_TRACE_ROWS: u64 = 30_000;
+
 /// One row of `trace.csv`. World frame for poses (m, rad); robot frame for x_e, y_e.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TraceRow {
     /// Time since the start, s.
     pub t_s: f64,
@@ -49,12 +57,12 @@ pub struct TraceRow {
     pub true_pose: TruePose,
     /// The controller's odometry estimate.
     pub est_pose: Pose,
-    /// Reference pose at the last steering update.
+    /// Reference pose of the true-error measurement.
     pub reference: Pose,
     /// The controller's tracking error (9) of its estimate: x_e, y_e (m), θ_e (rad).
     pub error: TrackingError,
-    /// Error of the true pose as used by the metrics: position (m), heading (rad).
-    pub true_error: ErrorSample,
+    /// True position error (m) and heading error (rad) as the metrics use them.
+    pub true_error: (f64, f64),
     /// Tracking error (9) of the true pose against the reference: x_e, y_e (m, robot
     /// frame), θ_e (rad).
     pub true_tracking: [f64; 3],
@@ -70,8 +78,14 @@ pub struct TraceRow {
     pub measured: WheelSpeeds,
     /// True wheel speeds [left, right], rad/s.
     pub true_wheel: [f64; 2],
+    /// Armature voltages the wheel loops commanded [left, right], V.
+    pub volts: [f32; 2],
     /// Commanded duties, −1…1.
     pub duty: MotorCommand,
+    /// The filtered supply the controller used, V.
+    pub supply_v: f32,
+    /// The supervisor's state.
+    pub state: State,
 }
 
 impl TraceRow {
@@ -81,7 +95,8 @@ x_ref_m,y_ref_m,theta_ref_rad,x_e_m,y_e_m,theta_e_rad,x_e_true_m,y_e_true_m,thet
 pos_err_true_m,heading_err_true_rad,\
 lyapunov_v,v_cmd_m_s,omega_cmd_rad_s,v_true_m_s,omega_true_rad_s,\
 setpoint_left_rad_s,setpoint_right_rad_s,speed_est_left_rad_s,speed_est_right_rad_s,\
-speed_true_left_rad_s,speed_true_right_rad_s,duty_left,duty_right";
+speed_true_left_rad_s,speed_true_right_rad_s,volts_left_v,volts_right_v,duty_left,duty_right,\
+supply_v,state";
 
     /// Appends this row as CSV (no newline) to `out`.
     pub fn write_csv(&self, out: &mut String) {
@@ -91,7 +106,8 @@ speed_true_left_rad_s,speed_true_right_rad_s,duty_left,duty_right";
         let _ = write!(
             out,
             "{:.3},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},\
-{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4}",
+{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},\
+{:.4},{:.4},{:.4},{:.4},{:.3},{:?}",
             self.t_s,
             p.x_m,
             p.y_m,
@@ -108,8 +124,8 @@ speed_true_left_rad_s,speed_true_right_rad_s,duty_left,duty_right";
             self.true_tracking[0],
             self.true_tracking[1],
             self.true_tracking[2],
-            self.true_error.position_m,
-            self.true_error.heading_rad,
+            self.true_error.0,
+            self.true_error.1,
             self.lyapunov,
             self.command.v_m_s,
             self.command.omega_rad_s,
@@ -121,8 +137,12 @@ speed_true_left_rad_s,speed_true_right_rad_s,duty_left,duty_right";
             self.measured.right_rad_s,
             self.true_wheel[0],
             self.true_wheel[1],
+            self.volts[0],
+            self.volts[1],
             self.duty.left,
             self.duty.right,
+            self.supply_v,
+            self.state,
         );
     }
 }
@@ -139,6 +159,9 @@ pub enum RunError {
     /// The reference could not be built (speed or distance out of range).
     #[error("reference: {0}")]
     Reference(ReferenceError),
+    /// The supervisor's settings are invalid.
+    #[error("supervisor: {0}")]
+    Supervisor(controller_core::supervisor::SupervisorConfigError),
     /// An argument of a run function is out of range.
     #[error("{name} {rule}, got {value}")]
     Argument {
@@ -154,7 +177,8 @@ pub enum RunError {
 /// Options of one run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RunOptions {
-    /// Record a trace row every this many control steps (0: no trace).
+    /// Record a trace row every this many control steps (0: no trace). Capped so that a
+    /// run keeps at most about [`MAX_TRACE_ROWS`].
     pub trace_every_steps: u32,
 }
 
@@ -171,12 +195,8 @@ impl RunOptions {
 /// Everything a run produced.
 #[derive(Clone, Debug)]
 pub struct RunResult {
-    /// The `summary.json` content (true-pose errors).
+    /// The `summary.json` content.
     pub summary: Summary,
-    /// The same error statistics for the controller's own (odometry) estimate.
-    pub estimated: ErrorMetrics,
-    /// Faults latched by the controller at the end of the run (none in a healthy run).
-    pub faults: FaultFlags,
     /// Largest |armature current| of either motor, A.
     pub max_current_a: f64,
     /// Length of the true path driven (sampled at the steering rate), m.
@@ -185,10 +205,18 @@ pub struct RunResult {
     pub trace: Vec<TraceRow>,
 }
 
+impl RunResult {
+    /// True when the supervisor ended the run faulted.
+    pub fn faulted(&self) -> bool {
+        !self.summary.supervisor.faults.is_empty()
+    }
+}
+
 /// The plant described by `scenario`: its motor, driver, body and slip, and the true
 /// geometry = the controller's belief × the scenario's mismatch.
 pub fn plant_params(scenario: &Scenario) -> PlantParams {
-    let r = f64::from(scenario.robot.wheel_radius_m);
+    let left = f64::from(scenario.robot.wheel_radius_left_m);
+    let right = f64::from(scenario.robot.wheel_radius_right_m);
     let l = f64::from(scenario.robot.track_width_m);
     let m = scenario.plant.mismatch;
     let common = 1.0 + m.wheel_radius_pct / 100.0;
@@ -199,15 +227,16 @@ pub fn plant_params(scenario: &Scenario) -> PlantParams {
         gear_ratio: f64::from(scenario.robot.gear_ratio),
         body: scenario.plant.body,
         geometry: TrueGeometry {
-            wheel_radius_left_m: r * (common + split),
-            wheel_radius_right_m: r * (common - split),
+            wheel_radius_left_m: left * (common + split),
+            wheel_radius_right_m: right * (common - split),
             track_width_m: l * (1.0 + m.track_width_pct / 100.0),
         },
         slip: scenario.plant.slip,
     }
 }
 
-/// Runs `scenario` with steering law `law`, recording a trace at every steering update.
+/// Runs `scenario` with steering law `law` and its own faults, recording a trace at
+/// every steering update.
 pub fn run_scenario(scenario: &Scenario, law: LawKind) -> Result<RunResult, RunError> {
     run_scenario_with(scenario, law, RunOptions::at_steering_rate(scenario))
 }
@@ -225,75 +254,188 @@ fn tracking_error_f64(pose: &TruePose, reference: &Pose) -> [f64; 3] {
     ]
 }
 
-/// The true pose's error against `reference` (see the module doc).
-fn true_error(
-    t_s: f64,
-    pose: &TruePose,
-    reference: &ReferenceState,
-    path: &Path,
+/// The reference the true error is measured against (module doc), evaluated by the
+/// simulator itself every steering period.
+struct TrueReference {
+    reference: Reference,
     path_following: bool,
-) -> ErrorSample {
-    let (rx, ry, rth) = if path_following {
-        let p = Point::new(pose.x_m as f32, pose.y_m as f32);
-        let s = path.project(p, 0.0, f32::INFINITY, f32::INFINITY);
-        let sample = path.sample(s);
-        (
-            f64::from(sample.point.x_m),
-            f64::from(sample.point.y_m),
-            f64::from(sample.heading_rad),
-        )
-    } else {
-        (
-            f64::from(reference.pose.x_m),
-            f64::from(reference.pose.y_m),
-            f64::from(reference.pose.theta_rad),
-        )
-    };
-    ErrorSample {
-        t_s,
-        position_m: (rx - pose.x_m).hypot(ry - pose.y_m),
-        heading_rad: crate::plant::robot::wrap_angle(rth - pose.theta_rad),
+    steering_period_s: f32,
+    sampled: bool,
+}
+
+impl TrueReference {
+    fn new(scenario: &Scenario, steering_period_s: f32) -> Result<Self, RunError> {
+        Ok(Self {
+            reference: Reference::new(
+                scenario.path.clone(),
+                scenario.reference_speed_m_s,
+                scenario.reference_mode,
+            )
+            .map_err(RunError::Reference)?,
+            path_following: matches!(scenario.reference_mode, ReferenceMode::PathFollowing { .. }),
+            steering_period_s,
+            sampled: false,
+        })
+    }
+
+    fn restart(&mut self) {
+        self.reference.restart();
+        self.sampled = false;
+    }
+
+    /// The reference pose one steering period after the last call (the start for the
+    /// first), for a robot at `pose`.
+    fn next(&mut self, pose: &TruePose) -> Pose {
+        if self.path_following {
+            let path = self.reference.path();
+            let p = Point::new(pose.x_m as f32, pose.y_m as f32);
+            let sample = path.sample(path.project(p, 0.0, f32::INFINITY, f32::INFINITY));
+            return Pose::new(sample.point.x_m, sample.point.y_m, sample.heading_rad);
+        }
+        let elapsed = if self.sampled {
+            self.steering_period_s
+        } else {
+            0.0
+        };
+        self.sampled = true;
+        self.reference.sample(elapsed, &Pose::default()).pose
     }
 }
 
-/// What both run loops build from a scenario: the controller and the rates and encoder
-/// facts of its loop.
-struct Setup {
+/// The controller, supervisor and hardware of `scenario` running `law` with `faults`.
+struct Robot {
     controller: Controller,
-    config: RobotConfig,
-    control_hz: u32,
-    /// Plant RK4 steps per control step.
-    substeps: u32,
-    /// Plant step, s.
-    dt_s: f64,
-    ticks_per_rev: f64,
-    /// Encoder edge jitter, ticks RMS.
-    noise: f64,
+    supervisor: Supervisor,
+    hardware: SimHardware,
+    heartbeat: u32,
 }
 
-impl Setup {
-    /// The controller for `scenario` running `law`, believing the robot starts at `start`.
-    fn new(scenario: &Scenario, law: LawKind, start: Pose) -> Result<Self, RunError> {
+impl Robot {
+    fn new(scenario: &Scenario, law: LawKind, faults: &[Fault]) -> Result<Self, RunError> {
         let params = scenario.params()?;
-        let config = *params.config();
         let reference = Reference::new(
             scenario.path.clone(),
             scenario.reference_speed_m_s,
             scenario.reference_mode,
         )
         .map_err(RunError::Reference)?;
-        let control_hz = config.control_rate_hz;
+        let s = scenario.start;
+        let start = Pose::new(s.x_m as f32, s.y_m as f32, s.theta_rad as f32);
         Ok(Self {
             controller: Controller::new(params, reference, law, start),
-            config,
-            control_hz,
-            substeps: scenario.plant_rate_hz / control_hz,
-            dt_s: 1.0 / f64::from(scenario.plant_rate_hz),
-            ticks_per_rev: f64::from(config.encoder_lines_per_motor_rev)
-                * 4.0
-                * f64::from(config.gear_ratio),
-            noise: scenario.plant.encoder_noise_ticks_rms,
+            supervisor: Supervisor::new(
+                scenario.supervisor,
+                &params,
+                controller_core::supervisor::ResetCause::PowerOn,
+            )
+            .map_err(RunError::Supervisor)?,
+            hardware: SimHardware::new(scenario, faults)?,
+            heartbeat: 0,
         })
+    }
+
+    /// One control step (module doc); returns the supervisor's decision.
+    fn step(&mut self) -> Supervised {
+        let periods = self.hardware.periods_until_next_step();
+        let sensors = self.hardware.sense(periods);
+        self.heartbeat = self.heartbeat.wrapping_add(1);
+        let out = self.supervisor.step(
+            &mut self.controller,
+            Inputs {
+                ticks: sensors.ticks,
+                periods: core::num::NonZeroU32::new(sensors.periods)
+                    .unwrap_or(core::num::NonZeroU32::MIN),
+                supply_v: sensors.supply_v,
+                button_pressed: sensors.button_pressed,
+                overrun: false,
+                background_heartbeat: self.heartbeat,
+                command: None,
+            },
+        );
+        self.hardware.actuate(Actuation {
+            duty: out.duty,
+            bridge: out.bridge,
+        });
+        self.hardware.advance();
+        out
+    }
+}
+
+/// What happened after each injected fault (see [`FaultReport`]).
+struct FaultWatch {
+    fault: Fault,
+    report: FaultReport,
+    last_position: (f64, f64),
+}
+
+impl FaultWatch {
+    fn new(fault: Fault, rate_hz: f64) -> Self {
+        Self {
+            report: FaultReport {
+                fault: fault.kind.name().to_string(),
+                injected_s: fault.at_step as f64 / rate_hz,
+                detected: false,
+                detected_s: None,
+                latency_s: None,
+                detected_by: Vec::new(),
+                motors_zero_s: None,
+                wheels_stopped_s: None,
+                distance_after_m: 0.0,
+            },
+            fault,
+            last_position: (0.0, 0.0),
+        }
+    }
+
+    /// One step at period `period` (time `t_s`) whose outcome is `out`, with the true
+    /// pose `pose` and wheel speeds `wheels`.
+    fn observe(
+        &mut self,
+        period: u64,
+        t_s: f64,
+        out: &Supervised,
+        pose: &TruePose,
+        wheels: [f64; 2],
+    ) {
+        if period < self.fault.at_step {
+            self.last_position = (pose.x_m, pose.y_m);
+            return;
+        }
+        let r = &mut self.report;
+        r.distance_after_m +=
+            (pose.x_m - self.last_position.0).hypot(pose.y_m - self.last_position.1);
+        self.last_position = (pose.x_m, pose.y_m);
+        if !r.detected {
+            let stopped_by = match out.event {
+                Some(Event::Faulted) => Some(
+                    fault_names(&out.faults)
+                        .iter()
+                        .map(|s| (*s).to_string())
+                        .collect(),
+                ),
+                Some(Event::Disarmed(reason)) => Some(vec![format!("disarmed: {reason:?}")]),
+                _ => None,
+            };
+            if let Some(by) = stopped_by {
+                r.detected = true;
+                r.detected_s = Some(t_s);
+                r.latency_s = Some(t_s - r.injected_s);
+                r.detected_by = by;
+            }
+        }
+        if r.motors_zero_s.is_none()
+            && out.duty == MotorCommand::STOP
+            && out.bridge != Bridge::Drive
+        {
+            r.motors_zero_s = Some(t_s);
+        }
+        if r.motors_zero_s.is_some()
+            && r.wheels_stopped_s.is_none()
+            && wheels[0].abs() < 0.1
+            && wheels[1].abs() < 0.1
+        {
+            r.wheels_stopped_s = Some(t_s);
+        }
     }
 }
 
@@ -303,151 +445,165 @@ pub fn run_scenario_with(
     law: LawKind,
     options: RunOptions,
 ) -> Result<RunResult, RunError> {
-    let path_following = matches!(scenario.reference_mode, ReferenceMode::PathFollowing { .. });
-    let mut plant = Plant::new(plant_params(scenario))?;
+    let mut robot = Robot::new(scenario, law, &scenario.faults)?;
+    let control_hz = scenario.robot.control_rate_hz;
+    let rate = f64::from(control_hz);
+    let params = scenario.params()?;
+    let divider = u64::from(params.steering_divider().get());
+    let mut truth = TrueReference::new(scenario, params.steering_period_s())?;
+    let rate_nz = params.control_rate();
+    let mut true_stats = ErrorStats::new(rate_nz);
+    let mut est_stats = ErrorStats::new(rate_nz);
+    let mut hourly = HourlyRms::default();
+    let mut watches: Vec<FaultWatch> = scenario
+        .faults
+        .iter()
+        .map(|f| FaultWatch::new(*f, rate))
+        .collect();
+
+    // Arm at step 0 (in motion if the scenario starts moving), unless told not to.
     let s = scenario.start;
-    let start_true = TruePose {
-        x_m: s.x_m,
-        y_m: s.y_m,
-        theta_rad: crate::plant::robot::wrap_angle(s.theta_rad),
-    };
-    let start_speeds = plant.wheel_speeds_for(s.v_m_s, s.omega_rad_s);
-    plant.reset(start_true, start_speeds);
-
-    let start_pose = Pose::new(s.x_m as f32, s.y_m as f32, start_true.theta_rad as f32);
-    let Setup {
-        mut controller,
-        config,
-        control_hz,
-        substeps,
-        dt_s,
-        ticks_per_rev,
-        noise,
-    } = Setup::new(scenario, law, start_pose)?;
-    let period_s = 1.0 / f64::from(control_hz);
-    let mut rng = Rng::new(scenario.seed);
-
-    // Pre-roll: the encoder history of a start in motion (see the module doc). The
-    // controller sees the ticks of the window (−(n+1)T, −T]; the main loop's first step then
-    // reads (−T, 0] from the same encoders, so no interval is seen twice or skipped.
-    let n = if start_speeds == [0.0, 0.0] {
-        0
-    } else {
-        config.speed_window_steps
-    };
-    let angle_at = |k: u32, i: usize| -f64::from(n + 1 - k) * period_s * start_speeds[i];
-    let mut encoders = [
-        Encoder::new(ticks_per_rev, noise, angle_at(0, 0)),
-        Encoder::new(ticks_per_rev, noise, angle_at(0, 1)),
-    ];
-    if n > 0 {
-        for k in 1..=n {
-            let ticks = TickDeltas {
-                left: encoders[0].read_delta(angle_at(k, 0), &mut rng),
-                right: encoders[1].read_delta(angle_at(k, 1), &mut rng),
-            };
-            controller.step(ticks);
-        }
-        controller.set_pose(start_pose);
+    if s.v_m_s != 0.0 || s.omega_rad_s != 0.0 {
+        robot.hardware.start_moving(s.v_m_s, s.omega_rad_s);
     }
-    controller.set_mode(Mode::FollowPath);
+    let mut armed_at: Option<u64> = None;
+    if scenario.arm_at_start {
+        let motion = (s.v_m_s != 0.0 || s.omega_rad_s != 0.0)
+            .then(|| BodyVelocity::new(s.v_m_s as f32, s.omega_rad_s as f32));
+        let request = ArmRequest {
+            mode: RunMode::FollowPath,
+            hold_speeds: None,
+            initial_motion: motion,
+        };
+        if robot
+            .supervisor
+            .arm_locally(&mut robot.controller, request)
+            .is_ok()
+        {
+            armed_at = Some(0);
+        }
+    }
 
-    let total_steps = (scenario.duration_s * f64::from(control_hz)).round() as u64;
-    let capacity = if options.trace_every_steps > 0 {
-        (total_steps / u64::from(options.trace_every_steps)) as usize + 1
-    } else {
-        0
+    let total = (scenario.duration_s * rate).round() as u64;
+    let trace_every = match options.trace_every_steps {
+        0 => 0,
+        n => u64::from(n).max(total / MAX_TRACE_ROWS),
     };
-    let mut trace = Vec::with_capacity(capacity);
-    let samples_cap = (total_steps / u64::from(config.steering_divider.max(1))) as usize + 1;
-    let mut true_samples = Vec::with_capacity(samples_cap);
-    let mut est_samples = Vec::with_capacity(samples_cap);
+    let mut trace =
+        Vec::with_capacity(total.checked_div(trace_every).map_or(0, |n| n as usize + 1));
     let (mut max_wheel, mut max_duty, mut max_current) = (0.0f64, 0.0f64, 0.0f64);
     let mut travelled = 0.0;
-    let mut last_position = (start_true.x_m, start_true.y_m);
+    let mut last_position = (s.x_m, s.y_m);
+    let mut reference_pose = Pose::default();
+    let mut true_sample = (0.0, 0.0);
+    let mut last_out = None;
 
     let wall = Instant::now();
-    for k in 0..total_steps {
-        let t_s = k as f64 / f64::from(control_hz);
-        let angles = plant.wheel_angles();
-        let ticks = TickDeltas {
-            left: encoders[0].read_delta(angles[0], &mut rng),
-            right: encoders[1].read_delta(angles[1], &mut rng),
-        };
-        let duty = controller.step(ticks);
-        let tel = controller.telemetry();
+    while robot.hardware.period() < total {
+        let period = robot.hardware.period();
+        let t_s = period as f64 / rate;
+        // The true state when the firmware reads its sensors.
+        let pose = robot.hardware.plant().pose();
+        let wheels = robot.hardware.plant().wheel_speeds();
+        let true_velocity = robot.hardware.plant().body_velocity();
+        let out = robot.step();
+        if let Some(Event::Armed(RunMode::FollowPath)) = out.event {
+            if armed_at.is_none() {
+                armed_at = Some(period);
+                truth.restart();
+            }
+        }
+        let since_arming = armed_at.map(|a| period - a);
 
-        let record = options.trace_every_steps > 0 && k % u64::from(options.trace_every_steps) == 0;
-        if tel.steering_updated || record {
-            let pose = plant.pose();
-            let sample = true_error(t_s, &pose, &tel.reference, &scenario.path, path_following);
-            if tel.steering_updated {
-                true_samples.push(sample);
+        // True error every steering period from arming (module doc).
+        if let Some(k) = since_arming {
+            if k % divider == 0 {
+                reference_pose = truth.next(&pose);
+                let dx = f64::from(reference_pose.x_m) - pose.x_m;
+                let dy = f64::from(reference_pose.y_m) - pose.y_m;
+                let heading = crate::plant::robot::wrap_angle(
+                    f64::from(reference_pose.theta_rad) - pose.theta_rad,
+                );
+                true_sample = (dx.hypot(dy), heading);
+                true_stats.push(ErrorSample {
+                    step: k as u32,
+                    position_m: true_sample.0 as f32,
+                    heading_rad: true_sample.1 as f32,
+                });
+                hourly.push(k as f64 / rate, true_sample.0);
                 travelled += (pose.x_m - last_position.0).hypot(pose.y_m - last_position.1);
                 last_position = (pose.x_m, pose.y_m);
-                let est = TruePose {
-                    x_m: f64::from(tel.pose.x_m),
-                    y_m: f64::from(tel.pose.y_m),
-                    theta_rad: f64::from(tel.pose.theta_rad),
-                };
-                est_samples.push(true_error(
-                    t_s,
-                    &est,
-                    &tel.reference,
-                    &scenario.path,
-                    path_following,
-                ));
             }
-            if record {
-                trace.push(TraceRow {
-                    t_s,
-                    true_pose: pose,
-                    est_pose: tel.pose,
-                    reference: tel.reference.pose,
-                    error: tel.error,
-                    true_error: sample,
-                    true_tracking: tracking_error_f64(&pose, &tel.reference.pose),
-                    lyapunov: tel.law.lyapunov,
-                    command: tel.command,
-                    true_velocity: plant.body_velocity(),
-                    setpoint: tel.wheel_setpoint,
-                    measured: tel.wheel_speed,
-                    true_wheel: plant.wheel_speeds(),
-                    duty,
+        }
+        let tel = robot.controller.telemetry();
+        if tel.steering_updated {
+            if let Some(k) = since_arming {
+                est_stats.push(ErrorSample {
+                    step: k as u32,
+                    position_m: tel.error.position_m(),
+                    heading_rad: tel.error.theta_e_rad,
                 });
             }
         }
-
-        plant.set_duty(duty.left, duty.right);
-        let [il, ir] = plant.currents_a();
+        for w in &mut watches {
+            w.observe(period, t_s, &out, &pose, wheels);
+        }
+        if trace_every > 0 && period % trace_every == 0 {
+            trace.push(TraceRow {
+                t_s,
+                true_pose: pose,
+                est_pose: tel.pose,
+                reference: reference_pose,
+                error: tel.error,
+                true_error: true_sample,
+                true_tracking: tracking_error_f64(&pose, &reference_pose),
+                lyapunov: tel.law.lyapunov,
+                command: tel.command,
+                true_velocity,
+                setpoint: tel.wheel_setpoint,
+                measured: tel.wheel_speed,
+                true_wheel: wheels,
+                volts: [tel.wheel_loop.volts.left_v, tel.wheel_loop.volts.right_v],
+                duty: out.duty,
+                supply_v: tel.supply_v,
+                state: out.state,
+            });
+        }
+        let [il, ir] = robot.hardware.plant().currents_a();
         max_current = max_current.max(il.abs()).max(ir.abs());
         max_duty = max_duty
-            .max(f64::from(duty.left.abs()))
-            .max(f64::from(duty.right.abs()));
-        plant.advance(dt_s, substeps);
-        let [wl, wr] = plant.wheel_speeds();
-        max_wheel = max_wheel.max(wl.abs()).max(wr.abs());
+            .max(f64::from(out.duty.left.abs()))
+            .max(f64::from(out.duty.right.abs()));
+        max_wheel = max_wheel.max(wheels[0].abs()).max(wheels[1].abs());
+        last_out = Some(out);
     }
     let wall_time_s = wall.elapsed().as_secs_f64();
 
-    let m = ErrorMetrics::from_samples(&true_samples);
+    let supervisor = match last_out {
+        Some(out) => SupervisorReport::new(
+            out.state,
+            &out.faults,
+            out.missed_ticks_total,
+            out.overruns_total,
+        ),
+        None => SupervisorReport::new(State::Disarmed, &Default::default(), 0, 0),
+    };
     Ok(RunResult {
         summary: Summary {
             scenario: scenario.name.clone(),
             law: law.name().to_string(),
-            settle_time_s: m.settle_time_s,
-            final_position_error_m: m.final_position_error_m,
-            final_heading_error_rad: m.final_heading_error_rad,
-            rms_position_error_m: m.rms_position_error_m,
-            max_position_error_m: m.max_position_error_m,
+            source: "simulator".to_string(),
+            true_error: Some(ErrorReport::from(true_stats.summary())),
+            estimated_error: ErrorReport::from(est_stats.summary()),
+            hourly_rms_true_position_error_m: hourly.finish(),
             max_wheel_speed_rad_s: max_wheel,
             max_duty,
-            sim_time_s: total_steps as f64 * period_s,
+            supervisor,
+            injected_faults: watches.into_iter().map(|w| w.report).collect(),
+            sim_time_s: total as f64 / rate,
             wall_time_s,
-            steps: total_steps,
+            steps: total,
         },
-        estimated: ErrorMetrics::from_samples(&est_samples),
-        faults: controller.faults(),
         max_current_a: max_current,
         distance_travelled_m: travelled,
         trace,
@@ -472,9 +628,9 @@ pub struct StepResponse {
     pub steady_state_error_rad_s: f64,
 }
 
-/// Holds both wheels at `setpoint_rad_s` (rad/s) from rest with the wheel PIDs only
-/// (`Mode::HoldWheelSpeeds`) for `duration_s` (s), on `scenario`'s robot and plant. The
-/// robot drives straight; the response is the left wheel's.
+/// Holds both wheels at `setpoint_rad_s` (rad/s) from rest with the wheel loops only
+/// (armed in hold mode through the supervisor) for `duration_s` (s), on `scenario`'s
+/// robot and plant. The robot drives straight; the response is the left wheel's.
 pub fn wheel_step_response(
     scenario: &Scenario,
     setpoint_rad_s: f64,
@@ -495,41 +651,38 @@ pub fn wheel_step_response(
             value: setpoint_rad_s,
         });
     }
-    let mut plant = Plant::new(plant_params(scenario))?;
-    plant.reset(TruePose::default(), [0.0; 2]);
-    let Setup {
-        mut controller,
-        control_hz,
-        substeps,
-        dt_s,
-        ticks_per_rev,
-        noise,
-        ..
-    } = Setup::new(scenario, LawKind::Tracking, Pose::default())?;
+    let mut robot = Robot::new(scenario, LawKind::Tracking, &[])?;
     let sp = setpoint_rad_s as f32;
-    controller.set_mode(Mode::HoldWheelSpeeds(WheelSpeeds::new(sp, sp)));
-    let mut encoders = [
-        Encoder::new(ticks_per_rev, noise, 0.0),
-        Encoder::new(ticks_per_rev, noise, 0.0),
-    ];
-    let mut rng = Rng::new(scenario.seed);
-    let steps = (duration_s * f64::from(control_hz)).round() as u64;
+    // Warm the supply filter up before the step, as a robot that has been on for a while.
+    for _ in 0..50 {
+        robot.step();
+    }
+    let start = robot.hardware.period();
+    let request = ArmRequest {
+        mode: RunMode::HoldWheelSpeeds,
+        hold_speeds: Some(WheelSpeeds::new(sp, sp)),
+        initial_motion: None,
+    };
+    robot
+        .supervisor
+        .arm_locally(&mut robot.controller, request)
+        .map_err(|_| RunError::Argument {
+            name: "scenario",
+            rule: "must let the robot arm",
+            value: 0.0,
+        })?;
+    let rate = f64::from(scenario.robot.control_rate_hz);
+    let steps = (duration_s * rate).round() as u64;
     let mut samples = Vec::with_capacity(steps as usize);
-    for k in 0..steps {
-        let angles = plant.wheel_angles();
-        let ticks = TickDeltas {
-            left: encoders[0].read_delta(angles[0], &mut rng),
-            right: encoders[1].read_delta(angles[1], &mut rng),
-        };
-        let duty = controller.step(ticks);
+    while robot.hardware.period() < start + steps {
+        let k = robot.hardware.period() - start;
+        let out = robot.step();
         samples.push((
-            k as f64 / f64::from(control_hz),
-            plant.wheel_speeds()[0],
-            f64::from(controller.telemetry().wheel_speed.left_rad_s),
-            f64::from(duty.left),
+            k as f64 / rate,
+            robot.hardware.plant().wheel_speeds()[0],
+            f64::from(robot.controller.telemetry().wheel_speed.left_rad_s),
+            f64::from(out.duty.left),
         ));
-        plant.set_duty(duty.left, duty.right);
-        plant.advance(dt_s, substeps);
     }
     let target = setpoint_rad_s;
     let first_at = |fraction: f64| {

@@ -69,14 +69,17 @@
 use std::fmt;
 use std::path::Path as FsPath;
 
-use controller_core::law::{KanayamaGains, PaperGains, TrackingGains};
-use controller_core::params::{ParamError, Params, RobotConfig};
+use controller_core::params::{Params, RobotConfig};
 use controller_core::path::{Path, PathError};
 use controller_core::prelude::Point;
+use controller_core::prelude::{Pose, Reference};
 use controller_core::reference::ReferenceMode;
+use controller_core::supervisor::SupervisorConfig;
 use serde::Deserialize;
 
+use crate::faults::{Fault, FaultEntry};
 use crate::plant::{BodyParams, DriverKind, DriverParams, MotorParams};
+use crate::robot_file::{param_error, PathContext, RobotSection, SectionError, SupervisorSection};
 
 /// The built-in scenarios: (name, TOML text).
 pub const BUILTIN: [(&str, &str); 4] = [
@@ -124,6 +127,9 @@ pub enum ScenarioError {
         /// What is wrong with it, with the value, e.g. `must be > 0, got -0.03`.
         problem: String,
     },
+    /// The `[robot]` or `[supervisor]` section is invalid.
+    #[error(transparent)]
+    Section(#[from] SectionError),
     /// Neither a file nor a built-in scenario.
     #[error("no scenario file or built-in scenario named `{0}` (built in: paper-circle, paper-line, square-waypoints, figure-eight)")]
     Unknown(String),
@@ -204,79 +210,19 @@ struct FileStart {
     v_m_s: f64,
     #[serde(default)]
     omega_rad_s: f64,
-}
-
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct FileLimits {
-    max_rim_speed_m_s: Option<f32>,
-    max_linear_accel_m_s2: Option<f32>,
-    max_angular_accel_rad_s2: Option<f32>,
-}
-
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct FileWheelPid {
-    kp_duty_per_rad_s: Option<f32>,
-    ti_s: Option<f32>,
-    td_s: Option<f32>,
-    d_filter_tau_s: Option<f32>,
-    feed_forward_duty_per_rad_s: Option<f32>,
-}
-
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct FilePaperGains {
-    gamma: Option<f32>,
-    k: Option<f32>,
-    h: Option<f32>,
-    lambda: Option<f32>,
-}
-
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct FileTrackingGains {
-    lambda: Option<f32>,
-    k_x: Option<f32>,
-    k_theta: Option<f32>,
-}
-
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct FileKanayamaGains {
-    k_x: Option<f32>,
-    k_y: Option<f32>,
-    k_theta: Option<f32>,
-}
-
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct FileLaw {
     #[serde(default)]
-    paper: FilePaperGains,
-    #[serde(default)]
-    tracking: FileTrackingGains,
-    #[serde(default)]
-    kanayama: FileKanayamaGains,
+    arm: ArmAtStart,
 }
 
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-struct FileRobot {
-    wheel_radius_m: Option<f32>,
-    track_width_m: Option<f32>,
-    encoder_lines_per_motor_rev: Option<u32>,
-    gear_ratio: Option<f32>,
-    control_rate_hz: Option<u32>,
-    steering_divider: Option<u32>,
-    speed_window_steps: Option<u32>,
-    max_plausible_wheel_speed_rad_s: Option<f32>,
-    #[serde(default)]
-    limits: FileLimits,
-    #[serde(default)]
-    wheel_pid: FileWheelPid,
-    #[serde(default)]
-    law: FileLaw,
+/// `[start] arm`: whether the run arms at t = 0.
+#[derive(Deserialize, Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[serde(rename_all = "kebab-case")]
+enum ArmAtStart {
+    /// Armed at step 0 (in motion if the start moves), as an operator at the robot would.
+    #[default]
+    AtStart,
+    /// Left disarmed: a `button-press` fault on the timeline arms it (or nothing does).
+    None,
 }
 
 #[derive(Deserialize, Default)]
@@ -366,11 +312,15 @@ struct ScenarioFile {
     reference: FileReference,
     start: FileStart,
     #[serde(default)]
-    robot: FileRobot,
+    robot: RobotSection,
+    #[serde(default)]
+    supervisor: SupervisorSection,
     #[serde(default)]
     plant: FilePlant,
     #[serde(default)]
     sweep: FileSweep,
+    #[serde(default)]
+    faults: Vec<FaultEntry>,
 }
 
 // ---------------------------------------------------------------------------------------
@@ -617,10 +567,17 @@ pub struct Scenario {
     pub start: StartState,
     /// What the controller believes (validated by [`Params::new`]).
     pub robot: RobotConfig,
+    /// The supervisor's settings (validated; the divergence check and the geofence derived
+    /// from the path unless the `[supervisor]` section says otherwise).
+    pub supervisor: SupervisorConfig,
     /// What the robot really is.
     pub plant: PlantSpec,
     /// Monte-Carlo spreads.
     pub sweep: SweepSpec,
+    /// The run arms at step 0 (`[start] arm = "at-start"`, the default).
+    pub arm_at_start: bool,
+    /// Faults injected on the run's timeline (`[[faults]]`).
+    pub faults: Vec<Fault>,
 }
 
 impl Scenario {
@@ -664,7 +621,7 @@ impl Scenario {
 
     /// Validated controller parameters.
     pub fn params(&self) -> Result<Params, ScenarioError> {
-        Params::new(self.robot).map_err(param_error)
+        Params::new(self.robot).map_err(|e| param_error(e, "robot").into())
     }
 }
 
@@ -738,20 +695,6 @@ fn point(key: &str, p: [f64; 2]) -> Result<Point, ScenarioError> {
     let x = as_f32(&format!("{key}[0]"), finite(&format!("{key}[0]"), p[0])?)?;
     let y = as_f32(&format!("{key}[1]"), finite(&format!("{key}[1]"), p[1])?)?;
     Ok(Point::new(x, y))
-}
-
-/// Turns the core's [`ParamError`] into an error naming the TOML key and the value: the
-/// core names the field by its path in `RobotConfig`, which is the key under `[robot]`.
-fn param_error(e: ParamError) -> ScenarioError {
-    let full = e.to_string();
-    let problem = full
-        .strip_prefix(e.field())
-        .map_or(full.as_str(), str::trim_start)
-        .to_string();
-    ScenarioError::Invalid {
-        key: format!("robot.{}", e.field()),
-        problem,
-    }
 }
 
 fn path_error(e: PathError) -> ScenarioError {
@@ -856,71 +799,6 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
         }
     };
     path.map_err(path_error)
-}
-
-fn apply_robot(r: &FileRobot) -> RobotConfig {
-    let mut c = RobotConfig::REFERENCE_ROBOT;
-    fn set<T: Copy>(dst: &mut T, v: Option<T>) {
-        if let Some(v) = v {
-            *dst = v;
-        }
-    }
-    set(&mut c.wheel_radius_m, r.wheel_radius_m);
-    set(&mut c.track_width_m, r.track_width_m);
-    set(
-        &mut c.encoder_lines_per_motor_rev,
-        r.encoder_lines_per_motor_rev,
-    );
-    set(&mut c.gear_ratio, r.gear_ratio);
-    set(&mut c.control_rate_hz, r.control_rate_hz);
-    set(&mut c.steering_divider, r.steering_divider);
-    set(&mut c.speed_window_steps, r.speed_window_steps);
-    set(
-        &mut c.max_plausible_wheel_speed_rad_s,
-        r.max_plausible_wheel_speed_rad_s,
-    );
-    set(&mut c.limits.max_rim_speed_m_s, r.limits.max_rim_speed_m_s);
-    set(
-        &mut c.limits.max_linear_accel_m_s2,
-        r.limits.max_linear_accel_m_s2,
-    );
-    set(
-        &mut c.limits.max_angular_accel_rad_s2,
-        r.limits.max_angular_accel_rad_s2,
-    );
-    let p = &r.wheel_pid;
-    set(&mut c.wheel_pid.kp_duty_per_rad_s, p.kp_duty_per_rad_s);
-    set(&mut c.wheel_pid.ti_s, p.ti_s);
-    set(&mut c.wheel_pid.td_s, p.td_s);
-    set(&mut c.wheel_pid.d_filter_tau_s, p.d_filter_tau_s);
-    set(
-        &mut c.wheel_pid.feed_forward_duty_per_rad_s,
-        p.feed_forward_duty_per_rad_s,
-    );
-    let l = &r.law;
-    let PaperGains {
-        gamma,
-        k,
-        h,
-        lambda,
-    } = &mut c.law.paper;
-    set(gamma, l.paper.gamma);
-    set(k, l.paper.k);
-    set(h, l.paper.h);
-    set(lambda, l.paper.lambda);
-    let TrackingGains {
-        lambda,
-        k_x,
-        k_theta,
-    } = &mut c.law.tracking;
-    set(lambda, l.tracking.lambda);
-    set(k_x, l.tracking.k_x);
-    set(k_theta, l.tracking.k_theta);
-    let KanayamaGains { k_x, k_y, k_theta } = &mut c.law.kanayama;
-    set(k_x, l.kanayama.k_x);
-    set(k_y, l.kanayama.k_y);
-    set(k_theta, l.kanayama.k_theta);
-    c
 }
 
 fn build_plant(p: &FilePlant) -> Result<PlantSpec, ScenarioError> {
@@ -1138,7 +1016,7 @@ fn build_sweep(s: &FileSweep) -> Result<SweepSpec, ScenarioError> {
 }
 
 /// Longest simulated time accepted, s.
-pub const MAX_DURATION_S: f64 = 3600.0;
+pub const MAX_DURATION_S: f64 = 86_400.0;
 
 /// Most control steps one run may take (duration × control rate): bounds the memory a
 /// scenario file can ask for (the run keeps a trace and per-steering-step samples).
@@ -1148,9 +1026,16 @@ pub const MAX_CONTROL_STEPS: f64 = 1e8;
 pub const MAX_CONTROL_RATE_HZ: u32 = 100_000;
 
 fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioError> {
-    let robot = apply_robot(&file.robot);
+    let robot = file.robot.apply(RobotConfig::REFERENCE_ROBOT);
+    // The simulator's own limit first: an absurd rate is refused as such.
+    check(
+        robot.control_rate_hz <= MAX_CONTROL_RATE_HZ,
+        "robot.control_rate_hz",
+        &format!("must be ≤ {MAX_CONTROL_RATE_HZ}"),
+        robot.control_rate_hz,
+    )?;
     // The core is the single source of truth for what a valid RobotConfig is.
-    Params::new(robot).map_err(param_error)?;
+    let params = file.robot.params(RobotConfig::REFERENCE_ROBOT, "robot")?;
 
     let duration_s = file.sim.duration_s.unwrap_or(30.0);
     check(
@@ -1160,12 +1045,6 @@ fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioErr
         duration_s,
     )?;
     let control = robot.control_rate_hz;
-    check(
-        control <= MAX_CONTROL_RATE_HZ,
-        "robot.control_rate_hz",
-        &format!("must be ≤ {MAX_CONTROL_RATE_HZ}"),
-        control,
-    )?;
     check(
         duration_s * f64::from(control) <= MAX_CONTROL_STEPS,
         "sim.duration_s",
@@ -1221,7 +1100,13 @@ fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioErr
     };
 
     let s = &file.start;
-    for (key, v) in [("start.x_m", s.x_m), ("start.y_m", s.y_m)] {
+    for (key, v) in [
+        ("start.x_m", s.x_m),
+        ("start.y_m", s.y_m),
+        ("start.theta_rad", s.theta_rad),
+        ("start.v_m_s", s.v_m_s),
+        ("start.omega_rad_s", s.omega_rad_s),
+    ] {
         as_f32(key, v)?;
     }
     let start = StartState {
@@ -1233,7 +1118,8 @@ fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioErr
     };
     // The initial wheel speeds must be within what the encoder check accepts.
     let half = 0.5 * start.omega_rad_s.abs() * f64::from(robot.track_width_m);
-    let fastest = (start.v_m_s.abs() + half) / f64::from(robot.wheel_radius_m);
+    let smaller_wheel = robot.wheel_radius_left_m.min(robot.wheel_radius_right_m);
+    let fastest = (start.v_m_s.abs() + half) / f64::from(smaller_wheel);
     check(
         fastest < f64::from(robot.max_plausible_wheel_speed_rad_s),
         "start.v_m_s",
@@ -1243,6 +1129,17 @@ fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioErr
         ),
         start.v_m_s,
     )?;
+
+    let reference = Reference::new(path.clone(), speed, reference_mode)
+        .map_err(|e| ScenarioError::invalid("reference", format!("is not valid: {e}")))?;
+    let start_pose = Pose::new(start.x_m as f32, start.y_m as f32, start.theta_rad as f32);
+    let context = PathContext {
+        reference: &reference,
+        start: start_pose,
+    };
+    let supervisor = file
+        .supervisor
+        .config(&params, Some(context), "supervisor")?;
 
     Ok(Scenario {
         name: file.name.unwrap_or_else(|| default_name.to_string()),
@@ -1255,7 +1152,16 @@ fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioErr
         reference_mode,
         start,
         robot,
+        supervisor,
         plant: build_plant(&file.plant)?,
+        arm_at_start: file.start.arm == ArmAtStart::AtStart,
+        faults: file
+            .faults
+            .iter()
+            .enumerate()
+            .map(|(i, f)| f.build(i, control))
+            .collect::<Result<_, _>>()
+            .map_err(|e| ScenarioError::invalid(e.key, e.problem))?,
         sweep: build_sweep(&file.sweep)?,
     })
 }

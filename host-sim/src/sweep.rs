@@ -16,7 +16,7 @@ use controller_core::law::LawKind;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::metrics::ErrorMetrics;
+use crate::metrics::ErrorReport;
 use crate::rng::Rng;
 use crate::run::{run_scenario_with, RunError, RunOptions};
 use crate::scenario::Scenario;
@@ -59,7 +59,7 @@ pub struct SweepRun {
     /// True-pose summary.
     pub summary: Summary,
     /// The controller's own (odometry) error statistics.
-    pub estimated: ErrorMetrics,
+    pub estimated: ErrorReport,
     /// A fault was latched.
     pub fault: bool,
 }
@@ -187,9 +187,9 @@ pub fn sweep(
             result.ok().map(|r| SweepRun {
                 index,
                 draws,
-                fault: r.faults.any(),
+                fault: r.faulted(),
+                estimated: r.summary.estimated_error,
                 summary: r.summary,
-                estimated: r.estimated,
             })
         })
         .collect::<Vec<_>>();
@@ -204,7 +204,7 @@ pub fn sweep(
         .collect();
     let finals: Vec<f64> = details
         .iter()
-        .map(|r| r.summary.final_position_error_m)
+        .map(|r| r.summary.headline_error().final_position_error_m)
         .collect();
     Ok(SweepReport {
         scenario: base.name.clone(),
@@ -215,7 +215,7 @@ pub fn sweep(
         settle_time_s: Percentiles::of(&settle),
         true_settle_rate: details
             .iter()
-            .filter(|r| r.summary.settle_time_s.is_some())
+            .filter(|r| r.summary.headline_error().settle_time_s.is_some())
             .count() as f64
             / n,
         final_true_position_error_m: Percentiles::of(&finals),

@@ -42,9 +42,21 @@ fn robot_values_are_checked_with_their_key_and_value() {
         "robot.law.paper.gamma must be > 0, got 0"
     );
     assert_eq!(
-        error("[robot.wheel_pid]\nti_s = -0.1"),
-        "robot.wheel_pid.ti_s must be ≥ 0, got -0.1"
+        error("[robot.wheels]\nti_s = -0.1"),
+        "robot.wheels.ti_s must be ≥ 0, got -0.1"
     );
+    assert_eq!(
+        error("[robot.right_wheel]\nkv_v_per_rad_s = 0.0"),
+        "robot.right_wheel.kv_v_per_rad_s must be > 0, got 0"
+    );
+    assert_eq!(
+        error("[robot.motor]\nmax_current_a = -1.0"),
+        "robot.motor.max_current_a must be > 0, got -1"
+    );
+    // A control rate the encoder cannot resolve (one tick per window is 60 % of the top
+    // speed at 100 kHz) is refused with the reason.
+    assert!(error("[robot]\ncontrol_rate_hz = 100000")
+        .starts_with("robot.speed_window_steps is too short"));
     assert_eq!(
         error("[robot]\nencoder_lines_per_motor_rev = 0"),
         "robot.encoder_lines_per_motor_rev must be > 0, got 0"
@@ -248,13 +260,16 @@ fn no_bad_integer_panics_or_hangs() {
             }
         }
     }
-    // An hour at 100 kHz is 3.6e8 steps: refused by the step limit, not allocated.
+    // 20 000 s at 10 kHz is 2e8 steps: refused by the step limit, not allocated.
     let long = base
-        .replace("plant_rate_hz = 10000", "plant_rate_hz = 1000000")
-        .replace("duration_s = 30.0", "duration_s = 3600.0");
-    let e = Scenario::from_toml(&format!("{long}\n[robot]\ncontrol_rate_hz = 100000\n"), "t")
-        .unwrap_err()
-        .to_string();
+        .replace("plant_rate_hz = 10000", "plant_rate_hz = 100000")
+        .replace("duration_s = 30.0", "duration_s = 20000.0");
+    let e = Scenario::from_toml(
+        &format!("{long}\n[robot]\ncontrol_rate_hz = 10000\nspeed_window_steps = 64\n"),
+        "t",
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.starts_with("sim.duration_s"), "{e}");
 }
 

@@ -17,8 +17,8 @@
 mod elf_size;
 #[cfg(test)]
 mod firmware_logger;
-mod panic_check;
 mod link_qemu;
+mod panic_check;
 mod qemu;
 mod setup;
 mod steps;

@@ -683,6 +683,24 @@ impl Supervisor {
         }
     }
 
+    /// Arms at once, at the request of the operator at the robot rather than over the
+    /// link (a bench script, the simulator's timeline): like the button, it needs no
+    /// heartbeat. Only from Disarmed, and not while the button is held. The controller
+    /// runs in the new mode from the next [`Supervisor::step`].
+    pub fn arm_locally(
+        &mut self,
+        controller: &mut Controller,
+        request: ArmRequest,
+    ) -> Result<Event, Refusal> {
+        if self.state != State::Disarmed {
+            return Err(Refusal::WrongState(self.state));
+        }
+        if self.button.pressed() {
+            return Err(Refusal::ButtonHeld);
+        }
+        Ok(self.arm(controller, request, false))
+    }
+
     /// The watchdog-feeding rule (module doc): the loop is not late and the background runs.
     fn watchdog_may_be_fed(&self) -> bool {
         self.consecutive_overruns < self.config.max_consecutive_overruns

@@ -862,3 +862,23 @@ fn new_settings_only_while_disarmed() {
         ))
     );
 }
+
+#[test]
+fn a_local_arm_needs_no_heartbeat_and_only_from_disarmed() {
+    let mut r = rig();
+    r.moving = true;
+    let event = r.sup.arm_locally(&mut r.ctl, ArmRequest::follow_path());
+    assert_eq!(event, Ok(Event::Armed(RunMode::FollowPath)));
+    assert!(r.run(3000).iter().all(|o| o.state == State::Armed));
+    assert_eq!(
+        r.sup.arm_locally(&mut r.ctl, ArmRequest::follow_path()),
+        Err(Refusal::WrongState(State::Armed))
+    );
+    r.command(Command::Disarm);
+    r.button = true;
+    r.run(30);
+    assert_eq!(
+        r.sup.arm_locally(&mut r.ctl, ArmRequest::follow_path()),
+        Err(Refusal::ButtonHeld)
+    );
+}

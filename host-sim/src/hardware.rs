@@ -1,7 +1,7 @@
 //! The simulated robot's hardware, as the firmware sees it: encoder counts, the supply
 //! measurement and the button going in; duties and the bridge's state coming out.
 //!
-//! [`SimHardware`] wraps the [`Plant`](crate::plant::Plant) with the encoders, the supply
+//! [`SimHardware`] wraps the [`Plant`] with the encoders, the supply
 //! sensor and the injected [`faults`](crate::faults). Whatever runs the robot's logic —
 //! the simulator's own loop ([`crate::run`]), the virtual robot, or the real firmware
 //! under QEMU — calls it the same way, once per control step:

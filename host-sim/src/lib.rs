@@ -23,6 +23,7 @@
 //!   with [`faults`] injected on a timeline.
 //! - [`run`] — the loop that runs the firmware's decision path, the supervisor around the
 //!   controller, against that hardware, and [`metrics`] of the result.
+//! - [`fault_suite`] — every kind of fault, one at a time, against its detector's limit.
 //! - [`plot`] — SVG figures in the style of the paper's Figs. 5–7.
 //! - [`sweep`] — Monte-Carlo over mismatch, noise and start pose, on every core.
 //!
@@ -40,6 +41,7 @@
 #![forbid(unsafe_code)]
 
 pub mod encoder;
+pub mod fault_suite;
 pub mod faults;
 pub mod hardware;
 pub mod metrics;

@@ -105,6 +105,19 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Every kind of fault, one at a time, on a built-in scenario: what the supervisor did,
+    /// how fast, against its detector's limit. Prints a table, writes faults.json, and
+    /// fails if a case did not behave as stated.
+    Faults {
+        /// Built-in scenario name or a path to a .toml file.
+        #[arg(default_value = "paper-circle")]
+        scenario: String,
+        #[arg(long, value_enum, default_value_t = Law::Tracking)]
+        law: Law,
+        /// Output directory for faults.json [default: host-sim-out/<scenario>/faults].
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// List the built-in scenarios.
     List,
     /// Print a built-in scenario's TOML (a starting point for your own).
@@ -365,6 +378,69 @@ max {:.3} m; true error settled in {:.1} % of runs",
     Ok(())
 }
 
+fn cmd_faults(scenario: &str, law: Law, out: Option<PathBuf>) -> Result<()> {
+    use host_sim::fault_suite::{run_suite, Expectation, INJECT_AT_S};
+    let scenario = load(scenario)?;
+    let results = run_suite(&scenario, LawKind::from(law))?;
+    say!(
+        "{} with the {} law, armed in motion, each fault injected at {INJECT_AT_S} s:\n",
+        scenario.name,
+        LawKind::from(law).name()
+    );
+    say!(
+        "{:<38} {:>8} {:>9} {:>8} {:>8} {:>9}  {}",
+        "fault",
+        "detected",
+        "latency",
+        "limit",
+        "after/m",
+        "stopped",
+        "by / would be seen by"
+    );
+    let ms = |v: Option<f64>| v.map_or("—".to_string(), |t| format!("{:.0} ms", t * 1e3));
+    for r in &results {
+        let by = match r.expect {
+            Expectation::Undetectable { sensor } => sensor.to_string(),
+            _ => r.report.detected_by.join(", "),
+        };
+        let stopped = r.report.wheels_stopped_s.map(|t| t - r.report.injected_s);
+        say!(
+            "{:<38} {:>8} {:>9} {:>8} {:>8.3} {:>9}  {}{}",
+            r.case,
+            if r.detected { "yes" } else { "no" },
+            ms(r.latency_s),
+            ms(r.limit_s),
+            r.report.distance_after_m,
+            ms(stopped),
+            by,
+            if r.passed {
+                ""
+            } else {
+                "   <-- NOT AS EXPECTED"
+            }
+        );
+    }
+    let dir = out.unwrap_or_else(|| default_dir(&scenario, "faults"));
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let file = dir.join("faults.json");
+    let json = serde_json::to_string_pretty(&results).context("serialising the faults")?;
+    std::fs::write(&file, json + "\n").with_context(|| format!("writing {}", file.display()))?;
+    say!(
+        "\n(latency: from injection to the supervisor stopping the robot; after/m: true distance \
+driven from the injection to the end; stopped: until both wheels turn < 0.1 rad/s)\nwrote {}",
+        file.display()
+    );
+    let failed: Vec<_> = results
+        .iter()
+        .filter(|r| !r.passed)
+        .map(|r| r.case)
+        .collect();
+    if !failed.is_empty() {
+        anyhow::bail!("not as expected: {}", failed.join(", "));
+    }
+    Ok(())
+}
+
 fn cmd_step(scenario: &str, setpoint: f64, duration: f64, out: Option<PathBuf>) -> Result<()> {
     let scenario = load(scenario)?;
     if !(setpoint.is_finite() && duration > 0.0 && duration <= 60.0) {
@@ -422,6 +498,7 @@ fn main() -> ExitCode {
             duration_s,
             out,
         } => cmd_step(&scenario, setpoint_rad_s, duration_s, out),
+        Command::Faults { scenario, law, out } => cmd_faults(&scenario, law, out),
         Command::List => (|| {
             for (name, text) in BUILTIN {
                 let description = Scenario::from_toml(text, name)

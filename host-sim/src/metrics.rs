@@ -94,6 +94,7 @@ pub fn fault_names(faults: &Faults) -> Vec<&'static str> {
         (faults.missed_ticks, "missed_ticks"),
         (faults.stall_left, "stall_left"),
         (faults.stall_right, "stall_right"),
+        (faults.saturated, "saturated"),
         (faults.divergence, "divergence"),
         (faults.geofence, "geofence"),
         (faults.supply_low, "supply_low"),

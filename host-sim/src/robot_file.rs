@@ -38,6 +38,7 @@
 //! hold_speeds_rad_s = [5.0, 5.0]
 //! [supervisor.missed_ticks]    # window_s, max_per_window, max_gap_periods
 //! [supervisor.stall]           # min_volts, min_speed_rad_s, timeout_s
+//! [supervisor.saturation]      # window_s, max_fraction
 //! [supervisor.divergence]      # "auto" (from the path; the default), "off", or
 //!                              #   settle_s, bound_m, persist_s
 //! geofence_radius_m = "auto"   # "auto" (from the path), "off", or a radius in m
@@ -541,6 +542,18 @@ pub struct StallSection {
     pub timeout_s: Option<f64>,
 }
 
+/// `[supervisor.saturation]`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SaturationSection {
+    /// Window, s.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub window_s: Option<f64>,
+    /// Largest fraction of the window a wheel loop may spend at its limits.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_fraction: Option<f32>,
+}
+
 /// `[supervisor.divergence]`: explicit settings (the key may also be "auto" or "off").
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -609,6 +622,9 @@ pub struct SupervisorSection {
     /// Stall detection.
     #[serde(default, skip_serializing_if = "is_default")]
     pub stall: StallSection,
+    /// Saturated wheel loops.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub saturation: SaturationSection,
     /// Loss-of-control detection.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub divergence: Option<DivergenceSetting>,
@@ -729,6 +745,11 @@ impl SupervisorSection {
         if let Some(t) = s.timeout_s {
             c.stall.timeout_steps = steps(&key("stall.timeout_s"), t, rate)?;
         }
+        let sat = &self.saturation;
+        if let Some(w) = sat.window_s {
+            c.saturation.window_steps = steps(&key("saturation.window_s"), w, rate)?;
+        }
+        set(&mut c.saturation.max_fraction, sat.max_fraction);
         c.divergence = match &self.divergence {
             None | Some(DivergenceSetting::Keyword(Keyword::Auto)) => c.divergence,
             Some(DivergenceSetting::Keyword(Keyword::Off | Keyword::None)) => None,
@@ -773,6 +794,10 @@ impl SupervisorSection {
             ]),
             missed_ticks: missed_section(&config.missed_ticks, rate_hz),
             stall: stall_section(&config.stall, rate_hz),
+            saturation: SaturationSection {
+                window_s: Some(f64::from(config.saturation.window_steps) / f64::from(rate_hz)),
+                max_fraction: Some(config.saturation.max_fraction),
+            },
             divergence: Some(match config.divergence {
                 None => DivergenceSetting::Keyword(Keyword::Off),
                 Some(d) => DivergenceSetting::Explicit(DivergenceSection {

@@ -6,7 +6,7 @@ use crate::controller::Telemetry;
 use crate::kinematics::Pose;
 use crate::math;
 
-use super::config::{BatteryCheck, DivergenceCheck, MissedTickCheck, StallCheck};
+use super::config::{BatteryCheck, DivergenceCheck, MissedTickCheck, SaturationCheck, StallCheck};
 
 /// Counts missed control ticks per window and spots long gaps.
 #[derive(Clone, Copy, Debug, Default)]
@@ -69,6 +69,43 @@ impl Stall {
             stalled[i] = self.steps[i] >= check.timeout_steps;
         }
         stalled
+    }
+}
+
+/// How much of each wheel's recent time its loop spent saturated, counted per fixed
+/// window (the window restarts when it is full).
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Saturation {
+    age: u32,
+    saturated: [u32; 2],
+}
+
+impl Saturation {
+    pub(super) fn reset(&mut self) {
+        *self = Self::default();
+    }
+
+    /// One armed step covering `periods`; [left, right] true when that wheel's loop has
+    /// been saturated for more than the allowed fraction of the window so far.
+    pub(super) fn update(
+        &mut self,
+        telemetry: &Telemetry,
+        periods: u32,
+        check: &SaturationCheck,
+    ) -> [bool; 2] {
+        if self.age >= check.window_steps {
+            self.reset();
+        }
+        self.age = self.age.saturating_add(periods);
+        let limit = check.max_fraction * check.window_steps as f32;
+        let mut over = [false; 2];
+        for (i, count) in self.saturated.iter_mut().enumerate() {
+            if telemetry.wheel_loop.saturated[i] {
+                *count = count.saturating_add(periods);
+            }
+            over[i] = *count as f32 > limit;
+        }
+        over
     }
 }
 
@@ -235,6 +272,33 @@ mod tests {
             s.update(&telemetry(-4.0, 0.5, 0.0), &check);
         }
         assert_eq!(s.update(&telemetry(-4.0, 0.5, 0.0), &check), [true, true]);
+    }
+
+    #[test]
+    fn saturation_over_half_a_window_is_flagged() {
+        let check = SaturationCheck {
+            window_steps: 100,
+            max_fraction: 0.5,
+        };
+        let mut s = Saturation::default();
+        let mut saturated = Telemetry::default();
+        saturated.wheel_loop.saturated = [true, false];
+        let free = Telemetry::default();
+        // 50 saturated steps are allowed, the 51st is not.
+        for k in 0..50 {
+            assert_eq!(s.update(&saturated, 1, &check), [false, false], "{k}");
+        }
+        assert_eq!(s.update(&saturated, 1, &check), [true, false]);
+        // A new window starts afresh: bursts shorter than half a window never count up.
+        let mut s = Saturation::default();
+        for _ in 0..10 {
+            for _ in 0..40 {
+                assert_eq!(s.update(&saturated, 1, &check), [false, false]);
+            }
+            for _ in 0..60 {
+                s.update(&free, 1, &check);
+            }
+        }
     }
 
     #[test]

@@ -34,6 +34,24 @@ pub struct StallCheck {
     pub timeout_steps: u32,
 }
 
+/// A wheel loop that keeps hitting its limits: more than `max_fraction` of the last
+/// `window_steps` steps with the wheel's PID held at its voltage or current limit. The
+/// motor cannot do what the loop asks: swapped or unplugged encoder cables (the loops
+/// thrash against their limits while odometry sees a plausible motion), a blocked or
+/// overloaded wheel, a supply too weak for the path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct SaturationCheck {
+    /// Length of the window, steps (≥ 1).
+    pub window_steps: u32,
+    /// Largest fraction of the window a loop may spend saturated, in (0, 1].
+    pub max_fraction: f32,
+}
+
 /// Missed control ticks (a step that started late and covered more than one period).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -122,6 +140,8 @@ pub struct SupervisorConfig {
     pub missed_ticks: MissedTickCheck,
     /// Stall / polarity detection.
     pub stall: StallCheck,
+    /// Wheel loops stuck at their limits.
+    pub saturation: SaturationCheck,
     /// Loss-of-control detection (`None`: off).
     pub divergence: Option<DivergenceCheck>,
     /// Largest distance of the estimated pose from the start pose while armed, m
@@ -153,7 +173,8 @@ impl SupervisorConfig {
     /// Defaults for a loop at `control_rate_hz` (Hz): 20 ms debounce, 1 s long press, no
     /// auto-arm, no run limit, 5 overruns in a row, 500 ms background timeout, missed
     /// ticks: more than 20 in 1 s or a gap of 10 periods, a stall after 500 ms at ≥ 3.6 V
-    /// below 1 rad/s, no divergence check or geofence (they depend on the path: see
+    /// below 1 rad/s, a wheel loop saturated more than half of a 1 s window, no divergence
+    /// check or geofence (they depend on the path: see
     /// [`SupervisorConfig::with_path_checks`]), battery warning at 5.0 V and fault at
     /// 4.6 V after 200 ms (a 4-cell NiMH pack on a TB6612FNG), 500 ms heartbeat timeout
     /// (as ROS's diff_drive_controller), 500 ms of braking. Starts in
@@ -185,6 +206,10 @@ impl SupervisorConfig {
                 min_volts: 3.6,
                 min_speed_rad_s: 1.0,
                 timeout_steps: ms_to_steps(control_rate_hz, 500),
+            },
+            saturation: SaturationCheck {
+                window_steps: ms_to_steps(control_rate_hz, 1000),
+                max_fraction: 0.5,
             },
             divergence: None,
             geofence_radius_m: None,
@@ -240,6 +265,10 @@ impl SupervisorConfig {
         let speed_ok = s.min_speed_rad_s >= 0.0 && s.min_speed_rad_s.is_finite();
         if !(volts_ok && speed_ok) || s.timeout_steps == 0 {
             return Err(E::BadStallCheck);
+        }
+        let sat = &self.saturation;
+        if sat.window_steps == 0 || !(sat.max_fraction > 0.0 && sat.max_fraction <= 1.0) {
+            return Err(E::BadSaturationCheck);
         }
         if let Some(d) = self.divergence {
             if !(d.bound_m > 0.0 && d.bound_m.is_finite()) || d.persist_steps == 0 {
@@ -401,6 +430,8 @@ pub enum SupervisorConfigError {
     /// `stall.min_volts` ≤ 0 or not finite, `stall.min_speed_rad_s` < 0 or not finite, or
     /// `stall.timeout_steps` 0.
     BadStallCheck,
+    /// `saturation.window_steps` 0 or `saturation.max_fraction` outside (0, 1].
+    BadSaturationCheck,
     /// `divergence.bound_m` ≤ 0 or not finite, or `divergence.persist_steps` 0.
     BadDivergenceCheck,
     /// `geofence_radius_m` ≤ 0 or not finite.
@@ -431,6 +462,7 @@ impl SupervisorConfigError {
             E::ZeroBackgroundTimeout => "background_timeout_steps",
             E::BadMissedTickCheck => "missed_ticks",
             E::BadStallCheck => "stall",
+            E::BadSaturationCheck => "saturation",
             E::BadDivergenceCheck => "divergence",
             E::BadGeofence => "geofence_radius_m",
             E::BadBatteryThresholds { .. } => "battery",
@@ -462,6 +494,10 @@ impl fmt::Display for SupervisorConfigError {
                 f,
                 "{field}.min_volts must be > 0, {field}.min_speed_rad_s ≥ 0 and \
                  {field}.timeout_steps ≥ 1"
+            ),
+            E::BadSaturationCheck => write!(
+                f,
+                "{field}.window_steps must be ≥ 1 and {field}.max_fraction in (0, 1]"
             ),
             E::BadDivergenceCheck => write!(
                 f,

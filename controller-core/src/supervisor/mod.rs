@@ -50,7 +50,8 @@
 //!
 //! Latched until acknowledged ([`Faults`]): the core's own (encoder jump, non-finite
 //! value), overruns and missed ticks of the control loop, a wheel that does not follow its
-//! drive ([`StallCheck`]), loss of control ([`DivergenceCheck`]), leaving the geofence, a
+//! drive ([`StallCheck`]), a wheel loop stuck at its limits ([`SaturationCheck`]), loss of
+//! control ([`DivergenceCheck`]), leaving the geofence, a
 //! supply below the battery's fault threshold or above the bridge's maximum, and an
 //! emergency stop. Not faults: a low-battery *warning*, and the link going quiet, which
 //! disarms a robot the link armed (heartbeat timeout).
@@ -110,8 +111,8 @@ mod checks;
 mod config;
 
 pub use config::{
-    geofence_radius_m, ms_to_steps, BatteryCheck, DivergenceCheck, MissedTickCheck, StallCheck,
-    SupervisorConfig, SupervisorConfigError,
+    geofence_radius_m, ms_to_steps, BatteryCheck, DivergenceCheck, MissedTickCheck,
+    SaturationCheck, StallCheck, SupervisorConfig, SupervisorConfigError,
 };
 
 use core::num::NonZeroU32;
@@ -122,7 +123,7 @@ use crate::math;
 use crate::params::Params;
 
 use button::{Debouncer, Press};
-use checks::{outside_geofence, Divergence, MissedTicks, Stall, Supply};
+use checks::{outside_geofence, Divergence, MissedTicks, Saturation, Stall, Supply};
 
 /// What the robot does while armed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -281,6 +282,8 @@ pub struct Faults {
     pub stall_left: bool,
     /// The right wheel did not follow its drive (see [`StallCheck`]).
     pub stall_right: bool,
+    /// A wheel loop kept hitting its limits (see [`SaturationCheck`]).
+    pub saturated: bool,
     /// The tracking error stayed above its bound (see [`DivergenceCheck`]).
     pub divergence: bool,
     /// The estimated pose left the geofence around the start.
@@ -301,6 +304,7 @@ impl Faults {
             || self.missed_ticks
             || self.stall_left
             || self.stall_right
+            || self.saturated
             || self.divergence
             || self.geofence
             || self.supply_low
@@ -529,6 +533,7 @@ pub struct Supervisor {
     battery_warned: bool,
     missed: MissedTicks,
     stall: Stall,
+    saturation: Saturation,
     divergence: Divergence,
     supply: Supply,
 }
@@ -564,6 +569,7 @@ impl Supervisor {
             battery_warned: false,
             missed: MissedTicks::default(),
             stall: Stall::default(),
+            saturation: Saturation::default(),
             divergence: Divergence::default(),
             supply: Supply::default(),
         })
@@ -746,6 +752,10 @@ impl Supervisor {
             let [left, right] = self.stall.update(t, &self.config.stall);
             self.faults.stall_left |= left;
             self.faults.stall_right |= right;
+            let [left, right] = self
+                .saturation
+                .update(t, periods.get(), &self.config.saturation);
+            self.faults.saturated |= left || right;
             if self.run_mode == RunMode::FollowPath {
                 if let Some(check) = self.config.divergence {
                     if self.divergence.update(t, periods.get(), &check) {
@@ -760,6 +770,7 @@ impl Supervisor {
             }
         } else {
             self.stall.reset();
+            self.saturation.reset();
         }
         let supply = self
             .supply

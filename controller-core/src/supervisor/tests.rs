@@ -17,8 +17,13 @@ fn controller() -> Controller {
     crate::controller::tests::on_a_line(3.0)
 }
 
+/// The defaults, except the saturation check: the rig's fake world turns the wheels at a
+/// fixed speed (or not at all), whatever the loops ask, so the loops sit at their limits
+/// in most tests. `a_loop_stuck_at_its_limits_faults` checks it on its own.
 fn config() -> SupervisorConfig {
-    SupervisorConfig::at_rate(1000, START, HOLD)
+    let mut c = SupervisorConfig::at_rate(1000, START, HOLD);
+    c.saturation.max_fraction = 1.0;
+    c
 }
 
 fn params() -> Params {
@@ -881,4 +886,23 @@ fn a_local_arm_needs_no_heartbeat_and_only_from_disarmed() {
         r.sup.arm_locally(&mut r.ctl, ArmRequest::follow_path()),
         Err(Refusal::ButtonHeld)
     );
+}
+
+#[test]
+fn a_loop_stuck_at_its_limits_faults() {
+    // The wheels do not turn while the line-following loops push: saturated from the
+    // start, the fault comes once more than half of the 1 s window has passed so.
+    let mut c = SupervisorConfig::at_rate(1000, START, HOLD);
+    c.stall.timeout_steps = u32::MAX;
+    let mut r = Rig::new(c, ResetCause::PowerOn);
+    r.sup
+        .arm_locally(&mut r.ctl, ArmRequest::follow_path())
+        .unwrap();
+    let outs = r.run(1000);
+    let at = outs
+        .iter()
+        .position(|o| o.faults.saturated)
+        .expect("saturation detected");
+    assert!((500..=520).contains(&at), "{at}");
+    assert_eq!(outs[at].state, State::Faulted);
 }

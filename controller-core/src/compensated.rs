@@ -1,14 +1,16 @@
-//! Compensated (Kahan) summation: long sums of small `f32` increments without drift.
+//! Sums and constants in `f32` without the drift of plain rounding.
 //!
-//! Odometry adds a sub-millimetre step to each coordinate 1000 times a second, and the
-//! time-indexed reference adds 2.5 mm of arc length 100 times a second. In plain `f32`
-//! every addition rounds to the sum's ulp, and over a day the rounding adds up to
-//! millimetres of position and hundredths of a radian of heading. [`CompensatedSum`]
-//! carries what each addition lost into the next one.
+//! - [`CompensatedSum`]: odometry adds a sub-millimetre step to x and y 1000 times a
+//!   second; in plain `f32` every addition rounds to the sum's ulp, and over a day the
+//!   rounding adds up to millimetres. Kahan's compensation carries what each addition
+//!   lost into the next one.
+//! - [`DoubleF32`]: constants computed once at start-up to about 48 bits with plain `f32`
+//!   operations (the same bits on the host and on the Cortex-M4F, no soft `f64`), to seed
+//!   the fixed-point accumulators of [`crate::fixed`].
 
-use core::f32::consts::{PI, TAU};
+use core::f32::consts::TAU;
 
-/// 2π − `TAU` (the `f32` nearest 2π is 1.75e-7 too large): what a wrap by `TAU` leaves out.
+/// 2π − `TAU` (the `f32` nearest 2π is 1.75e-7 too large).
 const TAU_LO: f32 = -1.748_455_6e-7;
 
 /// A running sum of many small `f32` increments that keeps the rounding error of each
@@ -16,8 +18,13 @@ const TAU_LO: f32 = -1.748_455_6e-7;
 ///
 /// `x += Δx` in plain `f32` loses up to half an ulp of `x` per step: at |x| ≈ 1 m that is
 /// 6e-8 m, and after a day of 1 kHz steps (8.6e7) the lost parts add up to millimetres.
-/// The compensation term carries what each addition dropped into the next one, so the
-/// error stays at about one ulp of the sum however many steps are taken.
+/// The compensation term carries what each addition dropped into the next one.
+///
+/// Its limit: the compensation is folded into the next increment, and the part of it
+/// below that increment's own ulp is lost. With increments that vary (odometry's
+/// x and y steps) those losses do not add up — 1e-7 m in a day on the paper's circle.
+/// With the same tiny increment every step they do (a heading summed this way lost
+/// 1.8e-7 rad per lap): such sums are kept in fixed point instead ([`crate::fixed`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CompensatedSum {
     sum: f32,
@@ -47,46 +54,104 @@ impl CompensatedSum {
         self.compensation = (t - self.sum) - y;
         self.sum = t;
     }
+}
 
-    /// Subtracts `modulus` (> 0) while the sum is ≥ `modulus`, e.g. to keep an arc length
-    /// within one lap. Exact for a sum below 2·`modulus` (Sterbenz's lemma), so the
-    /// compensation stays valid; a jump of many laps at once (never in the control loop)
-    /// falls back to the `f32` remainder. A non-finite sum is left as it is, for the
-    /// caller's fault check to see.
-    #[inline]
-    pub fn wrap_below(&mut self, modulus: f32) {
-        if !(self.sum.is_finite() && modulus > 0.0) || self.sum < modulus {
-            return;
-        }
-        self.sum -= modulus;
-        if self.sum >= modulus {
-            self.sum %= modulus;
-        }
+/// A number carried as an unevaluated sum hi + lo of two `f32`s (about 48 significant
+/// bits), with the error-free transformations that compute with it in plain `f32`
+/// arithmetic (Dekker, Knuth): the same bits on the host and on the Cortex-M4F, and no
+/// soft `f64` in the firmware. Used only to compute constants once, at start-up.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DoubleF32 {
+    /// The leading part.
+    pub hi: f32,
+    /// The trailing part, |lo| ≤ ulp(hi)/2.
+    pub lo: f32,
+}
+
+/// a + b = s + e exactly (Knuth's TwoSum).
+fn two_sum(a: f32, b: f32) -> (f32, f32) {
+    let s = a + b;
+    let bb = s - a;
+    (s, (a - (s - bb)) + (b - bb))
+}
+
+/// Splits `a` into two halves of 12 significant bits (Veltkamp), a = hi + lo.
+fn split(a: f32) -> (f32, f32) {
+    let c = 4097.0 * a;
+    let hi = c - (c - a);
+    (hi, a - hi)
+}
+
+/// a · b = p + e exactly (Dekker's TwoProduct, no fused multiply-add).
+fn two_product(a: f32, b: f32) -> (f32, f32) {
+    let p = a * b;
+    let (ah, al) = split(a);
+    let (bh, bl) = split(b);
+    (p, ((ah * bh - p) + ah * bl + al * bh) + al * bl)
+}
+
+impl DoubleF32 {
+    /// 2π to about 48 bits.
+    pub const TAU: DoubleF32 = DoubleF32 {
+        hi: TAU,
+        lo: TAU_LO,
+    };
+
+    /// `x` exactly.
+    pub const fn from_f32(x: f32) -> Self {
+        Self { hi: x, lo: 0.0 }
     }
 
-    /// Adds `x` and wraps the sum into (−π, π] (for an angle in rad). The wrap subtracts
-    /// or adds 2π exactly: `TAU` (exact by Sterbenz's lemma) plus its rounding error
-    /// carried in the compensation, so turning circles for a day does not drift.
-    #[inline]
-    pub fn add_wrapped(&mut self, x: f32) {
-        self.add(x);
-        // The common case in one comparison.
-        if crate::math::abs(self.sum) < PI {
-            return;
-        }
-        if self.sum > PI {
-            self.sum -= TAU;
-            self.compensation += TAU_LO;
-        } else if self.sum <= -PI {
-            self.sum += TAU;
-            self.compensation -= TAU_LO;
-        }
+    fn normalized(hi: f32, lo: f32) -> Self {
+        let (hi, lo) = two_sum(hi, lo);
+        Self { hi, lo }
+    }
+}
+
+impl core::ops::Mul<f32> for DoubleF32 {
+    type Output = Self;
+
+    /// self · b.
+    fn mul(self, b: f32) -> Self {
+        let (p, e) = two_product(self.hi, b);
+        Self::normalized(p, e + self.lo * b)
+    }
+}
+
+impl core::ops::Div<f32> for DoubleF32 {
+    type Output = Self;
+
+    /// self / b (b ≠ 0; a zero or non-finite b gives a non-finite result).
+    fn div(self, b: f32) -> Self {
+        let q = self.hi / b;
+        let (p, e) = two_product(q, b);
+        let remainder = ((self.hi - p) - e) + self.lo;
+        Self::normalized(q, remainder / b)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn as_f64(d: DoubleF32) -> f64 {
+        f64::from(d.hi) + f64::from(d.lo)
+    }
+
+    #[test]
+    fn double_f32_computes_constants_to_about_48_bits() {
+        // 2π · 0.0325 / 1440 / 0.15, the reference robot's heading per tick.
+        let (r, t, l) = (0.0325f32, 1440.0f32, 0.15f32);
+        let d = DoubleF32::TAU * r / t / l;
+        let exact = core::f64::consts::TAU * f64::from(r) / f64::from(t) / f64::from(l);
+        let rel = (as_f64(d) - exact).abs() / exact;
+        assert!(rel < 1e-13, "{rel:e}");
+        // A plain f32 computation is off by ~1e-8…1e-7.
+        let plain = core::f32::consts::TAU * r / t / l;
+        assert!((f64::from(plain) - exact).abs() / exact > 1e-9);
+        assert!((as_f64(DoubleF32::TAU) - core::f64::consts::TAU).abs() < 1e-14);
+        assert_eq!(as_f64(DoubleF32::from_f32(0.5)), 0.5);
+    }
 
     #[test]
     fn compensated_sum_keeps_what_plain_f32_loses() {
@@ -105,42 +170,5 @@ mod tests {
             "{}",
             kahan.value()
         );
-    }
-
-    #[test]
-    fn wrapped_angle_sum_turns_many_times_without_drift() {
-        // 1000 turns in steps of 2π/997: the heading must come back to the start.
-        let step = (core::f64::consts::TAU / 997.0) as f32;
-        let mut a = CompensatedSum::new(0.5);
-        for _ in 0..997 * 1000 {
-            a.add_wrapped(step);
-            assert!(a.value() > -PI && a.value() <= PI);
-        }
-        // The f32 step is 997·step ≠ 2π by its own rounding: compare with that.
-        let exact = (0.5 + 997_000.0 * f64::from(step)).rem_euclid(core::f64::consts::TAU);
-        let exact = if exact > core::f64::consts::PI {
-            exact - core::f64::consts::TAU
-        } else {
-            exact
-        };
-        assert!(
-            (f64::from(a.value()) - exact).abs() < 1e-6,
-            "{} vs {exact}",
-            a.value()
-        );
-    }
-
-    #[test]
-    fn wrap_below_keeps_a_lap_counter_exact() {
-        let mut s = CompensatedSum::new(7.0);
-        s.add(1.5);
-        s.wrap_below(7.853_982);
-        assert!((s.value() - 0.646_018).abs() < 1e-6);
-        s.add(100.0);
-        s.wrap_below(7.853_982);
-        assert!((0.0..7.853_982).contains(&s.value()));
-        let mut inf = CompensatedSum::new(f32::INFINITY);
-        inf.wrap_below(1.0);
-        assert!(inf.value().is_infinite());
     }
 }

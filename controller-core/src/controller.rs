@@ -111,7 +111,7 @@ pub enum Mode {
     /// Hold these wheel speeds (rad/s) with the wheel loops only (bring-up).
     HoldWheelSpeeds(WheelSpeeds),
     /// Apply these voltages open loop (V, within the voltage cap and the current limit,
-    /// no slew limit): identification, see [`crate::tune`].
+    /// no slew limit): identification of the motor constants.
     ApplyVolts(WheelVolts),
 }
 
@@ -202,22 +202,25 @@ struct Schedule {
 
 /// The whole control stack for one robot (see the module doc).
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub struct Controller {
-    params: Params,
-    odometry: Odometry,
-    speed: [SpeedEstimator; 2],
-    drive: WheelDrive,
-    supply: SupplyFilter,
-    limiter: CommandLimiter,
-    ramp: SetpointRamp,
-    reference: Reference,
-    law: LawKind,
-    mode: Mode,
-    /// Steps since the controller was built.
-    steps: u32,
-    schedule: Schedule,
+    // Laid out by hand: the state every step touches first, the large path last, so the
+    // hot fields sit within the M4F's short load offsets (`repr(C)` keeps this order).
     /// Latest telemetry; the state carried between steps (set-points, last law output).
     telemetry: Telemetry,
+    odometry: Odometry,
+    drive: WheelDrive,
+    supply: SupplyFilter,
+    ramp: SetpointRamp,
+    schedule: Schedule,
+    /// Steps since the controller was built.
+    steps: u32,
+    mode: Mode,
+    law: LawKind,
+    limiter: CommandLimiter,
+    speed: [SpeedEstimator; 2],
+    params: Params,
+    reference: Reference,
 }
 
 impl Controller {
@@ -228,7 +231,7 @@ impl Controller {
         let window = params.config().speed_window_steps as usize;
         let estimator = SpeedEstimator::new(window, params.rad_per_tick(), steps_per_s);
         Self {
-            odometry: Odometry::new(params.geometry(), params.rad_per_tick(), start),
+            odometry: Odometry::new(params.geometry(), params.ticks_per_wheel_rev(), start),
             speed: [estimator.clone(), estimator],
             drive: WheelDrive::new(&params),
             supply: SupplyFilter::new(params.config().drive.supply_filter_tau_s, params.period_s()),
@@ -269,7 +272,7 @@ impl Controller {
     }
 
     /// Odometry pose estimate, world frame.
-    pub const fn pose(&self) -> Pose {
+    pub fn pose(&self) -> Pose {
         self.odometry.pose()
     }
 
@@ -483,25 +486,27 @@ impl Controller {
         }
         s.started = true;
         if s.until_steering == 0 {
-            let elapsed_s = s.since_sample as f32 * self.params.period_s();
+            let elapsed_periods = s.since_sample;
             s.since_sample = 0;
             s.until_steering = self.params.steering_divider().get();
-            self.steer(elapsed_s);
+            self.steer(elapsed_periods);
         }
         self.ramp
             .advance(periods.get(), &mut self.telemetry.wheel_setpoint);
     }
 
     /// The steering law, its limits, and a new set-point ramp to the command's wheel
-    /// speeds over the next steering period. `elapsed_s` is the time since the last
-    /// steering update, s.
-    fn steer(&mut self, elapsed_s: f32) {
+    /// speeds over the next steering period. `elapsed_periods` is the time since the last
+    /// steering update, in control periods.
+    fn steer(&mut self, elapsed_periods: u32) {
         let cap = self.rim_speed_cap_m_s();
         let geometry = self.params.geometry();
         let t = &mut self.telemetry;
         t.steering_updated = true;
         t.rim_speed_cap_m_s = cap;
-        t.reference = self.reference.sample(elapsed_s, &t.pose);
+        t.reference = self
+            .reference
+            .sample(elapsed_periods, self.params.control_rate(), &t.pose);
         let error = tracking_error_with_heading(
             &t.pose,
             self.odometry.heading_sin_cos(),

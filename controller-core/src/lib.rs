@@ -76,6 +76,7 @@ pub mod compensated;
 pub mod controller;
 pub mod drive;
 pub mod encoder;
+pub mod fixed;
 pub mod kinematics;
 pub mod law;
 pub mod limits;

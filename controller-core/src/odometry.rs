@@ -10,7 +10,8 @@
 //! The chord factor sinc(Δθ/2) is exact for an arc and tends to 1 for a straight step,
 //! with no 0/0 (see [`math::sinc`]). Plain Euler (x += Δs cos θ) would be off by O(Δθ).
 
-use crate::compensated::CompensatedSum;
+use crate::compensated::{CompensatedSum, DoubleF32};
+use crate::fixed::{AngleDelta, BinaryAngle};
 use crate::kinematics::{DiffDrive, Pose};
 use crate::math;
 
@@ -22,8 +23,11 @@ const HEADING_RESYNC_STEPS: u8 = 64;
 
 /// Pose estimate integrated from wheel-tick deltas, world frame.
 ///
-/// x, y and θ are each a [`CompensatedSum`], so a day-long run accumulates no rounding
-/// drift (a plain `θ += Δθ` lost 0.029 rad of heading per hour on the paper's circle).
+/// x and y are [`CompensatedSum`]s and θ is a [`BinaryAngle`] advanced by an exact
+/// integer number of units per tick, so a day-long run accumulates no rounding drift (a
+/// plain `θ += Δθ` lost 0.029 rad of heading per hour on the paper's circle, a
+/// compensated one 5e-4 rad per day). The heading is then exactly what the tick counts
+/// say: θ₀ + 2π·(R_r·N_r − R_l·N_l)/(ticks per rev · L), modulo a turn.
 ///
 /// The heading's sine and cosine are kept too, advanced by two small rotations per step
 /// (series for the half turn, |Δθ/2| < 0.1 rad; exact below 1e-9) and recomputed from θ
@@ -35,14 +39,17 @@ const HEADING_RESYNC_STEPS: u8 = 64;
 pub struct Odometry {
     x: CompensatedSum,
     y: CompensatedSum,
-    theta: CompensatedSum,
+    theta: BinaryAngle,
     /// (sin θ, cos θ).
     heading: (f32, f32),
     steps_since_resync: u8,
     /// Rim distance per tick of the left and right wheel, m.
     metres_per_tick: [f32; 2],
-    /// 1/L, 1/m.
-    inverse_track_per_m: f32,
+    /// Heading change per tick of the left and right wheel, 2π·R/(ticks per rev · L), rad
+    /// (for the geometry of one step).
+    rad_heading_per_tick: [f32; 2],
+    /// The same as a fraction of a turn, for the heading sum.
+    turn_per_tick: [AngleDelta; 2],
 }
 
 /// (sin, cos) of `h` for |h| < 0.1 rad: sin h = h(1 − h²/6 + h⁴/120), cos h = 1 − h²/2 +
@@ -62,31 +69,44 @@ fn rotate(sin_cos: (f32, f32), by: (f32, f32)) -> (f32, f32) {
 }
 
 impl Odometry {
-    /// Odometry for `geometry`, with `rad_per_tick` rad of wheel rotation per encoder tick,
+    /// Odometry for `geometry`, with `ticks_per_rev` encoder ticks per wheel revolution,
     /// starting at `start` (world frame).
-    pub fn new(geometry: DiffDrive, rad_per_tick: f32, start: Pose) -> Self {
+    pub fn new(geometry: DiffDrive, ticks_per_rev: f32, start: Pose) -> Self {
+        let rad_per_tick = DoubleF32::TAU / ticks_per_rev;
+        // R/(ticks per rev · L): the turn of the robot per tick of one wheel.
+        let turn_per_tick = |radius_m: f32| {
+            DoubleF32::from_f32(radius_m) / ticks_per_rev / geometry.track_width_m()
+        };
+        let [left, right] = [
+            turn_per_tick(geometry.wheel_radius_left_m()),
+            turn_per_tick(geometry.wheel_radius_right_m()),
+        ];
         let mut odometry = Self {
             x: CompensatedSum::default(),
             y: CompensatedSum::default(),
-            theta: CompensatedSum::default(),
+            theta: BinaryAngle::default(),
             heading: (0.0, 1.0),
             steps_since_resync: 0,
             metres_per_tick: [
-                rad_per_tick * geometry.wheel_radius_left_m(),
-                rad_per_tick * geometry.wheel_radius_right_m(),
+                (rad_per_tick * geometry.wheel_radius_left_m()).hi,
+                (rad_per_tick * geometry.wheel_radius_right_m()).hi,
             ],
-            inverse_track_per_m: 1.0 / geometry.track_width_m(),
+            rad_heading_per_tick: [
+                (DoubleF32::TAU * left.hi).hi,
+                (DoubleF32::TAU * right.hi).hi,
+            ],
+            turn_per_tick: [AngleDelta::from_turns(left), AngleDelta::from_turns(right)],
         };
         odometry.set_pose(start);
         odometry
     }
 
     /// Current pose estimate, world frame.
-    pub const fn pose(&self) -> Pose {
+    pub fn pose(&self) -> Pose {
         Pose {
             x_m: self.x.value(),
             y_m: self.y.value(),
-            theta_rad: self.theta.value(),
+            theta_rad: self.theta.to_rad(),
         }
     }
 
@@ -99,22 +119,22 @@ impl Odometry {
     pub fn set_pose(&mut self, pose: Pose) {
         self.x = CompensatedSum::new(pose.x_m);
         self.y = CompensatedSum::new(pose.y_m);
-        self.theta = CompensatedSum::new(math::wrap_angle(pose.theta_rad));
+        self.theta = BinaryAngle::from_rad(pose.theta_rad);
         self.resync_heading();
     }
 
     fn resync_heading(&mut self) {
-        self.heading = math::sin_cos(self.theta.value());
+        self.heading = math::sin_cos(self.theta.to_rad());
         self.steps_since_resync = 0;
     }
 
     /// Integrates one step in which the wheels turned `left_ticks` and `right_ticks`
     /// (signed, forward positive) and returns the new pose.
     pub fn update(&mut self, left_ticks: i32, right_ticks: i32) -> Pose {
-        let s_left = left_ticks as f32 * self.metres_per_tick[0];
-        let s_right = right_ticks as f32 * self.metres_per_tick[1];
-        let ds = 0.5 * (s_right + s_left);
-        let dtheta = (s_right - s_left) * self.inverse_track_per_m;
+        let (n_left, n_right) = (left_ticks as f32, right_ticks as f32);
+        let ds = 0.5 * (n_right * self.metres_per_tick[1] + n_left * self.metres_per_tick[0]);
+        let [k_left, k_right] = self.rad_heading_per_tick;
+        let dtheta = n_right * k_right - n_left * k_left;
         let half = 0.5 * dtheta;
         if math::abs(half) < SMALL_HALF_TURN_RAD {
             let turn = small_sin_cos(half);
@@ -122,7 +142,7 @@ impl Odometry {
             let (sin_mid, cos_mid) = rotate(self.heading, turn);
             self.x.add(chord * cos_mid);
             self.y.add(chord * sin_mid);
-            self.theta.add_wrapped(dtheta);
+            self.turn(left_ticks, right_ticks);
             self.steps_since_resync += 1;
             if self.steps_since_resync >= HEADING_RESYNC_STEPS {
                 self.resync_heading();
@@ -131,13 +151,21 @@ impl Odometry {
             }
         } else {
             let chord = ds * math::sinc(half);
-            let (sin_mid, cos_mid) = math::sin_cos(self.theta.value() + half);
+            let (sin_mid, cos_mid) = math::sin_cos(self.theta.to_rad() + half);
             self.x.add(chord * cos_mid);
             self.y.add(chord * sin_mid);
-            self.theta.add_wrapped(dtheta);
+            self.turn(left_ticks, right_ticks);
             self.resync_heading();
         }
         self.pose()
+    }
+
+    /// Turns the heading by the step's ticks: exact integer arithmetic modulo a turn.
+    fn turn(&mut self, left_ticks: i32, right_ticks: i32) {
+        let [left, right] = self.turn_per_tick;
+        self.theta = self
+            .theta
+            .add(right.times(right_ticks).minus(left.times(left_ticks)));
     }
 }
 
@@ -145,16 +173,12 @@ impl Odometry {
 mod tests {
     use super::*;
     use crate::encoder::WrappingCounter;
-    use core::f32::consts::{PI, TAU};
+    use core::f32::consts::PI;
     use proptest::prelude::*;
 
     fn odo() -> Odometry {
         // R = 0.05 m, L = 0.2 m, 1000 ticks per revolution.
-        Odometry::new(
-            DiffDrive::new(0.05, 0.2).unwrap(),
-            TAU / 1000.0,
-            Pose::default(),
-        )
+        Odometry::new(DiffDrive::new(0.05, 0.2).unwrap(), 1000.0, Pose::default())
     }
 
     #[test]
@@ -219,7 +243,8 @@ mod tests {
         }
         let mut o = odo();
         o.set_pose(Pose::new(0.0, 0.0, 1.0));
-        assert_eq!(o.heading_sin_cos(), math::sin_cos(1.0));
+        assert!((o.pose().theta_rad - 1.0).abs() < 2e-7);
+        assert_eq!(o.heading_sin_cos(), math::sin_cos(o.pose().theta_rad));
     }
 
     #[test]
@@ -247,7 +272,7 @@ mod tests {
         // distances 0.31416 and 0.34558 m, so Δθ = 0.031416/0.2 = 0.15708 rad (left turn).
         let mut o = Odometry::new(
             DiffDrive::with_wheel_radii(0.05, 0.055, 0.2).unwrap(),
-            TAU / 1000.0,
+            1000.0,
             Pose::default(),
         );
         let p = o.update(1000, 1000);

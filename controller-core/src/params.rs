@@ -326,6 +326,7 @@ pub struct Params {
     config: RobotConfig,
     geometry: DiffDrive,
     rad_per_tick: f32,
+    ticks_per_rev: f32,
     period_s: f32,
     control_rate: NonZeroU32,
     steering_divider: NonZeroU32,
@@ -522,6 +523,7 @@ impl Params {
             config,
             geometry,
             rad_per_tick,
+            ticks_per_rev,
             period_s,
             control_rate,
             steering_divider,
@@ -546,8 +548,8 @@ impl Params {
     }
 
     /// Encoder ticks per wheel revolution (lines × 4 × gear).
-    pub fn ticks_per_wheel_rev(&self) -> f32 {
-        TAU / self.rad_per_tick
+    pub const fn ticks_per_wheel_rev(&self) -> f32 {
+        self.ticks_per_rev
     }
 
     /// Period T of the inner loop, s.

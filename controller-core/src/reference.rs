@@ -4,10 +4,13 @@
 //!
 //! - [`ReferenceMode::TimeIndexed`] — the paper's "virtual robot" (section 3): at time
 //!   t = k·T the reference is at arc length s₀ + v_r·t, whatever the real robot does.
-//!   This is trajectory *tracking*. The arc length is accumulated per elapsed period in a
-//!   [`CompensatedSum`] and wrapped once per lap of a closed path, so it never grows: a
-//!   plain `v_r·t` in `f32` reaches 21 600 m after 24 h at 0.25 m/s, where an `f32` only
-//!   resolves 1.95 mm and the reference would move in jerks.
+//!   This is trajectory *tracking*. Time is counted in control periods, and the position
+//!   along the path is accumulated per elapsed period as a binary fraction of the path
+//!   ([`PathFraction`]: an exact integer sum of v_r/(rate·length), computed once to 48
+//!   bits, whose integer wrap-around is the lap's). A plain `v_r·t` in `f32` reaches 21 600 m after 24 h at 0.25 m/s, where
+//!   an `f32` only resolves 1.95 mm; an `f32` sum of `v_r·T` drifts by the rounding of
+//!   `T` = 1 ms (5e-8) — 1 mm of phase a day. The fixed-point sum is within 1e-5 m of
+//!   s₀ + v_r·k/rate after a day.
 //! - [`ReferenceMode::PathFollowing`] — the reference point is chosen from the robot's own
 //!   progress: the robot's position is projected onto the path (searching a window around
 //!   the previous projection, so a path that crosses itself is not short-cut) and the
@@ -17,9 +20,11 @@
 //! On an open path the reference stops at the end (v_r = ω_r = 0, `finished`), so the
 //! robot comes to rest there instead of running on.
 
-use crate::compensated::CompensatedSum;
+use core::num::NonZeroU32;
+
+use crate::compensated::DoubleF32;
+use crate::fixed::PathFraction;
 use crate::kinematics::{BodyVelocity, Point, Pose};
-use crate::math;
 use crate::path::{Path, PathSample};
 
 /// How far behind the previous projection the path-following search looks, m.
@@ -103,15 +108,20 @@ impl ReferenceState {
 
 /// A reference moving along a path at a set speed (see the module doc).
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub struct Reference {
-    path: Path,
+    // The per-step state first, the large path last (short load offsets on the M4F).
+    /// Time-indexed only: the reference's position along the path (wrapping per lap on a
+    /// closed path, held at the end of an open one).
+    progress: PathFraction,
+    /// Progress per control period at `per_period_rate_hz` (0 until the first sample).
+    per_period: PathFraction,
+    per_period_rate_hz: u32,
     speed_m_s: f32,
     mode: ReferenceMode,
-    /// Time-indexed only: arc length of the reference, m, wrapped into [0, length) on a
-    /// closed path.
-    progress: CompensatedSum,
     /// Path-following only: the robot's last projection, m (None before the first sample).
     projection_m: Option<f32>,
+    path: Path,
 }
 
 impl Reference {
@@ -131,7 +141,9 @@ impl Reference {
             path,
             speed_m_s,
             mode,
-            progress: CompensatedSum::default(),
+            progress: PathFraction::START,
+            per_period: PathFraction::START,
+            per_period_rate_hz: 0,
             projection_m: None,
         };
         reference.restart();
@@ -160,22 +172,26 @@ impl Reference {
             ReferenceMode::TimeIndexed { start_offset_m } => start_offset_m,
             ReferenceMode::PathFollowing { .. } => 0.0,
         };
-        self.progress = CompensatedSum::new(self.path.normalize_m(start_m));
+        let start = DoubleF32::from_f32(self.path.normalize_m(start_m)) / self.path.length_m();
+        self.progress = PathFraction::from_fraction(start);
         self.projection_m = None;
     }
 
-    /// The reference after `elapsed_s` (s, ≥ 0) more of time since the previous sample
-    /// (0 for the first sample after [`Reference::restart`]), for a robot at `robot`
-    /// (world frame).
-    pub fn sample(&mut self, elapsed_s: f32, robot: &Pose) -> ReferenceState {
+    /// The reference `elapsed_periods` control periods of `rate` (Hz) after the previous
+    /// sample (0 for the first sample after [`Reference::restart`]), for a robot at
+    /// `robot` (world frame).
+    pub fn sample(
+        &mut self,
+        elapsed_periods: u32,
+        rate: NonZeroU32,
+        robot: &Pose,
+    ) -> ReferenceState {
         let length = self.path.length_m();
         let (progress_m, finished) = match self.mode {
-            // Already wrapped into [0, length) on a closed path; held near the end of an
-            // open one.
             ReferenceMode::TimeIndexed { .. } => {
-                let s = self.advance(elapsed_s);
-                let finished = !self.path.is_closed() && s >= length;
-                (math::clamp(s, 0.0, length), finished)
+                self.advance(elapsed_periods, rate);
+                let finished = !self.path.is_closed() && self.progress == PathFraction::END;
+                (self.progress.of_length_m(length), finished)
             }
             ReferenceMode::PathFollowing { lookahead_m } => {
                 let s = self.project(robot.position()) + lookahead_m;
@@ -203,20 +219,23 @@ impl Reference {
         }
     }
 
-    /// Moves the time-indexed reference on by `elapsed_s` of travel at the set speed and
-    /// returns its arc length, m: wrapped into [0, length) on a closed path (the
-    /// subtraction is exact, s and the length being within a factor 2), held at the end
-    /// of an open one.
-    fn advance(&mut self, elapsed_s: f32) -> f32 {
-        let length = self.path.length_m();
-        let s = self.progress.value();
-        if s < length || self.path.is_closed() {
-            self.progress.add(self.speed_m_s * elapsed_s);
+    /// Moves the time-indexed reference on by `periods` control periods of `rate` at the
+    /// set speed: wrapped into [0, length) on a closed path, held at the end of an open one.
+    fn advance(&mut self, periods: u32, rate: NonZeroU32) {
+        if rate.get() != self.per_period_rate_hz {
+            // v_r/(rate·length) to 48 bits (a rate is exact in f32 below 2²⁴ Hz).
+            let per_period =
+                DoubleF32::from_f32(self.speed_m_s) / rate.get() as f32 / self.path.length_m();
+            self.per_period = PathFraction::from_fraction(per_period);
+            self.per_period_rate_hz = rate.get();
         }
-        if self.path.is_closed() {
-            self.progress.wrap_below(length);
-        }
-        self.progress.value()
+        self.progress = if self.path.is_closed() {
+            let moved = self.per_period.times_wrapping(periods);
+            self.progress.plus_wrapping(moved)
+        } else {
+            let moved = self.per_period.times_saturating(periods);
+            self.progress.plus_saturating(moved)
+        };
     }
 
     /// Projects `p` onto the path near the previous projection and remembers it.
@@ -237,6 +256,9 @@ impl Reference {
 mod tests {
     use super::*;
     use core::f32::consts::{FRAC_PI_2, PI};
+
+    /// 100 Hz: one period is 0.01 s.
+    const HZ_100: NonZeroU32 = NonZeroU32::new(100).unwrap();
 
     fn circle() -> Path {
         Path::circle(Point::new(0.0, 0.0), 1.25, 0.0, true).unwrap()
@@ -271,9 +293,9 @@ mod tests {
             },
         )
         .unwrap();
-        let mut s = r.sample(0.0, &Pose::default());
+        let mut s = r.sample(0, HZ_100, &Pose::default());
         for _ in 0..500 {
-            s = r.sample(0.01, &Pose::default());
+            s = r.sample(1, HZ_100, &Pose::default());
         }
         assert!((s.pose.x_m - 1.25 * 1f32.cos()).abs() < 1e-5);
         assert!((s.pose.y_m - 1.25 * 1f32.sin()).abs() < 1e-5);
@@ -293,7 +315,7 @@ mod tests {
             },
         )
         .unwrap();
-        let s = r.sample(3.0, &Pose::default());
+        let s = r.sample(300, HZ_100, &Pose::default());
         assert!(s.finished);
         assert_eq!(s.v_m_s, 0.0);
         assert!((s.pose.x_m - 1.0).abs() < 1e-6);
@@ -308,18 +330,21 @@ mod tests {
         )
         .unwrap();
         // Robot outside the circle at polar angle π/2: the reference is the nearest point.
-        let s = r.sample(0.0, &Pose::new(0.0, 1.6, PI));
+        let s = r.sample(0, HZ_100, &Pose::new(0.0, 1.6, PI));
         assert!((s.pose.x_m).abs() < 1e-4 && (s.pose.y_m - 1.25).abs() < 1e-4);
         // Time does not move it: only the robot does.
-        let s2 = r.sample(10.0, &Pose::new(0.0, 1.6, PI));
+        let s2 = r.sample(1000, HZ_100, &Pose::new(0.0, 1.6, PI));
         assert!((s2.progress_m - s.progress_m).abs() < 1e-5);
     }
 
     #[test]
-    fn a_day_on_the_circle_keeps_the_reference_smooth() {
-        // 24 h at 0.25 m/s in 10 ms samples (8.64e6 of them): each sample must move the
-        // reference by 2.5 mm (±1 µm), as on the first lap. An unwrapped f32 arc length
-        // would be 21 600 m at the end and move in 1.95 mm jerks.
+    fn a_day_on_the_circle_keeps_the_reference_smooth_and_on_time() {
+        // 24 h at 0.25 m/s, sampled every 10 periods of 1 kHz (8.64e6 samples): each
+        // sample must move the reference by 2.5 mm (±1 µm), as on the first lap, and at
+        // the end it must be where s = v_r·t puts it, modulo the lap, to 10 µm. An
+        // unwrapped f32 arc length would be 21 600 m at the end and move in 1.95 mm jerks;
+        // an f32 sum of v_r·T would be 1 mm late.
+        let khz = NonZeroU32::new(1000).unwrap();
         let mut r = Reference::new(
             circle(),
             0.25,
@@ -329,24 +354,24 @@ mod tests {
         )
         .unwrap();
         let length = r.path().length_m();
-        let mut previous = r.sample(0.0, &Pose::default()).progress_m;
-        let mut total = 0.0f64;
+        let mut previous = r.sample(0, khz, &Pose::default()).progress_m;
         for k in 0..8_640_000u32 {
-            let now = r.sample(0.01, &Pose::default()).progress_m;
+            let now = r.sample(10, khz, &Pose::default()).progress_m;
             let mut step = now - previous;
             if step < 0.0 {
                 step += length;
             }
-            total += f64::from(step);
             if k % 1000 == 0 || k > 8_639_000 {
                 assert!((step - 0.0025).abs() < 1e-6, "sample {k}: moved {step} m");
             }
-            assert!((0.0..length).contains(&now));
+            assert!((0.0..=length).contains(&now));
             previous = now;
         }
-        // And it has travelled the right distance in all (to the f32 rounding of one
-        // step's 2.5 mm, 1e-7 relative).
-        assert!((total - 21_600.0).abs() < 21_600.0 * 2e-7, "{total}");
+        let expected = 21_600.0f64.rem_euclid(f64::from(length));
+        assert!(
+            (f64::from(previous) - expected).abs() < 1e-5,
+            "{previous} vs {expected}"
+        );
     }
 
     #[test]
@@ -359,10 +384,10 @@ mod tests {
             },
         )
         .unwrap();
-        assert!((r.sample(0.0, &Pose::default()).progress_m - 1.0).abs() < 1e-6);
-        r.sample(2.0, &Pose::default());
+        assert!((r.sample(0, HZ_100, &Pose::default()).progress_m - 1.0).abs() < 1e-6);
+        r.sample(200, HZ_100, &Pose::default());
         r.restart();
-        assert!((r.sample(0.0, &Pose::default()).progress_m - 1.0).abs() < 1e-6);
+        assert!((r.sample(0, HZ_100, &Pose::default()).progress_m - 1.0).abs() < 1e-6);
         assert_eq!(r.speed_m_s(), 0.25);
     }
 }

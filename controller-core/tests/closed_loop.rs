@@ -61,8 +61,8 @@ fn run(law: LawKind, mode: ReferenceMode, seconds: u32) -> Run {
     let mut pose = START;
     let mut samples = Vec::new();
     for _ in 0..seconds * rate {
-        let elapsed_s = if clock.steps() == 0 { 0.0 } else { period };
-        let r = reference.sample(elapsed_s, &pose);
+        let elapsed = u32::from(clock.steps() != 0);
+        let r = reference.sample(elapsed, NonZeroU32::new(rate).unwrap(), &pose);
         let out = law::steer(law, &config.law, &pose, &r);
         let (cmd, _) = limiter.apply(
             out.command,
@@ -160,8 +160,8 @@ fn naive_feed_forward_on_the_paper_law_leaves_a_heading_error() {
     let mut pose = START;
     let mut tail = Vec::new();
     for _ in 0..60 * rate {
-        let elapsed_s = if clock.steps() == 0 { 0.0 } else { period };
-        let r = reference.sample(elapsed_s, &pose);
+        let elapsed = u32::from(clock.steps() != 0);
+        let r = reference.sample(elapsed, NonZeroU32::new(rate).unwrap(), &pose);
         let paper = law::steer(LawKind::Paper, &config.law, &pose, &r).command;
         let naive = BodyVelocity::new(paper.v_m_s + r.v_m_s, paper.omega_rad_s + r.omega_rad_s);
         let (cmd, _) = limiter.apply(

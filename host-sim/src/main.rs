@@ -57,6 +57,10 @@ enum Command {
         /// update, the scenario's robot.steering_divider].
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
         trace_every: Option<u32>,
+        /// Simulated time, s, instead of the scenario's sim.duration_s (up to 86 400: a
+        /// 24 h soak is `--duration-s 86400`).
+        #[arg(long)]
+        duration_s: Option<f64>,
     },
     /// Reproduce the paper: its circle and line experiments with every law, Figs. 5–7 and
     /// summary.json for each run, an overlay per experiment, a table and the verdict.
@@ -160,8 +164,17 @@ fn load(name: &str) -> Result<Scenario> {
     })
 }
 
-fn cmd_run(scenario: &str, law: Law, out: Option<PathBuf>, trace_every: Option<u32>) -> Result<()> {
-    let scenario = load(scenario)?;
+fn cmd_run(
+    scenario: &str,
+    law: Law,
+    out: Option<PathBuf>,
+    trace_every: Option<u32>,
+    duration_s: Option<f64>,
+) -> Result<()> {
+    let mut scenario = load(scenario)?;
+    if let Some(duration_s) = duration_s {
+        scenario = scenario.with_duration_s(duration_s)?;
+    }
     let law = LawKind::from(law);
     let options = host_sim::RunOptions {
         trace_every_steps: trace_every.unwrap_or(scenario.robot.steering_divider),
@@ -482,7 +495,8 @@ fn main() -> ExitCode {
             law,
             out,
             trace_every,
-        } => cmd_run(&scenario, law, out, trace_every),
+            duration_s,
+        } => cmd_run(&scenario, law, out, trace_every, duration_s),
         Command::Paper { out } => cmd_paper(out),
         Command::Compare { scenario, out } => cmd_compare(&scenario, out),
         Command::Sweep {

@@ -116,6 +116,9 @@ fn path_bbox(path: &Path, runs: &[(&str, RGBColor, &[TraceRow])]) -> (f64, f64, 
     )
 }
 
+/// Most robot-to-reference links drawn on a path figure.
+const MAX_LINKS: usize = 60;
+
 /// Draws the reference path and one robot path per `(label, colour, trace)` on `area`.
 fn draw_paths(
     area: &DrawingArea<SVGBackend<'_>, Shift>,
@@ -162,13 +165,19 @@ fn draw_paths(
         }
     }
     if links {
-        // Robot and reference point at the same instant, every 2 s.
+        // Robot and reference point at the same instant, every 2 s, or at most
+        // MAX_LINKS of them over a long run (a 24 h soak would draw 43 200).
         if let Some((_, colour, trace)) = runs.first() {
-            let every = trace
+            let row_s = trace
                 .windows(2)
                 .next()
-                .map(|w| ((2.0 / (w[1].t_s - w[0].t_s)).round() as usize).max(1))
-                .unwrap_or(1);
+                .map(|w| w[1].t_s - w[0].t_s)
+                .filter(|dt| *dt > 0.0)
+                .unwrap_or(1.0);
+            let every = ((2.0 / row_s).round() as usize)
+                .max(trace.len().div_ceil(MAX_LINKS))
+                .max(1);
+            let interval_s = every as f64 * row_s;
             let colour = *colour;
             chart.draw_series(trace.iter().step_by(every).map(|r| {
                 PathElement::new(
@@ -185,7 +194,7 @@ fn draw_paths(
                         Circle::new((r.true_pose.x_m, r.true_pose.y_m), 3, colour.filled())
                     }),
                 )?
-                .label("robot at t = 0, 2, 4, … s")
+                .label(format!("robot every {interval_s:.0} s from t = 0"))
                 .legend(move |(x, y)| Circle::new((x + 10, y), 3, colour.filled()));
             chart
                 .draw_series(trace.iter().step_by(every).map(|r| {

@@ -255,50 +255,49 @@ fn tracking_error_f64(pose: &TruePose, reference: &Pose) -> [f64; 3] {
 }
 
 /// The reference the true error is measured against (module doc), evaluated by the
-/// simulator itself every steering period.
+/// simulator itself, in `f64` where the controller uses fixed point: in time-indexed mode
+/// the arc length s₀ + v_r·k/rate (k control periods since arming) modulo the lap, so a
+/// reference that drifts in the controller shows up in the true error.
 struct TrueReference {
-    reference: Reference,
-    path_following: bool,
-    steering_period_s: f32,
-    sampled: bool,
+    path: Path,
+    /// Time-indexed: (start offset m, speed m/s, control rate Hz); None when following.
+    time_indexed: Option<(f64, f64, f64)>,
 }
 
 impl TrueReference {
-    fn new(scenario: &Scenario, steering_period_s: f32) -> Result<Self, RunError> {
-        Ok(Self {
-            reference: Reference::new(
-                scenario.path.clone(),
-                scenario.reference_speed_m_s,
-                scenario.reference_mode,
-            )
-            .map_err(RunError::Reference)?,
-            path_following: matches!(scenario.reference_mode, ReferenceMode::PathFollowing { .. }),
-            steering_period_s,
-            sampled: false,
-        })
-    }
-
-    fn restart(&mut self) {
-        self.reference.restart();
-        self.sampled = false;
-    }
-
-    /// The reference pose one steering period after the last call (the start for the
-    /// first), for a robot at `pose`.
-    fn next(&mut self, pose: &TruePose) -> Pose {
-        if self.path_following {
-            let path = self.reference.path();
-            let p = Point::new(pose.x_m as f32, pose.y_m as f32);
-            let sample = path.sample(path.project(p, 0.0, f32::INFINITY, f32::INFINITY));
-            return Pose::new(sample.point.x_m, sample.point.y_m, sample.heading_rad);
-        }
-        let elapsed = if self.sampled {
-            self.steering_period_s
-        } else {
-            0.0
+    fn new(scenario: &Scenario, control_rate_hz: u32) -> Self {
+        let path = scenario.path.clone();
+        let time_indexed = match scenario.reference_mode {
+            ReferenceMode::TimeIndexed { start_offset_m } => Some((
+                f64::from(path.normalize_m(start_offset_m)),
+                f64::from(scenario.reference_speed_m_s),
+                f64::from(control_rate_hz),
+            )),
+            ReferenceMode::PathFollowing { .. } => None,
         };
-        self.sampled = true;
-        self.reference.sample(elapsed, &Pose::default()).pose
+        Self { path, time_indexed }
+    }
+
+    /// The reference pose `periods` control periods after arming, for a robot at `pose`.
+    fn at(&self, periods: u64, pose: &TruePose) -> Pose {
+        let path = &self.path;
+        let s_m = match self.time_indexed {
+            Some((start_m, speed_m_s, rate_hz)) => {
+                let s = start_m + speed_m_s * periods as f64 / rate_hz;
+                let length = f64::from(path.length_m());
+                if path.is_closed() {
+                    s.rem_euclid(length) as f32
+                } else {
+                    s.min(length) as f32
+                }
+            }
+            None => {
+                let p = Point::new(pose.x_m as f32, pose.y_m as f32);
+                path.project(p, 0.0, f32::INFINITY, f32::INFINITY)
+            }
+        };
+        let sample = path.sample(s_m);
+        Pose::new(sample.point.x_m, sample.point.y_m, sample.heading_rad)
     }
 }
 
@@ -450,7 +449,7 @@ pub fn run_scenario_with(
     let rate = f64::from(control_hz);
     let params = scenario.params()?;
     let divider = u64::from(params.steering_divider().get());
-    let mut truth = TrueReference::new(scenario, params.steering_period_s())?;
+    let truth = TrueReference::new(scenario, control_hz);
     let rate_nz = params.control_rate();
     let mut true_stats = ErrorStats::new(rate_nz);
     let mut est_stats = ErrorStats::new(rate_nz);
@@ -510,7 +509,6 @@ pub fn run_scenario_with(
         if let Some(Event::Armed(RunMode::FollowPath)) = out.event {
             if armed_at.is_none() {
                 armed_at = Some(period);
-                truth.restart();
             }
         }
         let since_arming = armed_at.map(|a| period - a);
@@ -518,7 +516,7 @@ pub fn run_scenario_with(
         // True error every steering period from arming (module doc).
         if let Some(k) = since_arming {
             if k % divider == 0 {
-                reference_pose = truth.next(&pose);
+                reference_pose = truth.at(k, &pose);
                 let dx = f64::from(reference_pose.x_m) - pose.x_m;
                 let dy = f64::from(reference_pose.y_m) - pose.y_m;
                 let heading = crate::plant::robot::wrap_angle(

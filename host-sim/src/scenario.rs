@@ -619,6 +619,14 @@ impl Scenario {
         parse(text, origin, origin)
     }
 
+    /// The same scenario run for `duration_s` (s) instead, checked as `sim.duration_s`
+    /// is in a file (for example a 24 h soak of a 30 s scenario).
+    pub fn with_duration_s(mut self, duration_s: f64) -> Result<Scenario, ScenarioError> {
+        check_duration(duration_s, self.robot.control_rate_hz)?;
+        self.duration_s = duration_s;
+        Ok(self)
+    }
+
     /// Validated controller parameters.
     pub fn params(&self) -> Result<Params, ScenarioError> {
         Params::new(self.robot).map_err(|e| param_error(e, "robot").into())
@@ -641,6 +649,25 @@ fn parse(text: &str, origin: &str, default_name: &str) -> Result<Scenario, Scena
 
 // ---------------------------------------------------------------------------------------
 // Validation helpers. Each returns the dotted key and the problem with the value.
+
+/// `sim.duration_s` (s) at a control rate of `control_hz`: in (0, 24 h] and within the
+/// simulator's step budget.
+fn check_duration(duration_s: f64, control_hz: u32) -> Result<(), ScenarioError> {
+    check(
+        duration_s > 0.0 && duration_s <= MAX_DURATION_S,
+        "sim.duration_s",
+        &format!("must be in (0, {MAX_DURATION_S}]"),
+        duration_s,
+    )?;
+    check(
+        duration_s * f64::from(control_hz) <= MAX_CONTROL_STEPS,
+        "sim.duration_s",
+        &format!(
+            "times robot.control_rate_hz ({control_hz}) must be ≤ {MAX_CONTROL_STEPS:e} control steps"
+        ),
+        duration_s,
+    )
+}
 
 fn check(ok: bool, key: &str, rule: &str, value: impl fmt::Display) -> Result<(), ScenarioError> {
     if ok {
@@ -1038,21 +1065,8 @@ fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioErr
     let params = file.robot.params(RobotConfig::REFERENCE_ROBOT, "robot")?;
 
     let duration_s = file.sim.duration_s.unwrap_or(30.0);
-    check(
-        duration_s > 0.0 && duration_s <= MAX_DURATION_S,
-        "sim.duration_s",
-        &format!("must be in (0, {MAX_DURATION_S}]"),
-        duration_s,
-    )?;
     let control = robot.control_rate_hz;
-    check(
-        duration_s * f64::from(control) <= MAX_CONTROL_STEPS,
-        "sim.duration_s",
-        &format!(
-            "times robot.control_rate_hz ({control}) must be ≤ {MAX_CONTROL_STEPS:e} control steps"
-        ),
-        duration_s,
-    )?;
+    check_duration(duration_s, control)?;
     let plant_rate_hz = file.sim.plant_rate_hz.unwrap_or(control.saturating_mul(10));
     check(
         plant_rate_hz % control == 0 && plant_rate_hz / control >= 10,

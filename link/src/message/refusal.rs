@@ -264,21 +264,30 @@ mod tests {
 
     #[test]
     fn param_errors_name_the_robot_field() {
-        let e = ParamError::NonPositiveWheelRadius(-0.03);
+        let e = ParamError::NonPositive {
+            field: "wheel_radius_left_m",
+            value: -0.03,
+        };
         let p = FieldProblem::from_param_error(&e);
-        assert_eq!(p.field.as_str(), "robot.wheel_radius_m");
+        assert_eq!(p.field.as_str(), "robot.wheel_radius_left_m");
         assert_eq!(p.problem.as_str(), "must be > 0");
         assert_eq!(
             Refusal::InvalidParams(p).to_string(),
-            "invalid parameter: robot.wheel_radius_m must be > 0"
+            "invalid parameter: robot.wheel_radius_left_m must be > 0"
         );
     }
 
     #[test]
     fn from_display_keeps_the_value_and_truncates() {
-        let e = ParamError::NonPositiveWheelRadius(-0.03);
+        let e = ParamError::NonPositive {
+            field: "wheel_radius_left_m",
+            value: -0.03,
+        };
         let p = FieldProblem::from_display("robot", &e);
-        assert_eq!(p.problem.as_str(), "wheel_radius_m must be > 0, got -0.03");
+        assert_eq!(
+            p.problem.as_str(),
+            "wheel_radius_left_m must be > 0, got -0.03"
+        );
         let long = "x".repeat(200);
         let p = FieldProblem::from_display(&long, &long);
         assert_eq!(p.field.len(), FIELD_CAP);

@@ -7,10 +7,12 @@
 //! | `size` | builds the firmware and checks it against the flash and RAM budget |
 //! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
+//! | `mutants [ARGS…]` | mutation testing of `controller-core` (and `link`) with cargo-mutants: score, missed list, wall time. Slow; not part of `ci` |
 //!
 //! Every step runs even if an earlier one failed, so one CI log shows every problem.
 
 mod elf_size;
+mod mutants;
 mod qemu;
 mod setup;
 mod steps;
@@ -30,7 +32,13 @@ commands:
   size    build the firmware and check its flash / static RAM budget
   qemu    run the core on an emulated Cortex-M4F and compare with the host
   size-of ELF
-          flash and static RAM of an ARM ELF against the firmware budget (no build)";
+          flash and static RAM of an ARM ELF against the firmware budget (no build)
+  mutants [ARGS...]
+          mutation testing of controller-core (and link, when the workspace has it) with
+          cargo-mutants: prints the score, the missed mutants and the wall time; ARGS go to
+          cargo-mutants, e.g. `-f controller-core/src/path.rs` for one file. Slow (tens of
+          minutes for the whole crate); not part of `ci`. Needs
+          `cargo install cargo-mutants --locked`";
 
 fn main() -> ExitCode {
     match run() {
@@ -47,6 +55,9 @@ fn main() -> ExitCode {
 fn run() -> Result<bool> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let ctx = Context::new(workspace_root()?);
+    if args.first().map(String::as_str) == Some("mutants") {
+        return mutants::run(&ctx, &args[1..]);
+    }
     let selected: Vec<Step> = match args.iter().map(String::as_str).collect::<Vec<_>>()[..] {
         ["ci"] => steps::ci(),
         ["setup"] => vec![steps::setup()],

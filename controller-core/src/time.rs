@@ -87,4 +87,25 @@ mod tests {
     fn zero_rate_is_not_a_division_by_zero() {
         assert_eq!(StepClock::new(0).rate_hz(), 1);
     }
+
+    #[test]
+    fn elapsed_seconds_count_whole_seconds_and_the_fraction() {
+        let mut c = StepClock::new(1000);
+        assert_eq!(c.elapsed_s(), 0.0);
+        for _ in 0..2_345 {
+            c.tick();
+        }
+        assert!((c.elapsed_s() - 2.345).abs() < 1e-6);
+        // 3 steps at 4 Hz: less than a second, all fraction.
+        let mut slow = StepClock::new(4);
+        for _ in 0..3 {
+            slow.tick();
+        }
+        assert_eq!(slow.elapsed_s(), 0.75);
+        // After a day at 1 kHz the seconds are still whole and the half second is exact
+        // (the resolution of the sum itself is that of an f32 near 86 400: 8 ms).
+        let mut day = StepClock::new(1000);
+        day.steps = 86_400_500;
+        assert_eq!(day.elapsed_s(), 86_400.5);
+    }
 }

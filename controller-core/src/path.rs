@@ -836,6 +836,49 @@ mod tests {
     }
 
     #[test]
+    fn a_window_that_touches_an_end_of_an_open_path_finds_that_end() {
+        let line = Path::line(Point::new(0.0, 0.0), 0.0, 10.0).unwrap();
+        let p = Point::new(5.0, 1.0);
+        // [−2, 0] touches the start, [10, 12] the end.
+        assert_eq!(line.project(p, -1.0, 1.0, 1.0), 0.0);
+        assert_eq!(line.project(p, 11.0, 1.0, 1.0), 10.0);
+    }
+
+    #[test]
+    fn a_finite_window_wider_than_an_open_path_finds_what_a_global_search_does() {
+        let line = Path::line(Point::new(0.0, 0.0), 0.0, 10.0).unwrap();
+        for x in [0.5f32, 3.0, 8.0, 9.5] {
+            let p = Point::new(x, -0.4);
+            assert!(close(line.project(p, 0.0, 100.0, 100.0), x, 1e-5));
+            assert!(close(line.project(p, 10.0, 100.0, 100.0), x, 1e-5));
+        }
+    }
+
+    #[test]
+    fn a_window_past_either_end_of_a_closed_path_wraps_onto_it() {
+        let path = Path::figure_eight(Point::new(0.0, 0.0), 1.0).unwrap();
+        let length = path.length_m();
+        // The window [L + 0.25, L + 0.65] lies wholly in the second lap.
+        let p = path.sample(0.5).point;
+        assert!(close(path.project(p, length + 0.45, 0.2, 0.2), length + 0.5, 1e-4));
+        // And [−0.65, −0.25] wholly before the first.
+        let p = path.sample(length - 0.5).point;
+        assert!(close(path.project(p, -0.45, 0.2, 0.2), -0.5, 1e-4));
+    }
+
+    #[test]
+    fn a_global_search_does_not_depend_on_the_hint() {
+        let path = Path::circle(Point::new(0.0, 0.0), 1.0, 0.0, true).unwrap();
+        let inf = f32::INFINITY;
+        // The point at three quarters of the lap.
+        let p = Point::new(0.0, -1.5);
+        for hint in [0.0, 1.0, 5.0, -3.0, 40.0] {
+            let s = path.project(p, hint, inf, inf);
+            assert!(close(s, 0.75 * path.length_m(), 1e-4), "hint {hint}: {s}");
+        }
+    }
+
+    #[test]
     fn normalize_wraps_a_closed_path_and_clamps_an_open_one() {
         let circle = Path::circle(Point::new(0.0, 0.0), 1.0, 0.0, true).unwrap();
         let l = circle.length_m();

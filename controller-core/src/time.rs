@@ -86,6 +86,7 @@ mod tests {
     #[test]
     fn zero_rate_is_not_a_division_by_zero() {
         assert_eq!(StepClock::new(0).rate_hz(), 1);
+        assert_eq!(StepClock::new(1000).rate_hz(), 1000);
     }
 
     #[test]

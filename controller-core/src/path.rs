@@ -860,7 +860,11 @@ mod tests {
         let length = path.length_m();
         // The window [L + 0.25, L + 0.65] lies wholly in the second lap.
         let p = path.sample(0.5).point;
-        assert!(close(path.project(p, length + 0.45, 0.2, 0.2), length + 0.5, 1e-4));
+        assert!(close(
+            path.project(p, length + 0.45, 0.2, 0.2),
+            length + 0.5,
+            1e-4
+        ));
         // And [−0.65, −0.25] wholly before the first.
         let p = path.sample(length - 0.5).point;
         assert!(close(path.project(p, -0.45, 0.2, 0.2), -0.5, 1e-4));

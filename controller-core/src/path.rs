@@ -880,6 +880,13 @@ mod tests {
             let s = path.project(p, hint, inf, inf);
             assert!(close(s, 0.75 * path.length_m(), 1e-4), "hint {hint}: {s}");
         }
+        // A closed path's start, which is also its end, projects to 0 (as normalize_m
+        // writes it), not to one lap, in either direction of travel.
+        for ccw in [true, false] {
+            let circle = Path::circle(Point::new(0.0, 0.0), 1.0, 0.0, ccw).unwrap();
+            assert_eq!(circle.project(Point::new(1.5, 0.0), 2.0, inf, inf), 0.0);
+            assert_eq!(circle.normalize_m(circle.length_m()), 0.0);
+        }
     }
 
     #[test]

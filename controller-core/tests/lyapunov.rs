@@ -52,13 +52,15 @@ const EPS: f64 = f32::EPSILON as f64 / 2.0;
 /// Largest pose coordinate magnitude the runs reach, m (asserted).
 const P_MAX: f64 = 3.0;
 
-/// The reference robot's gains (the values `host-sim` tunes against).
+/// The reference robot's gains (the values `host-sim` tunes against), except the paper
+/// law's h and λ: 1 there, 1.5 and 2 here, so that one that divides where it should
+/// multiply cannot go unnoticed.
 const GAINS: LawGains = LawGains {
     paper: PaperGains {
         gamma: 1.0,
         k: 2.0,
-        h: 1.0,
-        lambda: 1.0,
+        h: 1.5,
+        lambda: 2.0,
     },
     tracking: TrackingGains {
         lambda: 64.0,

@@ -53,11 +53,11 @@ const EPS: f64 = f32::EPSILON as f64 / 2.0;
 const P_MAX: f64 = 3.0;
 
 /// The reference robot's gains (the values `host-sim` tunes against), except the paper
-/// law's h and λ: 1 there, 1.5 and 2 here, so that one that divides where it should
-/// multiply cannot go unnoticed.
+/// law's γ, h and λ: 1 there, 1.25, 1.5 and 2 here, so that one that divides where it
+/// should multiply cannot go unnoticed.
 const GAINS: LawGains = LawGains {
     paper: PaperGains {
-        gamma: 1.0,
+        gamma: 1.25,
         k: 2.0,
         h: 1.5,
         lambda: 2.0,

@@ -348,6 +348,8 @@ impl Path {
             let incoming = headings[(i + edges - 1) % edges];
             let outgoing = headings[i % edges];
             let turn = math::wrap_angle(outgoing - incoming);
+            // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): it differs only for a
+            // turn of exactly π − 10⁻³ rad in f32, a tolerance whose own side is arbitrary.
             if math::abs(turn) > PI - 1e-3 {
                 return Err(PathError::CornerTooTight);
             }
@@ -364,6 +366,9 @@ impl Path {
         for i in 0..edges {
             let next = (i + 1) % n;
             let straight = lengths[i] - tangents[i] - tangents[next];
+            // Equivalent mutants (`<` → `<=` here, `>` → `>=` on the next test and on the
+            // arc's 1e-6 below, .cargo/mutants.toml): each differs only when the value is
+            // exactly the 1 µm (or 1 µrad) tolerance in f32, and then by a 1 µm segment.
             if straight < -1e-6 {
                 return Err(PathError::CornerTooTight);
             }
@@ -383,7 +388,8 @@ impl Path {
                     b.x_m - tangents[next] * cos_h,
                     b.y_m - tangents[next] * sin_h,
                 );
-                // Centre on the inside of the turn, one radius from the entry point.
+                // Centre on the inside of the turn, one radius from the entry point. (`>` →
+                // `>=` is an equivalent mutant, .cargo/mutants.toml: |turn| > 1e-6 here.)
                 let side = if turn > 0.0 { 1.0 } else { -1.0 };
                 let center = Point::new(
                     entry.x_m - side * corner_radius_m * sin_h,
@@ -462,6 +468,8 @@ impl Path {
             let candidate = start + segment.closest_m(p);
             let mut offset = candidate - hint_m;
             if self.closed && behind_m.is_finite() {
+                // Into [−L/2, L/2]. (`+` → `-` inside is an equivalent mutant,
+                // .cargo/mutants.toml: ±L/2 are the same residue modulo the lap L.)
                 offset = self.normalize_m(offset + 0.5 * self.length_m) - 0.5 * self.length_m;
             }
             let offset = math::clamp(offset, -behind_m, ahead_m);
@@ -487,6 +495,11 @@ impl Path {
         ahead_m: f32,
     ) -> bool {
         let (lo, hi) = (hint_m - behind_m, hint_m + ahead_m);
+        // Equivalent mutants (`from_m + shift` → `-` or `*`, `to_m + shift` → `-`,
+        // .cargo/mutants.toml): they leave meets(0) as it is and only let more segments of a
+        // closed path through. This is a cost filter: an extra segment's candidate is
+        // clamped to an edge of the window, a point the segments inside the window already
+        // offer, so the projection is unchanged; only its cost grows.
         let meets = |shift: f32| from_m + shift <= hi && to_m + shift >= lo;
         meets(0.0) || (self.closed && (meets(self.length_m) || meets(-self.length_m)))
     }
@@ -781,6 +794,34 @@ mod tests {
             u.project(Point::new(0.5, 0.6), 0.0, 0.5, 1.0),
             0.5,
             1e-5
+        ));
+    }
+
+    #[test]
+    fn a_point_as_near_two_legs_projects_onto_the_earlier_one() {
+        // An L: 2 m along +x, then 2 m along +y. (1.5, 0.5) is 0.5 m from both legs.
+        let l = Path::polyline(
+            &[
+                Point::new(0.0, 0.0),
+                Point::new(2.0, 0.0),
+                Point::new(2.0, 2.0),
+            ],
+            0.0,
+            false,
+        )
+        .unwrap();
+        let inf = f32::INFINITY;
+        assert_eq!(l.project(Point::new(1.5, 0.5), 0.0, inf, inf), 1.5);
+        // Off the bisector the nearer leg wins either way.
+        assert!(close(
+            l.project(Point::new(1.5, 0.4), 0.0, inf, inf),
+            1.5,
+            1e-6
+        ));
+        assert!(close(
+            l.project(Point::new(1.6, 0.5), 0.0, inf, inf),
+            2.5,
+            1e-6
         ));
     }
 

@@ -496,10 +496,11 @@ impl Path {
     ) -> bool {
         let (lo, hi) = (hint_m - behind_m, hint_m + ahead_m);
         // Equivalent mutants (`from_m + shift` → `-` or `*`, `to_m + shift` → `-`,
-        // .cargo/mutants.toml): they leave meets(0) as it is and only let more segments of a
-        // closed path through. This is a cost filter: an extra segment's candidate is
-        // clamped to an edge of the window, a point the segments inside the window already
-        // offer, so the projection is unchanged; only its cost grows.
+        // .cargo/mutants.toml): they only let more segments through (ones wholly before the
+        // window, or a closed path's shifted by a lap), never fewer while the window meets
+        // the path. This is a cost filter: an extra segment's candidate is clamped to an
+        // edge of the window, a point the segments inside the window already offer, so the
+        // projection is unchanged; only its cost grows.
         let meets = |shift: f32| from_m + shift <= hi && to_m + shift >= lo;
         meets(0.0) || (self.closed && (meets(self.length_m) || meets(-self.length_m)))
     }

@@ -32,6 +32,10 @@ const PIO2_LO: f32 = 7.549_79e-8;
 /// (NaN gives 0), never panics.
 #[inline]
 fn round_to_i32(x: f32) -> i32 {
+    // Equivalent mutant (`>=` → `<`, .cargo/mutants.toml): both halves then round half a
+    // unit the wrong way, so wrap_angle's turn count is off by at most one, which its ±2π
+    // fix-up puts back; the wrapped angle changes only by float rounding, within the
+    // accuracy its tests check. (`>=` → `>` changes nothing: ±0 ± 0.5 truncates to 0.)
     if x >= 0.0 {
         (x + 0.5) as i32
     } else {
@@ -94,8 +98,14 @@ pub fn sinc(x: f32) -> f32 {
 #[inline]
 pub fn sinc_with_sin(x: f32, sin_x: f32) -> f32 {
     let z = x * x;
+    // Equivalent mutant (`<` → `<=`, .cargo/mutants.toml): at z = 1e-4 exactly the series
+    // and sin x / x agree to within the f32 rounding of either.
     if z < 1e-4 {
-        // sin x / x = 1 − x²/6 + x⁴/120 − …; the next term is < 2e-13 here.
+        // sin x / x = 1 − x²/6 + x⁴/120 − …; the next term is < 2e-13 here. The x⁴ term
+        // itself is < 8.4e-11, under half an ulp (3e-8) of a sum in [0.99998, 1], so it
+        // never changes the f32 result: flipping its sign, or 1/120 becoming 1 % 120 = 1
+        // (then < 1e-8), are equivalent mutants (.cargo/mutants.toml). It stays to show
+        // the series.
         1.0 - z * (1.0 / 6.0) + z * z * (1.0 / 120.0)
     } else {
         sin_x / x
@@ -105,7 +115,8 @@ pub fn sinc_with_sin(x: f32, sin_x: f32) -> f32 {
 /// Arc tangent of `a` for 0 ≤ a ≤ 1 (Cephes `atanf` polynomial, with the π/8 reduction).
 #[inline]
 fn atan_unit(a: f32) -> f32 {
-    // tan(π/8)
+    // tan(π/8). (`>` → `>=` is an equivalent mutant, .cargo/mutants.toml: at a = tan(π/8)
+    // exactly both reductions are accurate and agree to within their rounding.)
     let (base, t) = if a > 0.414_213_57 {
         (FRAC_PI_4, (a - 1.0) / (a + 1.0))
     } else {

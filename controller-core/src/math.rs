@@ -139,6 +139,9 @@ pub fn atan2(y: f32, x: f32) -> f32 {
         return 0.0;
     }
     let mut angle = atan_unit(lo / hi);
+    // Equivalent mutants (.cargo/mutants.toml): `>=` here gives π/2 − π/4 = π/4 on the
+    // diagonal, exactly (atan_unit(1) is FRAC_PI_4); `<=` on the next test only adds x = ±0,
+    // where the angle is π/2 and π − π/2 = π/2 exactly in f32.
     if ay > ax {
         angle = FRAC_PI_2 - angle;
     }

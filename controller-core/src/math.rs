@@ -209,6 +209,8 @@ pub fn abs(x: f32) -> f32 {
 /// Clamps `x` into `[lo, hi]`. NaN is returned unchanged so that faults stay visible.
 #[inline]
 pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    // Equivalent mutants (`<` → `<=` here, `>` → `>=` below, .cargo/mutants.toml): they
+    // return the bound where x equals it, the same value (at most a zero changes sign).
     if x < lo {
         lo
     } else if x > hi {
@@ -221,6 +223,9 @@ pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
 /// Wraps an angle in radians into (−π, π]. Non-finite input is returned unchanged so that
 /// the caller's fault check sees it.
 pub fn wrap_angle(a: f32) -> f32 {
+    // A shortcut: the reduction below returns these angles unchanged too (zero turns), so
+    // deleting the `-` (which skips the shortcut) is an equivalent mutant
+    // (.cargo/mutants.toml).
     if a > -PI && a <= PI {
         return a;
     }

@@ -36,8 +36,8 @@ commands:
   mutants [ARGS...]
           mutation testing of controller-core (and link, when the workspace has it) with
           cargo-mutants: prints the score, the missed mutants and the wall time; ARGS go to
-          cargo-mutants, e.g. `-f controller-core/src/path.rs` for one file. Slow (tens of
-          minutes for the whole crate); not part of `ci`. Needs
+          cargo-mutants, e.g. `-f controller-core/src/path.rs` for one file or `-j 2`.
+          Slow (a build and a test run per mutant); not part of `ci`. Needs
           `cargo install cargo-mutants --locked`";
 
 fn main() -> ExitCode {

@@ -365,6 +365,14 @@ mod tests {
     }
 
     #[test]
+    fn geometry_errors_name_the_dimension() {
+        let radius = std::format!("{}", GeometryError::NonPositiveWheelRadius);
+        let track = std::format!("{}", GeometryError::NonPositiveTrackWidth);
+        assert!(radius.contains("wheel radius"), "{radius}");
+        assert!(track.contains("track width"), "{track}");
+    }
+
+    #[test]
     fn forward_hand_values() {
         // R = 0.0325 m, L = 0.15 m; ω_l = 10, ω_r = 20 rad/s:
         // v_l = 0.325, v_r = 0.65 m/s; v = 0.4875 m/s; ω = 0.325/0.15 = 2.1667 rad/s.

@@ -120,7 +120,8 @@ pub fn sinc_with_sin(x: f32, sin_x: f32) -> f32 {
 /// Arc tangent of `a` for 0 ≤ a ≤ 1 (Cephes `atanf` polynomial, with the π/8 reduction).
 #[inline]
 fn atan_unit(a: f32) -> f32 {
-    // tan(π/8)
+    // tan(π/8). (`>` → `>=` is an equivalent mutant, .cargo/mutants.toml: at a = tan(π/8)
+    // exactly both reductions are accurate and agree to within their rounding.)
     let (base, t) = if a > 0.414_213_57 {
         (FRAC_PI_4, (a - 1.0) / (a + 1.0))
     } else {
@@ -143,6 +144,9 @@ pub fn atan2(y: f32, x: f32) -> f32 {
         return 0.0;
     }
     let mut angle = atan_unit(lo / hi);
+    // Equivalent mutants (.cargo/mutants.toml): `>=` here gives π/2 − π/4 = π/4 on the
+    // diagonal, exactly (atan_unit(1) is FRAC_PI_4); `<=` on the next test only adds x = ±0,
+    // where the angle is π/2 and π − π/2 = π/2 exactly in f32.
     if ay > ax {
         angle = FRAC_PI_2 - angle;
     }
@@ -210,6 +214,8 @@ pub fn abs(x: f32) -> f32 {
 /// Clamps `x` into `[lo, hi]`. NaN is returned unchanged so that faults stay visible.
 #[inline]
 pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    // Equivalent mutants (`<` → `<=` here, `>` → `>=` below, .cargo/mutants.toml): they
+    // return the bound where x equals it, the same value (at most a zero changes sign).
     if x < lo {
         lo
     } else if x > hi {
@@ -326,5 +332,116 @@ mod tests {
             let w = wrap_angle(i as f32 * 0.37);
             assert!(w > -PI && w <= PI);
         }
+    }
+
+    /// f32 values within `ulps` representable steps either side of `x`.
+    fn neighbours(x: f32, ulps: u32) -> impl Iterator<Item = f32> {
+        let bits = x.to_bits();
+        (bits - ulps..=bits + ulps).map(f32::from_bits)
+    }
+
+    /// The exact wrap of `a` (computed in f64), for comparison.
+    fn wrap_f64(a: f64) -> f64 {
+        let tau = core::f64::consts::TAU;
+        let w = a - tau * (a / tau).round();
+        if w <= -core::f64::consts::PI {
+            w + tau
+        } else if w > core::f64::consts::PI {
+            w - tau
+        } else {
+            w
+        }
+    }
+
+    /// Angular distance between two angles, rad, in [0, π].
+    fn angle_between(a: f64, b: f64) -> f64 {
+        wrap_f64(a - b).abs()
+    }
+
+    #[test]
+    fn wrap_angle_is_exact_to_rounding_around_every_odd_multiple_of_pi() {
+        // Near (2k + 1)π the reduction a − round(a/2π)·2π lands on either side of ±π;
+        // the result must still be in (−π, π] and equal to a modulo 2π.
+        for k in -60i32..60 {
+            let centre = ((2 * k + 1) as f64 * core::f64::consts::PI) as f32;
+            for a in neighbours(centre.abs(), 64).map(|a| a.copysign(centre)) {
+                let w = wrap_angle(a);
+                assert!(w > -PI && w <= PI, "wrap_angle({a}) = {w}");
+                // TAU as f32 is 1.7e-7 off 2π: that error times the turns, plus rounding.
+                let tol = 2e-7 * (k.abs() as f64 + 1.0) + 4.0 * f64::from(f32::EPSILON * a.abs());
+                let err = angle_between(f64::from(w), f64::from(a));
+                assert!(err <= tol, "wrap_angle({a}) = {w}, off by {err}");
+            }
+        }
+    }
+
+    #[test]
+    fn wrap_angle_is_odd_and_exact_to_rounding_everywhere() {
+        // Mirror symmetry: wrapping −a gives exactly −(wrapping a), so a left turn and the
+        // mirrored right turn get the same treatment, bit for bit.
+        for i in 1..200_000 {
+            let a = i as f32 * 0.003_7;
+            let (w, m) = (wrap_angle(a), wrap_angle(-a));
+            if w.abs() < PI {
+                assert_eq!(m.to_bits(), (-w).to_bits(), "a = {a}: {w} vs {m}");
+            }
+            let tol = 2e-7 * (f64::from(a) / 6.0 + 1.0) + 4.0 * f64::from(f32::EPSILON * a);
+            assert!(angle_between(f64::from(w), f64::from(a)) <= tol, "a = {a}");
+        }
+    }
+
+    #[test]
+    fn sinc_is_within_an_ulp_or_two_near_zero() {
+        // Around the switch from the series to sin x / x, and well inside both.
+        let mut worst = 0.0f64;
+        for i in -3000..=3000 {
+            let x = i as f32 * 1e-5;
+            let exact = if x == 0.0 {
+                1.0
+            } else {
+                (x as f64).sin() / x as f64
+            };
+            worst = worst.max((sinc(x) as f64 - exact).abs());
+        }
+        assert!(worst <= 1.2e-7, "worst sinc error near 0: {worst}");
+        // Near 0 the series is used and the sine passed in is ignored.
+        assert_eq!(sinc_with_sin(1e-3, 123.0), sinc(1e-3));
+        assert_eq!(sinc_with_sin(-1e-3, f32::NAN), sinc(1e-3));
+        // Away from 0 the sine passed in is used.
+        assert_eq!(sinc_with_sin(0.5, 0.25), 0.5);
+    }
+
+    #[test]
+    fn atan2_is_odd_in_y_and_mirrors_in_x() {
+        for i in 0..=1000 {
+            let a = i as f64 * core::f64::consts::PI / 1000.0;
+            for r in [1e-3f64, 1.0, 50.0] {
+                let (y, x) = ((r * a.sin()) as f32, (r * a.cos()) as f32);
+                if y == 0.0 {
+                    continue;
+                }
+                let t = atan2(y, x);
+                assert_eq!(atan2(-y, x), -t, "({y}, {x})");
+                assert!((atan2(y, -x) - (PI - t)).abs() <= 3e-7, "({y}, {x})");
+                assert!(t > 0.0 && t <= PI);
+            }
+        }
+        // On the axes and the diagonals, to the last bit.
+        assert_eq!(atan2(2.0, 0.0), FRAC_PI_2);
+        assert_eq!(atan2(-2.0, 0.0), -FRAC_PI_2);
+        assert_eq!(atan2(0.0, 2.0), 0.0);
+        assert_eq!(atan2(3.0, 3.0), FRAC_PI_4);
+        assert_eq!(atan2(-3.0, -3.0), -3.0 * FRAC_PI_4);
+    }
+
+    #[test]
+    fn clamp_and_abs() {
+        assert_eq!(clamp(-1.0, 0.0, 2.0), 0.0);
+        assert_eq!(clamp(3.0, 0.0, 2.0), 2.0);
+        assert_eq!(clamp(1.5, 0.0, 2.0), 1.5);
+        assert!(clamp(f32::NAN, 0.0, 2.0).is_nan());
+        assert_eq!(abs(-0.0).to_bits(), 0.0f32.to_bits());
+        assert_eq!(abs(-2.5), 2.5);
+        assert_eq!(hypot(3.0, -4.0), 5.0);
     }
 }

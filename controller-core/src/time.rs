@@ -101,5 +101,27 @@ mod tests {
         c.advance(NonZeroU32::new(3).unwrap());
         assert_eq!(c.steps(), 4);
         assert!((c.elapsed_s() - 0.004).abs() < 1e-7);
+        assert_eq!(c.rate_hz(), 1000);
+    }
+
+    #[test]
+    fn elapsed_seconds_count_whole_seconds_and_the_fraction() {
+        let mut c = StepClock::new(KHZ);
+        assert_eq!(c.elapsed_s(), 0.0);
+        for _ in 0..2_345 {
+            c.tick();
+        }
+        assert!((c.elapsed_s() - 2.345).abs() < 1e-6);
+        // 3 steps at 4 Hz: less than a second, all fraction.
+        let mut slow = StepClock::new(NonZeroU32::new(4).unwrap());
+        for _ in 0..3 {
+            slow.tick();
+        }
+        assert_eq!(slow.elapsed_s(), 0.75);
+        // After a day at 1 kHz the seconds are still whole and the half second is exact
+        // (the resolution of the sum itself is that of an f32 near 86 400: 8 ms).
+        let mut day = StepClock::new(KHZ);
+        day.steps = 86_400_500;
+        assert_eq!(day.elapsed_s(), 86_400.5);
     }
 }

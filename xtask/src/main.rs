@@ -10,6 +10,7 @@
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
 //! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt reaches no panic and no indirect call |
 //! | `panic-check ELF [--root NAME:IRQ]…` | the same proof on a given ELF (no build), from the given interrupts (default `TIM5:50`) |
+//! | `mutants [ARGS…]` | mutation testing of `controller-core` (and `link`) with cargo-mutants: score, missed list, wall time. Slow; not part of `ci` |
 //!
 //! Every step runs even if an earlier one failed, so one CI log shows every problem.
 
@@ -17,6 +18,7 @@ mod elf_size;
 #[cfg(test)]
 mod firmware_logger;
 mod link_qemu;
+mod mutants;
 mod panic_check;
 mod qemu;
 mod setup;
@@ -45,7 +47,13 @@ commands:
           build the firmware and prove that its control interrupt (TIM5) cannot reach a
           panic or an indirect call; the `panic-canary` build must fail the same check
   panic-check ELF [--root NAME:IRQ]...
-          the same proof on an ELF (no build), from the given interrupts (default TIM5:50)";
+          the same proof on an ELF (no build), from the given interrupts (default TIM5:50)
+  mutants [ARGS...]
+          mutation testing of controller-core (and link, when the workspace has it) with
+          cargo-mutants: prints the score, the missed mutants and the wall time; ARGS go to
+          cargo-mutants, e.g. `-f controller-core/src/path.rs` for one file or `-j 2`.
+          Slow (a build and a test run per mutant); not part of `ci`. Needs
+          `cargo install cargo-mutants --locked`";
 
 fn main() -> ExitCode {
     match run() {
@@ -62,6 +70,9 @@ fn main() -> ExitCode {
 fn run() -> Result<bool> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let ctx = Context::new(workspace_root()?);
+    if args.first().map(String::as_str) == Some("mutants") {
+        return mutants::run(&ctx, &args[1..]);
+    }
     let selected: Vec<Step> = match args.iter().map(String::as_str).collect::<Vec<_>>()[..] {
         ["ci"] => steps::ci(),
         ["setup"] => vec![steps::setup()],

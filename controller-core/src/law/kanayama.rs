@@ -79,6 +79,13 @@ mod tests {
         assert!((out.command.v_m_s - (0.2 * 0.5f32.cos() + 0.2)).abs() < 1e-6);
         let w = 0.1 + 0.2 * (20.0 * 0.2 + 6.0 * 0.5f32.sin());
         assert!((out.command.omega_rad_s - w).abs() < 1e-6);
+        // V = ½(x_e² + y_e²) + (1 − cos θ_e)/K_y, V̇ = −K_x x_e² − v_r K_θ sin²θ_e / K_y.
+        let v = 0.5 * (0.01 + 0.04) + (1.0 - 0.5f32.cos()) / 20.0;
+        assert!((out.lyapunov - v).abs() < 1e-6);
+        let v_dot = -2.0 * 0.01 - 0.2 * 6.0 * 0.5f32.sin().powi(2) / 20.0;
+        assert!((out.lyapunov_rate - v_dot).abs() < 1e-6);
+        assert_eq!(out.error, tracking_error(&Pose::default(), &r.pose));
+        assert_eq!(out.polar, None);
     }
 
     proptest! {

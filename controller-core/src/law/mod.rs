@@ -160,4 +160,117 @@ mod tests {
         }
         assert_eq!(LawKind::from_name("pid"), None);
     }
+
+    const GAINS: LawGains = LawGains {
+        paper: PaperGains {
+            gamma: 1.0,
+            k: 2.0,
+            h: 1.5,
+            lambda: 0.5,
+        },
+        tracking: TrackingGains {
+            lambda: 16.0,
+            k_x: 3.0,
+            k_theta: 4.0,
+        },
+        kanayama: KanayamaGains {
+            k_x: 2.5,
+            k_y: 40.0,
+            k_theta: 12.0,
+        },
+    };
+
+    /// `GAINS` with the gain named `field` set to `value`.
+    fn with(field: &str, value: f32) -> LawGains {
+        let mut g = GAINS;
+        let slot = match field {
+            "law.paper.gamma" => &mut g.paper.gamma,
+            "law.paper.k" => &mut g.paper.k,
+            "law.paper.h" => &mut g.paper.h,
+            "law.paper.lambda" => &mut g.paper.lambda,
+            "law.tracking.lambda" => &mut g.tracking.lambda,
+            "law.tracking.k_x" => &mut g.tracking.k_x,
+            "law.tracking.k_theta" => &mut g.tracking.k_theta,
+            "law.kanayama.k_x" => &mut g.kanayama.k_x,
+            "law.kanayama.k_y" => &mut g.kanayama.k_y,
+            "law.kanayama.k_theta" => &mut g.kanayama.k_theta,
+            _ => panic!("no gain {field}"),
+        };
+        *slot = value;
+        g
+    }
+
+    #[test]
+    fn validation_names_the_first_bad_gain() {
+        assert_eq!(GAINS.validate(), Ok(()));
+        let fields = [
+            "law.paper.gamma",
+            "law.paper.k",
+            "law.paper.h",
+            "law.paper.lambda",
+            "law.tracking.lambda",
+            "law.tracking.k_x",
+            "law.tracking.k_theta",
+            "law.kanayama.k_x",
+            "law.kanayama.k_y",
+            "law.kanayama.k_theta",
+        ];
+        for name in fields {
+            for bad in [f32::NAN, f32::INFINITY] {
+                match with(name, bad).validate() {
+                    Err(ParamError::NonFinite { field, .. }) => assert_eq!(field, name),
+                    other => panic!("{name} = {bad}: {other:?}"),
+                }
+            }
+            for bad in [0.0, -1.0] {
+                assert_eq!(
+                    with(name, bad).validate(),
+                    Err(ParamError::NonPositive {
+                        field: name,
+                        value: bad
+                    })
+                );
+            }
+            // The smallest positive gain is valid.
+            assert_eq!(with(name, f32::MIN_POSITIVE).validate(), Ok(()));
+        }
+        // Two bad gains: the first in the list is named.
+        let mut two = with("law.kanayama.k_y", 0.0);
+        two.paper.h = -2.0;
+        assert!(matches!(
+            two.validate(),
+            Err(ParamError::NonPositive {
+                field: "law.paper.h",
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn steer_runs_the_selected_law_with_its_own_gains() {
+        let robot = Pose::new(0.2, -0.3, 0.4);
+        let reference = ReferenceState {
+            pose: Pose::new(1.0, 0.5, 1.0),
+            v_m_s: 0.3,
+            omega_rad_s: 0.2,
+            ..ReferenceState::default()
+        };
+        assert_eq!(
+            steer(LawKind::Paper, &GAINS, &robot, &reference),
+            paper::steer(&GAINS.paper, &robot, &reference.pose)
+        );
+        assert_eq!(
+            steer(LawKind::Tracking, &GAINS, &robot, &reference),
+            tracking::steer(&GAINS.tracking, &robot, &reference)
+        );
+        assert_eq!(
+            steer(LawKind::Kanayama, &GAINS, &robot, &reference),
+            kanayama::steer(&GAINS.kanayama, &robot, &reference)
+        );
+        // The three differ here, so a swapped dispatch would show.
+        let outputs = LawKind::ALL.map(|k| steer(k, &GAINS, &robot, &reference).command);
+        assert_ne!(outputs[0], outputs[1]);
+        assert_ne!(outputs[1], outputs[2]);
+        assert_ne!(outputs[0], outputs[2]);
+    }
 }

@@ -201,6 +201,32 @@ mod tests {
     }
 
     #[test]
+    fn rates_on_the_target_are_finite() {
+        // r_e = 0: the bearing is undefined, its rate is taken as 0 (no division by 0).
+        let on_target = PolarError {
+            r_e_m: 0.0,
+            alpha_rad: 0.4,
+            beta_rad: -0.2,
+        };
+        let command = BodyVelocity::new(0.3, 0.5);
+        let rate = polar_error_rate(&on_target, command);
+        assert_eq!(rate.alpha_rad, -0.5);
+        assert_eq!(rate.beta_rad, 0.0);
+        assert!((rate.r_e_m + 0.3 * 0.4f32.cos()).abs() < 1e-6);
+        // (32) there: only the −αω term is left.
+        assert!((lyapunov_rate(&GAINS, &on_target, command) - 0.4 * -0.5).abs() < 1e-6);
+        // Just off the target the rates are large but finite and follow (28)–(29).
+        let near = PolarError {
+            r_e_m: 1e-3,
+            ..on_target
+        };
+        let rate = polar_error_rate(&near, command);
+        let bearing = 0.3 * 0.4f32.sin() / 1e-3;
+        assert!((rate.beta_rad - bearing).abs() < 1e-3 * bearing);
+        assert!((rate.alpha_rad - (bearing - 0.5)).abs() < 1e-3 * bearing);
+    }
+
+    #[test]
     fn polar_rates_match_finite_differences_for_a_fixed_target() {
         // Eqs. (27)–(29) against a central difference of the polar error along (5).
         let robot = Pose::new(0.3, -0.2, 0.4);

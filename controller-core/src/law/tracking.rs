@@ -128,6 +128,10 @@ mod tests {
         assert!((out.command.v_m_s - v).abs() < 1e-6);
         assert!((out.command.omega_rad_s - w).abs() < 1e-6);
         assert!((out.lyapunov_rate - (-4.0 * 2.0 * 0.01 - 3.0 * 0.25)).abs() < 1e-6);
+        // V = ½λ(x_e² + y_e²) + ½θ_e².
+        assert!((out.lyapunov - (0.5 * 4.0 * 0.05 + 0.5 * 0.25)).abs() < 1e-6);
+        assert_eq!(out.polar, None);
+        assert!((out.error.y_e_m - 0.2).abs() < 1e-6);
     }
 
     proptest! {

@@ -182,7 +182,7 @@ pub mod protocol;
 pub mod upload;
 
 pub use crate::bandwidth::{check_telemetry_rate, max_telemetry_rate_hz, TELEMETRY_RATE_HZ};
-pub use crate::checksum::{params_hash, path_checksum};
+pub use crate::checksum::{crc32, params_hash, path_checksum};
 pub use crate::decoder::{Decoder, Dropped, Outcome, Received, RxCounters};
 pub use crate::frame::{
     encode, encode_raw, encode_to_vec, max_wire_len, EncodeError, MAX_BODY_LEN, MAX_FRAME_LEN,

@@ -74,3 +74,77 @@ pub fn start(
         LinkService::new(link_end, config.identity, config.params, config.link),
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn movable_between_contexts<T: Send>() {}
+
+    /// RTIC moves each side into its task's resources: both must be `Send`.
+    #[test]
+    fn both_sides_can_move_to_their_tasks() {
+        movable_between_contexts::<ControlSide<'static>>();
+        movable_between_contexts::<LinkService<'static>>();
+        movable_between_contexts::<crate::ControlEnd<'static>>();
+        movable_between_contexts::<crate::LinkEnd<'static>>();
+    }
+
+    #[test]
+    fn an_invalid_configuration_names_its_field() {
+        use controller_core::kinematics::{Point, Pose, WheelSpeeds};
+        use controller_core::params::RobotConfig;
+        use controller_core::path::Path;
+        use controller_core::reference::ReferenceMode;
+        use controller_core::supervisor::SupervisorConfig;
+
+        let line = Path::line(Point::new(0.0, 0.0), 0.0, 1.0).expect("a line");
+        let mut robot = RobotConfig::REFERENCE_ROBOT;
+        robot.track_width_m = 0.0;
+        let config = AppConfig {
+            params: ParamSet {
+                robot,
+                supervisor: SupervisorConfig::at_rate(
+                    1000,
+                    Pose::default(),
+                    WheelSpeeds::default(),
+                ),
+            },
+            reference: Reference::new(
+                line,
+                0.2,
+                ReferenceMode::TimeIndexed {
+                    start_offset_m: 0.0,
+                },
+            )
+            .expect("a reference"),
+            law: LawKind::Tracking,
+            reset: ResetCause::PowerOn,
+            identity: Identity {
+                firmware_version: "",
+                git_hash: "",
+                chip: "",
+                robot_name: "",
+            },
+            link: LinkOptions {
+                baud: 115_200,
+                telemetry_hz: 0,
+                storage: false,
+            },
+        };
+        let mut channels = Channels::new();
+        let error = start(&mut channels, config.clone()).err();
+        assert_eq!(
+            error.map(|e| e.to_string()),
+            Some("robot.track_width_m must be > 0".into())
+        );
+        let mut config = config;
+        config.params.robot = RobotConfig::REFERENCE_ROBOT;
+        config.params.supervisor.heartbeat_timeout_steps = 0;
+        let error = start(&mut channels, config).err();
+        assert_eq!(
+            error.map(|e| e.to_string()),
+            Some("supervisor.heartbeat_timeout_steps must be ≥ 1".into())
+        );
+    }
+}

@@ -405,7 +405,10 @@ impl<'a> LinkService<'a> {
         Ok(())
     }
 
-    /// Stages `staged` and asks the control side to install it.
+    /// Stages `staged` and asks the control side to install it. Called only after
+    /// [`LinkService::ready_to_install`]: the mailbox is empty and the queue has room,
+    /// and only this side fills either, so neither step can fail here (a staged item
+    /// without its `Install` would block the mailbox).
     fn install(&mut self, seq: u16, staged: Staged) -> Option<Result<Reply, Refusal>> {
         if self.end.staging.stage(staged).is_err() {
             return Some(Err(self.busy()));

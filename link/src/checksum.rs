@@ -11,6 +11,12 @@ use crate::message::ParamSet;
 /// The CRC used everywhere in the link.
 pub(crate) static CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 
+/// CRC-32/ISO-HDLC of `bytes`, with the link's own table: for records that other crates
+/// protect the same way (a second table would cost another 1 KiB of flash).
+pub fn crc32(bytes: &[u8]) -> u32 {
+    CRC32.checksum(bytes)
+}
+
 /// The checksum a [`PathCommit`](crate::PathCommit) carries: CRC-32 of the postcard
 /// encodings of `segments`, concatenated in order. The host computes it over the
 /// segments it sends; the robot over those it received.
@@ -79,6 +85,7 @@ mod tests {
     fn crc_is_iso_hdlc() {
         // The standard check value of CRC-32/ISO-HDLC.
         assert_eq!(CRC32.checksum(b"123456789"), 0xcbf4_3926);
+        assert_eq!(crc32(b"123456789"), 0xcbf4_3926);
     }
 
     fn segments() -> [Segment; 2] {

@@ -21,9 +21,9 @@ use crate::protocol::{ProtocolId, HEADER_LEN};
 
 /// Largest postcard body a frame may carry, bytes. The largest messages,
 /// [`Request::SetParams`](crate::Request) and its twin [`Reply::Params`](crate::Reply),
-/// measured 136 and 138 bytes with the core's default configuration (see the crate
-/// doc); 256 leaves room for about 30 more `f32` fields in the configuration.
-pub const MAX_BODY_LEN: usize = 256;
+/// measured 222 and 224 bytes with the core's default configuration (see the crate
+/// doc); 384 leaves room for 40 more `f32` fields in the configuration.
+pub const MAX_BODY_LEN: usize = 384;
 
 /// Bytes of CRC after the payload.
 pub const CRC_LEN: usize = 4;

@@ -34,8 +34,8 @@
 //!   Why in every frame rather than in a handshake: telemetry starts flowing without one,
 //!   and a robot reflashed behind a running station is caught on its next frame.
 //!
-//! Limits: a body is at most [`MAX_BODY_LEN`] = 256 bytes, a frame at most
-//! [`MAX_FRAME_LEN`] = 268 bytes on the wire.
+//! Limits: a body is at most [`MAX_BODY_LEN`] = 384 bytes, a frame at most
+//! [`MAX_FRAME_LEN`] = 396 bytes on the wire.
 //!
 //! # Messages and their sizes
 //!
@@ -51,9 +51,9 @@
 //!
 //! | message | postcard body | on the wire |
 //! |---|---|---|
-//! | `SetParams` (reference robot, 1 kHz supervisor) | 136 B | 147 B |
-//! | reply `Params` (the same configuration) | 138 B | 149 B |
-//! | `Telemetry` | 110 B | 121 B |
+//! | `SetParams` (reference robot, 1 kHz supervisor) | 222 B | 233 B |
+//! | reply `Params` (the same configuration) | 224 B | 235 B |
+//! | `Telemetry` | 117 B | 128 B |
 //! | `PathChunk`, 4 arcs ([`SEGMENTS_PER_CHUNK`]) | 93 B | 104 B |
 //! | `PathChunk`, 1 arc | 30 B | 41 B |
 //! | `PathBegin` | 30 B | 41 B |
@@ -61,8 +61,8 @@
 //! | `Stats` | 61 B | 72 B |
 //! | `Ping` / `Heartbeat` / reply `Ack` | 9 / 4 / 6 B | 20 / 15 / 17 B |
 //!
-//! [`MAX_BODY_LEN`] leaves the configuration room for about 30 more `f32` fields; a test
-//! fails when less than 25 remain.
+//! [`MAX_BODY_LEN`] leaves the configuration room for 40 more `f32` fields; a test fails
+//! when less than 25 remain.
 //!
 //! # Using it
 //!
@@ -128,19 +128,19 @@
 //!
 //! A UART with 8N1 framing carries `baud / 10` bytes per second. Keeping 30 %
 //! ([`bandwidth::DEFAULT_RESERVED_PERCENT`]) free for replies, heartbeats and path chunks,
-//! the largest telemetry frame (121 bytes on the wire) allows ([`max_telemetry_rate_hz`];
+//! the largest telemetry frame (128 bytes on the wire) allows ([`max_telemetry_rate_hz`];
 //! printed by `cargo run -p link --example sizes`; the unit tests of [`bandwidth`] check
 //! the arithmetic):
 //!
 //! | baud | bytes/s | telemetry at most | rate accepted |
 //! |---|---|---|---|
-//! | 115 200 | 11 520 | 66 Hz | 66 Hz |
-//! | 230 400 | 23 040 | 133 Hz | 100 Hz |
-//! | 460 800 | 46 080 | 266 Hz | 100 Hz |
-//! | 921 600 | 92 160 | 533 Hz | 100 Hz |
+//! | 115 200 | 11 520 | 63 Hz | 63 Hz |
+//! | 230 400 | 23 040 | 126 Hz | 100 Hz |
+//! | 460 800 | 46 080 | 252 Hz | 100 Hz |
+//! | 921 600 | 92 160 | 504 Hz | 100 Hz |
 //!
-//! Rates are capped at 100 Hz ([`TELEMETRY_RATE_HZ`]). A `SetParams` frame (147 bytes)
-//! takes 12.8 ms at 115 200 baud.
+//! Rates are capped at 100 Hz ([`TELEMETRY_RATE_HZ`]). A `SetParams` frame (233 bytes)
+//! takes 20.2 ms at 115 200 baud.
 //!
 //! # Cost on the target
 //!
@@ -182,7 +182,7 @@ pub mod protocol;
 pub mod upload;
 
 pub use crate::bandwidth::{check_telemetry_rate, max_telemetry_rate_hz, TELEMETRY_RATE_HZ};
-pub use crate::checksum::{params_hash, path_checksum};
+pub use crate::checksum::{crc32, params_hash, path_checksum};
 pub use crate::decoder::{Decoder, Dropped, Outcome, Received, RxCounters};
 pub use crate::frame::{
     encode, encode_raw, encode_to_vec, max_wire_len, EncodeError, MAX_BODY_LEN, MAX_FRAME_LEN,

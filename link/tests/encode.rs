@@ -81,9 +81,11 @@ fn the_configuration_fits_with_room_to_grow() {
 }
 
 #[test]
-fn telemetry_stays_near_110_bytes() {
+fn telemetry_stays_near_120_bytes() {
+    // 117 bytes measured; a change of more than a few fields shows here and in the
+    // bandwidth table of the crate doc.
     let body = postcard::to_allocvec(&largest_telemetry()).unwrap().len();
-    assert!((100..=115).contains(&body), "telemetry body {body} bytes");
+    assert!((110..=125).contains(&body), "telemetry body {body} bytes");
 }
 
 #[test]

@@ -5,18 +5,153 @@
 //! (`host-sim serve`) run exactly this code; what differs between them is only where the
 //! numbers come from (timers, ADC, USART) and where they go (PWM, pins).
 //!
-//! - [`hw`] — register arithmetic of the STM32F4 boards (clock tree, watchdog, encoder
-//!   input filter, motor bridge, supply ADC, tick), as pure functions with host tests, so
-//!   that the values the firmware writes are checked without hardware.
-//! - [`metrics`] — run metrics (settle time, final and windowed errors) accumulated at the
-//!   control rate in fixed memory, the same on the robot and in the simulator.
-//! - [`panic_record`] — the record of the last panic or hard fault that the firmware keeps
-//!   in RAM across a reset: layout, bounded text, CRC.
+//! | module | what it is | runs in |
+//! |---|---|---|
+//! | [`control`] | [`ControlSide`]: supervisor, controller, run metrics; one step per control period | the control interrupt |
+//! | [`service`] | [`LinkService`]: decodes requests, answers, stages, forwards; encodes replies, events, telemetry | the link task |
+//! | [`channel`] | [`Channels`]: lock-free queues, the staging mailbox and status atomics between the two | both (one end each) |
+//! | [`persist`] | the parameter record in flash and the two-page rotation, as pure functions | the link task (and `init`) |
+//! | [`metrics`] | run metrics (settle time, final and windowed errors) in fixed memory | the control interrupt |
+//! | [`hw`] | register arithmetic of the STM32F4 boards, with host tests | `init` |
+//! | [`panic_record`] | the record of the last panic or hard fault kept in RAM across a reset | panic handler, `init` |
+//!
+//! # How a board wires it
+//!
+//! | call | context (RTIC 2 firmware) | when |
+//! |---|---|---|
+//! | [`start`]`(&mut channels, config)` | `init` | once; gives both sides |
+//! | [`ControlSide::step`]`(sensors) -> Actuation` | control interrupt (TIM5, highest priority) | every tick |
+//! | [`LinkService::ready_for_input`], [`LinkService::receive_byte`] | link task (lowest priority but idle) | while bytes wait in the receive ring |
+//! | [`LinkService::poll`] | link task | when a step says [`Actuation::link_has_work`], and after sending |
+//! | [`LinkService::outgoing`], [`LinkService::consume`] | link task | start a transmission; after it completed |
+//! | [`LinkService::persist_job`], [`LinkService::persist_finished`] | link task | after `poll`; around the flash work |
+//!
+//! - **Control interrupt**: owns the [`ControlSide`] (a `#[local]` resource). It reads
+//!   the encoders, button, supply and the `overrun` flag into [`Sensors`], calls
+//!   [`ControlSide::step`], writes the duties and the bridge, feeds the watchdog when
+//!   [`Actuation::feed_watchdog`], sets the LED, and pends the link task when
+//!   [`Actuation::link_has_work`] (e.g. `link::spawn()`, ignoring "already pending").
+//!   The step never waits, allocates, logs or panics. Its work is bounded: at most one
+//!   request from the link, one reply, one event, one telemetry sample per step; the
+//!   largest step installs a staged configuration or path (only while disarmed), which
+//!   rebuilds the controller in place of the old one (it moves about 3.7 KiB through the
+//!   interrupt's stack: the new controller, 2.7 KiB, and the path, 0.95 KiB).
+//! - **USART RX interrupt**: pushes each received byte into a byte ring the board owns
+//!   ([`channel::ring::Ring`]`<u8, N>`, split: producer in the interrupt, consumer in
+//!   the link task; lock-free) and pends the link task. A full ring drops the byte: the
+//!   frame fails its CRC, is counted, and the host re-sends.
+//! - **Link task**: owns the [`LinkService`] (a `#[local]` resource). It moves bytes from
+//!   the receive ring into [`LinkService::receive_byte`] while
+//!   [`LinkService::ready_for_input`] (otherwise they wait: the transmit buffer must keep
+//!   room for the replies), calls [`LinkService::poll`], starts sending
+//!   [`LinkService::outgoing`] (DMA or TXE interrupt; the bytes stay in place until
+//!   [`LinkService::consume`]), and, when [`LinkService::persist_job`] is `Some`,
+//!   lengthens the watchdog, writes flash with [`persist::Slots`] and [`persist::encode`],
+//!   reads it back with [`persist::decode`], restores the watchdog and calls
+//!   [`LinkService::persist_finished`]. A transmit-complete interrupt only pends the link
+//!   task, which calls `consume`.
+//! - **Board statistics** for `GetStats` come through [`BoardStats`]: the control
+//!   interrupt keeps its longest step in an `AtomicU32`, the link task reads it.
+//!
+//! **Locks: none between the control interrupt and the link task.** Every queue has one
+//! producer and one consumer ([`Channels::split`] hands out the ends; move each into its
+//! task's locals), the staging area hands its item over with an atomic state, and the
+//! counters and telemetry rate are atomics. So the control interrupt never waits for the
+//! link task, and no RTIC `lock` is needed. Put the [`Channels`] in a `static`
+//! (`#[init(local = [channels: Channels = Channels::new()])]`) so both ends are
+//! `'static`. If the board shares the [`LinkService`] between the link task and a UART
+//! interrupt instead, that lock is between those two only, for one call each.
+//!
+//! The simulator runs the same calls in one thread: bytes from its socket into
+//! `receive`, `step`, `poll`, `outgoing` to the socket, `consume`.
+//!
+//! ```
+//! use controller_core::prelude::*;
+//! use controller_core::supervisor::{ResetCause, SupervisorConfig};
+//! use link::{encode, Decoder, Downlink, ParamSet, Received, Reply, Request, Uplink};
+//! use robot_app::{start, AppConfig, Channels, Identity, LinkOptions, NoBoardStats, Sensors};
+//!
+//! let line = Path::line(Point::new(0.0, 0.0), 0.0, 2.0).unwrap();
+//! let config = AppConfig {
+//!     params: ParamSet {
+//!         robot: RobotConfig::REFERENCE_ROBOT,
+//!         supervisor: SupervisorConfig::at_rate(1000, Pose::default(), WheelSpeeds::default()),
+//!     },
+//!     reference: Reference::new(line, 0.2, ReferenceMode::TimeIndexed { start_offset_m: 0.0 })
+//!         .unwrap(),
+//!     law: LawKind::Tracking,
+//!     reset: ResetCause::PowerOn,
+//!     identity: Identity { firmware_version: "0.1.0", git_hash: "", chip: "host", robot_name: "doc" },
+//!     link: LinkOptions { baud: 115_200, telemetry_hz: 0, storage: false },
+//! };
+//! let mut channels = Channels::new();
+//! let (mut control, mut link) = start(&mut channels, config).unwrap();
+//!
+//! // The host pings; the robot's loop runs one control period.
+//! let mut frame = [0u8; link::MAX_FRAME_LEN];
+//! let len = encode(&Downlink { seq: 1, request: Request::Ping { nonce: 7 } }, &mut frame)?;
+//! assert_eq!(link.receive(&frame[..len], &NoBoardStats), len);
+//! let out = control.step(Sensors::at_rest(6.0));
+//! link.poll();
+//! assert_eq!(out.duty, MotorCommand::STOP); // disarmed
+//!
+//! let mut host = Decoder::new();
+//! let replies: Vec<_> = host.feed::<Uplink>(link.outgoing()).collect();
+//! assert_eq!(replies, [Ok(Received::Message(Uplink::Reply { seq: 1, result: Ok(Reply::Pong { nonce: 7 }) }))]);
+//! let sent = link.outgoing().len();
+//! link.consume(sent);
+//! # Ok::<(), link::EncodeError>(())
+//! ```
+//!
+//! # RAM
+//!
+//! Measured on `thumbv7em-none-eabihf` (`size_of` of each type compiled into a test
+//! program for the target and read back from its binary): [`ControlSide`] 3 188 B (of
+//! which the controller 2 716 B and the supervisor 236 B, which the firmware already
+//! has), [`LinkService`] 2 024 B (decoder 296 B, path assembler 824 B, transmit buffer
+//! [`service::TX_CAPACITY`] = 512 B, the active configuration), [`Channels`] 1 440 B
+//! (mostly the staging area's room for a path). New static RAM for the firmware: about
+//! 3.7 KiB, plus the board's receive ring. `cargo run -p robot-app --example wiring`
+//! prints the host's sizes (a little larger: 8-byte pointers); the budgets below are
+//! checked at compile time on every target.
+//!
+//! # Flash
+//!
+//! Measured with the same test program (`opt-level = "s"`, fat LTO, `.text`): a loop of
+//! supervisor and controller steps alone 15.2 KiB; the same loop through [`ControlSide`]
+//! with a [`LinkService`] (the link's codec, validation, path assembly and geometry)
+//! 50.3 KiB; with the persistence record's encode, decode and page rotation too,
+//! 54.2 KiB. No float formatting is linked (`core::fmt` float code absent from the
+//! binary). The binary's only panic paths are inside the link's codec (bounds checks in
+//! the `cobs` decoder, postcard's COBS output and the frame encoder's `finalize`), on the
+//! link side: none is reachable from [`ControlSide::step`] (checked by following its
+//! calls in the disassembly; the firmware's `cargo xtask panic-check` will check it for
+//! real once the firmware calls it).
 
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
-#![forbid(unsafe_code)]
+// Only `channel::ring` and `channel::mailbox` use `unsafe` (shared slots between two
+// contexts); everything else is safe code.
+#![deny(unsafe_code)]
 
+pub mod channel;
+pub mod control;
 pub mod hw;
 pub mod metrics;
 pub mod panic_record;
+pub mod persist;
+pub mod service;
+mod start;
+
+pub use crate::channel::{Channels, ControlEnd, LinkEnd};
+pub use crate::control::{Actuation, ControlSide, Sensors};
+pub use crate::service::{BoardStats, Identity, LinkOptions, LinkService, NoBoardStats};
+pub use crate::start::{start, AppConfig, StartError};
+
+/// RAM budgets, checked wherever the crate is compiled (the target's sizes are a little
+/// below the host's).
+const _: () = {
+    assert!(core::mem::size_of::<ControlSide<'static>>() <= 3_328);
+    assert!(core::mem::size_of::<LinkService<'static>>() <= 2_560);
+    assert!(core::mem::size_of::<Channels>() <= 1_536);
+};

@@ -469,6 +469,25 @@ impl SupervisorConfigError {
             E::ZeroHeartbeatTimeout => "heartbeat_timeout_steps",
         }
     }
+
+    /// What the field must satisfy, without its value (for a refusal that carries no
+    /// formatted numbers, e.g. over the runtime link).
+    pub const fn requirement(&self) -> &'static str {
+        use SupervisorConfigError as E;
+        match self {
+            E::NonFiniteStartPose | E::NonFiniteHoldSpeeds => "must be finite",
+            E::BadButtonTiming => "must exceed debounce_steps (≥ 1)",
+            E::ZeroOverrunLimit | E::ZeroBackgroundTimeout | E::ZeroHeartbeatTimeout => {
+                "must be ≥ 1"
+            }
+            E::BadMissedTickCheck => "needs window_steps ≥ 1, max_gap_periods ≥ 2",
+            E::BadStallCheck => "needs min_volts > 0, speed ≥ 0, timeout ≥ 1",
+            E::BadSaturationCheck => "needs window_steps ≥ 1, max_fraction in (0, 1]",
+            E::BadDivergenceCheck => "needs bound_m > 0 and persist_steps ≥ 1",
+            E::BadGeofence => "must be > 0",
+            E::BadBatteryThresholds { .. } => "needs min supply ≤ fault_v ≤ warn_v",
+        }
+    }
 }
 
 impl fmt::Display for SupervisorConfigError {

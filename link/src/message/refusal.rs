@@ -243,6 +243,11 @@ pub enum NotPermitted {
     NoStorage,
     /// The robot does not implement this request (e.g. tuning mode).
     Unsupported,
+    /// The robot's button is held: the local stop wins over the link (release it first).
+    ButtonHeld,
+    /// Writing persistent storage failed (erase, program or read-back check); the
+    /// configuration in use is unchanged. Retry, or power-cycle if it keeps failing.
+    StorageFailed,
 }
 
 impl fmt::Display for NotPermitted {
@@ -251,6 +256,8 @@ impl fmt::Display for NotPermitted {
             NotPermitted::NoPath => "no path has been committed yet",
             NotPermitted::NoStorage => "this robot has no persistent storage",
             NotPermitted::Unsupported => "this robot does not support that request",
+            NotPermitted::ButtonHeld => "the robot's button is held (local stop)",
+            NotPermitted::StorageFailed => "writing the robot's persistent storage failed",
         })
     }
 }

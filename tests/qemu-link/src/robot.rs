@@ -65,9 +65,9 @@ impl TestRobot {
             Request::GetParams => Ok(Reply::Params(self.params)),
             Request::SetParams(params) => {
                 self.disarmed()?;
-                Params::new(params.robot)
+                let checked = Params::new(params.robot)
                     .map_err(|e| Refusal::InvalidParams(FieldProblem::from_param_error(&e)))?;
-                params.supervisor.validate().map_err(|_| {
+                params.supervisor.validate(&checked).map_err(|_| {
                     Refusal::InvalidParams(FieldProblem::new("supervisor", "is not valid"))
                 })?;
                 self.params = *params;

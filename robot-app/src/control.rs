@@ -1,0 +1,525 @@
+//! The control side: what runs in the control interrupt once per control period.
+//!
+//! [`ControlSide::step`] takes the step's [`Sensors`], at most one request forwarded by
+//! the link side, runs the supervisor around the controller, and returns the
+//! [`Actuation`] for the pins. On the way it answers the request, queues the
+//! supervisor's event, samples telemetry at the rate the link side set, accumulates the
+//! run metrics and publishes its state and counters. It never waits, allocates, logs or
+//! panics, and its work per step is bounded: one request, one reply, one event, one
+//! telemetry sample; installing a staged configuration or path (only while disarmed)
+//! rebuilds the controller, the largest step (about 3.7 KiB moved, see the crate doc).
+
+use core::num::NonZeroU32;
+
+use controller_core::controller::{Controller, MotorCommand, TickDeltas};
+use controller_core::pid::PidParts as CorePidParts;
+use controller_core::supervisor::{
+    Bridge, Command, Event, Faults, Inputs, Refusal as SupervisorRefusal, RunMode, State,
+    Supervised, Supervisor, SupervisorSetError,
+};
+use link::{PidParts, TelemetryFrame};
+
+use crate::channel::{ControlEnd, Op, Published, Refused, Staged, ToLink};
+use crate::metrics::{ErrorSample, ErrorStats, ErrorSummary};
+
+/// What the board read for this control step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sensors {
+    /// Encoder ticks since the previous step, forward positive.
+    pub ticks: TickDeltas,
+    /// Control periods since the previous step: 1 on time, more after missed ticks.
+    pub periods: NonZeroU32,
+    /// Measured motor supply, V (NaN when no reading is available).
+    pub supply_v: f32,
+    /// Raw (undebounced) button level, true while pressed.
+    pub button_pressed: bool,
+    /// The previous step was still running when this period began.
+    pub overrun: bool,
+    /// A counter the lowest-priority work increments (any change proves it runs).
+    pub background_heartbeat: u32,
+}
+
+impl Sensors {
+    /// An on-time step at rest on a supply of `supply_v` (V), button released.
+    pub const fn at_rest(supply_v: f32) -> Self {
+        Self {
+            ticks: TickDeltas { left: 0, right: 0 },
+            periods: NonZeroU32::MIN,
+            supply_v,
+            button_pressed: false,
+            overrun: false,
+            background_heartbeat: 0,
+        }
+    }
+}
+
+/// What the board applies after a control step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Actuation {
+    /// Duties to write, each in [−1, 1]; exactly 0 unless armed.
+    pub duty: MotorCommand,
+    /// What the bridge does (drive, brake, coast).
+    pub bridge: Bridge,
+    /// Feed the watchdog in this step.
+    pub feed_watchdog: bool,
+    /// Supervisor state after the step.
+    pub state: State,
+    /// The status LED's level in this step (see [`led_on`]).
+    pub led_on: bool,
+    /// The supply is below the battery's warning threshold.
+    pub battery_low: bool,
+    /// Latched faults.
+    pub faults: Faults,
+    /// The step's state change, if any (already queued for the link; for the board's log).
+    pub event: Option<Event>,
+    /// Something was queued for the link side in this step: wake its task.
+    pub link_has_work: bool,
+}
+
+/// The status LED at control step `step` of a loop at `rate` steps per second: off while
+/// disarmed but for a 50 ms blink every second, steady while armed, flashing at 5 Hz
+/// while faulted and at 1 Hz while persisting.
+pub fn led_on(state: State, step: u32, rate: NonZeroU32) -> bool {
+    let per_s = rate.get();
+    match state {
+        State::Disarmed => blink(step, per_s, per_s / 20),
+        State::Armed => true,
+        State::Faulted => blink(step, per_s / 5, per_s / 10),
+        State::Persisting => blink(step, per_s, per_s / 2),
+    }
+}
+
+/// On for the first `on` steps of every `period` steps (always on for a period of 0).
+fn blink(step: u32, period: u32, on: u32) -> bool {
+    NonZeroU32::new(period).is_none_or(|p| step % p < on)
+}
+
+/// Telemetry sampling in control periods.
+#[derive(Clone, Copy, Debug)]
+struct TelemetryClock {
+    /// The rate the period was computed for, Hz (0: off).
+    hz: u8,
+    /// Periods between samples (0: off).
+    period: u32,
+    /// Periods since the last sample.
+    since: u32,
+}
+
+impl TelemetryClock {
+    /// True when a sample is due after a step of `periods` periods, at `hz` (Hz) on a loop
+    /// of `rate` periods per second.
+    fn due(&mut self, hz: u8, rate: NonZeroU32, periods: NonZeroU32) -> bool {
+        if hz != self.hz {
+            self.hz = hz;
+            // At least one period: a rate above the loop's samples every step.
+            self.period = NonZeroU32::new(u32::from(hz)).map_or(0, |hz| (rate.get() / hz).max(1));
+            self.since = 0;
+        }
+        if self.period == 0 {
+            return false;
+        }
+        self.since = self.since.saturating_add(periods.get());
+        if self.since < self.period {
+            return false;
+        }
+        // Keep the remainder, so late steps do not slow the average rate, but never
+        // owe more than one sample.
+        self.since -= self.period;
+        if self.since >= self.period {
+            self.since = 0;
+        }
+        true
+    }
+}
+
+/// The control side (see the module doc). Owned by the control interrupt.
+pub struct ControlSide<'a> {
+    end: ControlEnd<'a>,
+    controller: Controller,
+    supervisor: Supervisor,
+    metrics: ErrorStats,
+    rate: NonZeroU32,
+    /// Control steps since start (wrapping).
+    step: u32,
+    /// Control periods since the robot was last armed to follow the path.
+    run_periods: u32,
+    telemetry: TelemetryClock,
+}
+
+impl<'a> ControlSide<'a> {
+    /// The control side around `controller` and `supervisor`, talking to the link side
+    /// through `end`. [`crate::start`] builds both sides from one configuration.
+    pub fn new(end: ControlEnd<'a>, controller: Controller, supervisor: Supervisor) -> Self {
+        let rate = controller.params().control_rate();
+        Self {
+            end,
+            controller,
+            supervisor,
+            metrics: ErrorStats::new(rate),
+            rate,
+            step: 0,
+            run_periods: 0,
+            telemetry: TelemetryClock {
+                hz: 0,
+                period: 0,
+                since: 0,
+            },
+        }
+    }
+
+    /// The controller (its telemetry, parameters, reference).
+    pub const fn controller(&self) -> &Controller {
+        &self.controller
+    }
+
+    /// The supervisor (its state, settings, faults).
+    pub const fn supervisor(&self) -> &Supervisor {
+        &self.supervisor
+    }
+
+    /// Control steps since start.
+    pub const fn steps(&self) -> u32 {
+        self.step
+    }
+
+    /// The run metrics of the current or last path-following run, from the controller's
+    /// own (estimated) tracking error at every steering update. Costs a square root: call
+    /// it outside the control step's hot path (e.g. on a `Disarmed` event).
+    pub fn run_summary(&self) -> ErrorSummary {
+        self.metrics.summary()
+    }
+
+    /// One control period (see the module doc).
+    pub fn step(&mut self, sensors: Sensors) -> Actuation {
+        self.step = self.step.wrapping_add(1);
+        let mut link_has_work = false;
+
+        // 1. At most one request from the link, and only when its reply and this step's
+        //    event both have room: replies are never dropped.
+        let mut command = None;
+        let mut answered = None;
+        if self.end.uplink.free() >= 2 {
+            if let Some(request) = self.end.commands.pop() {
+                let kind = request.op.kind();
+                match request.op {
+                    Op::Command(c) => command = Some(c),
+                    Op::BeginPersist => command = Some(Command::BeginPersist),
+                    Op::EndPersist => command = Some(Command::EndPersist),
+                    Op::Install => {}
+                }
+                let result = match request.op {
+                    Op::Install => Some(self.install()),
+                    _ => None,
+                };
+                answered = Some((request.seq, kind, result));
+            }
+        }
+
+        // 2. The supervisor steps the controller.
+        let out = self.supervisor.step(
+            &mut self.controller,
+            Inputs {
+                ticks: sensors.ticks,
+                periods: sensors.periods,
+                supply_v: sensors.supply_v,
+                button_pressed: sensors.button_pressed,
+                overrun: sensors.overrun,
+                background_heartbeat: sensors.background_heartbeat,
+                command,
+            },
+        );
+
+        // 3. Reply and event.
+        if let Some((seq, op, result)) = answered {
+            let result = result.unwrap_or_else(|| command_outcome(command, out.command_result));
+            // Room was checked before taking the request.
+            let _ = self.end.uplink.push(ToLink::Reply { seq, op, result });
+            link_has_work = true;
+        }
+        if let Some(event) = out.event {
+            let queued = self.end.uplink.push(ToLink::Event {
+                step: self.step,
+                event,
+            });
+            if queued.is_ok() {
+                link_has_work = true;
+            } else {
+                self.end.count_event_drop();
+            }
+        }
+
+        // 4. Run metrics and telemetry.
+        self.track_run(&out, sensors.periods);
+        if self
+            .telemetry
+            .due(self.end.telemetry_hz(), self.rate, sensors.periods)
+        {
+            let sample = self.telemetry_frame(&out);
+            if self.end.telemetry.push(sample).is_ok() {
+                link_has_work = true;
+            } else {
+                self.end.count_telemetry_drop();
+            }
+        }
+
+        self.end.publish(Published {
+            state: out.state,
+            step: self.step,
+            missed_ticks: out.missed_ticks_total,
+            overruns: out.overruns_total,
+        });
+        Actuation {
+            duty: out.duty,
+            bridge: out.bridge,
+            feed_watchdog: out.feed_watchdog,
+            state: out.state,
+            led_on: led_on(out.state, self.step, self.rate),
+            battery_low: out.battery_low,
+            faults: out.faults,
+            event: out.event,
+            link_has_work,
+        }
+    }
+
+    /// Installs what is staged, atomically, if the robot is disarmed; hands the staging
+    /// area back either way.
+    fn install(&mut self) -> Result<(), Refused> {
+        let Some(staged) = self.end.staging.staged() else {
+            return Err(Refused::Busy);
+        };
+        let result = install(staged, &mut self.controller, &mut self.supervisor);
+        if result.is_ok() {
+            self.metrics = ErrorStats::new(self.rate);
+        }
+        self.end.staging.finish();
+        result
+    }
+
+    /// Feeds the run metrics: restarted when the robot is armed to follow the path, fed
+    /// with the controller's estimated error at every steering update while it does.
+    fn track_run(&mut self, out: &Supervised, periods: NonZeroU32) {
+        if out.event == Some(Event::Armed(RunMode::FollowPath)) {
+            self.metrics = ErrorStats::new(self.rate);
+            self.run_periods = 0;
+        }
+        if out.state != State::Armed || out.run_mode != RunMode::FollowPath {
+            return;
+        }
+        let t = self.controller.telemetry();
+        if t.steering_updated {
+            self.metrics.push(ErrorSample {
+                step: self.run_periods,
+                position_m: t.error.position_m(),
+                heading_rad: t.error.theta_e_rad,
+            });
+        }
+        self.run_periods = self.run_periods.saturating_add(periods.get());
+    }
+
+    /// The telemetry sample of this step.
+    fn telemetry_frame(&self, out: &Supervised) -> TelemetryFrame {
+        let t = self.controller.telemetry();
+        let [left, right] = self.controller.wheel_pid_parts();
+        TelemetryFrame {
+            step: self.step,
+            state: out.state,
+            run_mode: out.run_mode,
+            faults: out.faults,
+            pose: t.pose,
+            tracking_error: t.error,
+            lyapunov: t.law.lyapunov,
+            lyapunov_rate: t.law.lyapunov_rate,
+            wheel_setpoint: t.wheel_setpoint,
+            wheel_speed: t.wheel_speed,
+            duty: out.duty,
+            pid_left: pid_parts(left),
+            pid_right: pid_parts(right),
+            supply_v: t.supply_v,
+            missed_ticks: out.missed_ticks_total,
+        }
+    }
+}
+
+/// The telemetry's PID parts from the core's: the wheel loop runs in volts, so each part
+/// is a voltage, and P + I + D + FF is the armature voltage the loop asked for before
+/// the limits after the PID (see `controller_core::pid`).
+pub fn pid_parts(parts: CorePidParts) -> PidParts {
+    PidParts {
+        p_v: parts.p,
+        i_v: parts.i,
+        d_v: parts.d,
+        ff_v: parts.ff,
+    }
+}
+
+/// Installs `staged` into `controller` and `supervisor`: both change or neither. The
+/// supervisor refuses unless disarmed; the controller is rebuilt only after it accepted.
+fn install(
+    staged: &Staged,
+    controller: &mut Controller,
+    supervisor: &mut Supervisor,
+) -> Result<(), Refused> {
+    match staged {
+        Staged::Params {
+            params,
+            supervisor: config,
+        } => {
+            supervisor
+                .set_config(*config, params)
+                .map_err(set_refusal)?;
+            // Same path, law and pose; new geometry, gains and limits.
+            *controller = Controller::new(
+                *params,
+                controller.reference().clone(),
+                controller.law(),
+                controller.pose(),
+            );
+        }
+        Staged::Path(path) => {
+            let params = *controller.params();
+            supervisor
+                .set_config(path.supervisor, &params)
+                .map_err(set_refusal)?;
+            *controller = Controller::new(
+                params,
+                path.reference.clone(),
+                path.law,
+                path.supervisor.start_pose,
+            );
+        }
+    }
+    Ok(())
+}
+
+fn set_refusal(error: SupervisorSetError) -> Refused {
+    match error {
+        SupervisorSetError::NotDisarmed(state) => state_refusal(state),
+        SupervisorSetError::Invalid(_) => Refused::Invalid,
+    }
+}
+
+/// Why something that needs the robot disarmed was refused in `state`.
+const fn state_refusal(state: State) -> Refused {
+    match state {
+        State::Armed => Refused::Armed,
+        State::Faulted => Refused::Faulted,
+        State::Disarmed | State::Persisting => Refused::Busy,
+    }
+}
+
+/// The reply to a supervisor command. A command the supervisor refuses only because it is
+/// already done (clearing faults or ending persistence while disarmed) succeeds, so a
+/// host may repeat any request whose reply it lost.
+fn command_outcome(
+    command: Option<Command>,
+    result: Option<Result<(), SupervisorRefusal>>,
+) -> Result<(), Refused> {
+    match result {
+        None | Some(Ok(())) => Ok(()),
+        Some(Err(SupervisorRefusal::ButtonHeld)) => Err(Refused::ButtonHeld),
+        Some(Err(SupervisorRefusal::WrongState(State::Disarmed))) => match command {
+            Some(Command::ClearFaults | Command::EndPersist) => Ok(()),
+            _ => Err(Refused::Busy),
+        },
+        Some(Err(SupervisorRefusal::WrongState(state))) => Err(state_refusal(state)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const KHZ: NonZeroU32 = match NonZeroU32::new(1000) {
+        Some(r) => r,
+        None => NonZeroU32::MIN,
+    };
+
+    #[test]
+    fn the_led_tells_the_state() {
+        let on =
+            |state, steps: core::ops::Range<u32>| steps.filter(|&s| led_on(state, s, KHZ)).count();
+        assert_eq!(on(State::Disarmed, 0..1000), 50);
+        assert_eq!(on(State::Armed, 0..1000), 1000);
+        assert_eq!(on(State::Faulted, 0..1000), 500);
+        assert_eq!(
+            on(State::Faulted, 0..100),
+            100,
+            "on for the first 100 ms of 200"
+        );
+        assert_eq!(on(State::Persisting, 0..1000), 500);
+        // A loop too slow for the pattern's periods shows steady on, never divides by 0.
+        let one = NonZeroU32::MIN;
+        assert!(led_on(State::Faulted, 3, one));
+    }
+
+    #[test]
+    fn telemetry_is_due_at_the_rate_in_control_periods() {
+        let mut clock = TelemetryClock {
+            hz: 0,
+            period: 0,
+            since: 0,
+        };
+        let one = NonZeroU32::MIN;
+        assert!(!(0..100).any(|_| clock.due(0, KHZ, one)), "off");
+        let due: usize = (0..1000).filter(|_| clock.due(50, KHZ, one)).count();
+        assert_eq!(due, 50);
+        // A late step counts the periods it covered.
+        let three = NonZeroU32::new(3).unwrap_or(one);
+        let due: usize = (0..100).filter(|_| clock.due(100, KHZ, three)).count();
+        assert_eq!(due, 30, "one per 10 periods: 300 periods in steps of 3");
+        // Faster than the loop: every step.
+        let mut clock = TelemetryClock {
+            hz: 0,
+            period: 0,
+            since: 0,
+        };
+        let slow = NonZeroU32::new(50).unwrap_or(one);
+        assert!((0..10).all(|_| clock.due(100, slow, one)));
+    }
+
+    #[test]
+    fn repeated_commands_that_are_already_done_succeed() {
+        let wrong = |s| Some(Err(SupervisorRefusal::WrongState(s)));
+        assert_eq!(
+            command_outcome(Some(Command::ClearFaults), wrong(State::Disarmed)),
+            Ok(())
+        );
+        assert_eq!(
+            command_outcome(Some(Command::EndPersist), wrong(State::Disarmed)),
+            Ok(())
+        );
+        assert_eq!(
+            command_outcome(Some(Command::BeginPersist), wrong(State::Armed)),
+            Err(Refused::Armed)
+        );
+        assert_eq!(
+            command_outcome(Some(Command::ClearFaults), wrong(State::Armed)),
+            Err(Refused::Armed)
+        );
+        assert_eq!(
+            command_outcome(Some(Command::Heartbeat), wrong(State::Persisting)),
+            Err(Refused::Busy)
+        );
+        assert_eq!(
+            command_outcome(
+                Some(Command::Disarm),
+                Some(Err(SupervisorRefusal::ButtonHeld))
+            ),
+            Err(Refused::ButtonHeld)
+        );
+    }
+
+    #[test]
+    fn pid_parts_keep_each_part_in_its_place() {
+        let parts = pid_parts(CorePidParts {
+            p: 1.0,
+            i: 2.0,
+            d: 3.0,
+            ff: 4.0,
+        });
+        assert_eq!(
+            (parts.p_v, parts.i_v, parts.d_v, parts.ff_v),
+            (1.0, 2.0, 3.0, 4.0)
+        );
+    }
+}

@@ -1,0 +1,157 @@
+//! Checking a configuration or a committed path before it is staged, with refusals that
+//! name the field and need no float formatting.
+
+use controller_core::params::Params;
+use controller_core::reference::Reference;
+use controller_core::supervisor::{
+    geofence_radius_m, DivergenceCheck, SupervisorConfig, SupervisorConfigError,
+};
+use heapless::String;
+use link::{CommittedPath, FieldProblem, ParamSet, PathProblem, Refusal, FIELD_CAP};
+
+use crate::channel::StagedPath;
+
+/// Validates a `SetParams` configuration: the core's `Params::new` and
+/// `SupervisorConfig::validate`, and a control rate equal to the board's
+/// (`control_rate_hz`, Hz), which is fixed by its tick timer. The refusal names the
+/// field (`robot.…` or `supervisor.…`).
+pub(crate) fn check(set: &ParamSet, control_rate_hz: u32) -> Result<Params, Refusal> {
+    let params = Params::new(set.robot)
+        .map_err(|e| Refusal::InvalidParams(FieldProblem::from_param_error(&e)))?;
+    if set.robot.control_rate_hz != control_rate_hz {
+        return Err(Refusal::InvalidParams(FieldProblem::new(
+            "robot.control_rate_hz",
+            "must stay the board's control rate",
+        )));
+    }
+    set.supervisor
+        .validate(&params)
+        .map_err(|e| Refusal::InvalidParams(supervisor_problem(&e)))?;
+    Ok(params)
+}
+
+/// The field (`supervisor.<field>`) and the requirement a [`SupervisorConfigError`]
+/// breaks, without its values.
+pub fn supervisor_problem(error: &SupervisorConfigError) -> FieldProblem {
+    let requirement = error.requirement();
+    let mut field = String::<FIELD_CAP>::new();
+    for part in ["supervisor.", error.field()] {
+        // Both parts are short; a cut would only shorten the name.
+        let _ = field.push_str(part);
+    }
+    FieldProblem {
+        field,
+        problem: link::bounded(requirement),
+    }
+}
+
+/// A committed upload ready to stage: its reference (speed and mode from the upload's
+/// begin), its law, and the supervisor settings in force with the upload's start pose
+/// and, where enabled, the divergence check and geofence derived for the new path (both
+/// depend on the path and the start pose; a geofence around the old path could stop the
+/// robot on the new one).
+pub(crate) fn stage_path(
+    committed: CommittedPath,
+    active: &ParamSet,
+) -> Result<StagedPath, Refusal> {
+    let begin = committed.begin;
+    let reference = Reference::new(committed.path, begin.speed_m_s, begin.mode)
+        .map_err(|e| Refusal::InvalidPath(PathProblem::Reference(e)))?;
+    let mut supervisor: SupervisorConfig = active.supervisor;
+    supervisor.start_pose = begin.start_pose;
+    let rate = active.robot.control_rate_hz;
+    if supervisor.divergence.is_some() {
+        supervisor.divergence = Some(DivergenceCheck::for_reference(
+            &reference,
+            &supervisor.start_pose,
+            rate,
+        ));
+    }
+    if supervisor.geofence_radius_m.is_some() {
+        supervisor.geofence_radius_m =
+            Some(geofence_radius_m(reference.path(), supervisor.start_pose));
+    }
+    Ok(StagedPath {
+        reference,
+        law: begin.law,
+        supervisor,
+        summary: committed.summary,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use controller_core::kinematics::{Pose, WheelSpeeds};
+    use controller_core::params::RobotConfig;
+    use link::PROBLEM_CAP;
+
+    fn set() -> ParamSet {
+        ParamSet {
+            robot: RobotConfig::REFERENCE_ROBOT,
+            supervisor: SupervisorConfig::at_rate(1000, Pose::default(), WheelSpeeds::default()),
+        }
+    }
+
+    fn refused_field(set: &ParamSet) -> (std::string::String, std::string::String) {
+        match check(set, 1000) {
+            Err(Refusal::InvalidParams(p)) => (p.field.as_str().into(), p.problem.as_str().into()),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_valid_configuration_passes() {
+        assert!(check(&set(), 1000).is_ok());
+    }
+
+    #[test]
+    fn refusals_name_the_field() {
+        let mut bad = set();
+        bad.robot.wheel_radius_left_m = -0.03;
+        assert_eq!(
+            refused_field(&bad),
+            ("robot.wheel_radius_left_m".into(), "must be > 0".into())
+        );
+        let mut bad = set();
+        bad.supervisor.heartbeat_timeout_steps = 0;
+        assert_eq!(
+            refused_field(&bad),
+            (
+                "supervisor.heartbeat_timeout_steps".into(),
+                "must be ≥ 1".into()
+            )
+        );
+        let mut bad = set();
+        bad.robot.control_rate_hz = 500;
+        bad.robot.speed_window_steps = 40;
+        assert_eq!(refused_field(&bad).0, "robot.control_rate_hz");
+    }
+
+    #[test]
+    fn every_supervisor_requirement_fits_uncut() {
+        use SupervisorConfigError as E;
+        for e in [
+            E::NonFiniteStartPose,
+            E::NonFiniteHoldSpeeds,
+            E::BadButtonTiming,
+            E::ZeroOverrunLimit,
+            E::ZeroBackgroundTimeout,
+            E::BadMissedTickCheck,
+            E::BadStallCheck,
+            E::BadDivergenceCheck,
+            E::BadGeofence,
+            E::BadBatteryThresholds {
+                warn_v: 0.0,
+                fault_v: 0.0,
+                min_supply_v: 0.0,
+            },
+            E::ZeroHeartbeatTimeout,
+        ] {
+            let p = supervisor_problem(&e);
+            assert!(p.field.len() < FIELD_CAP, "{e:?}: {}", p.field);
+            assert!(p.problem.len() < PROBLEM_CAP, "{e:?}: {}", p.problem);
+            assert_eq!(p.field.as_str(), format!("supervisor.{}", e.field()));
+        }
+    }
+}

@@ -1,0 +1,670 @@
+//! The link side: the robot's end of the runtime link, run by a low-priority task (or the
+//! simulator's loop).
+//!
+//! [`LinkService`] decodes the host's requests from received bytes, answers what it can
+//! answer itself (`Info`, `Ping`, `GetParams`, path chunks, `SetTelemetryRate`,
+//! `GetStats`), validates configurations and paths and stages them for the control side,
+//! forwards the rest (arming, heartbeats, persistence) as [`ToControl`] requests, and
+//! turns the control side's replies, events and telemetry into frames in a bounded
+//! transmit buffer ([`TX_CAPACITY`] bytes).
+//!
+//! # Nothing but telemetry is ever dropped
+//!
+//! - Before taking another received byte, the service checks that the transmit buffer
+//!   has room for the largest frame ([`REPLY_RESERVE`]) plus [`CONTROL_REPLY_MAX`] for
+//!   every request still with the control side ([`LinkService::ready_for_input`]); if not,
+//!   the bytes wait (in the board's receive ring) until the board has sent some. So every
+//!   reply, heartbeat replies and path-chunk acknowledgements included, has room.
+//! - Events wait in the uplink ring when the buffer is short of room (they may not take
+//!   the room owed to replies); the control side counts the ones the ring could not take.
+//! - A telemetry sample is sent only if the buffer keeps that reserve afterwards; else it
+//!   is dropped and counted ([`LinkStats::telemetry_dropped`]).
+//! - A request the control side cannot take now (its queue is full, a staged install is
+//!   in flight, a flash write is in progress) is refused with [`Refusal::Busy`]; one queue
+//!   place is kept for `EmergencyStop`.
+
+mod config;
+mod persisting;
+mod tx;
+
+use controller_core::supervisor::{ArmRequest, Command, RunMode, State};
+use link::{
+    bounded, check_telemetry_rate, params_hash, ArmMode, Commit, CommitSummary, Decoder, Downlink,
+    FieldProblem, LinkStats, NotPermitted, ParamSet, PathAssembler, ProtocolId, Received, Refusal,
+    Reply, Request, RobotInfo, Stats, Uplink, MAX_FRAME_LEN,
+};
+
+use crate::channel::{
+    ControlStatus, LinkEnd, Op, OpKind, Refused, Staged, ToControl, ToLink, COMMAND_CAPACITY,
+};
+
+pub use self::config::supervisor_problem;
+pub use self::persisting::PersistJob;
+use self::persisting::PersistPhase;
+use self::tx::TxBuffer;
+pub use self::tx::TX_CAPACITY;
+
+/// Transmit-buffer room kept for the reply to the request being decoded: the largest
+/// frame.
+pub const REPLY_RESERVE: usize = MAX_FRAME_LEN;
+
+/// Largest frame the link side sends in answer to a request it forwarded to the control
+/// side (`Ack`, `ParamsApplied`, `PathCommitted`, or a short refusal), bytes on the wire;
+/// a test checks every one.
+pub const CONTROL_REPLY_MAX: usize = 48;
+
+const _: () = assert!(REPLY_RESERVE + COMMAND_CAPACITY * CONTROL_REPLY_MAX <= TX_CAPACITY);
+
+/// Bytes on the wire of the largest telemetry frame (`link::bandwidth::telemetry_wire_len`,
+/// checked by a test; a constant here so the target needs no size-counting serializer).
+pub const TELEMETRY_WIRE_LEN: usize = 128;
+
+/// Who the robot is, as [`Request::Info`] reports it. Strings longer than the link's
+/// capacities are cut.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Identity {
+    /// Firmware version, e.g. `0.1.0`.
+    pub firmware_version: &'static str,
+    /// Git commit of the build, e.g. `e39f8b3c41aa-dirty`.
+    pub git_hash: &'static str,
+    /// Chip, e.g. `STM32F411CEU6`, or the simulator's name.
+    pub chip: &'static str,
+    /// The robot's name.
+    pub robot_name: &'static str,
+}
+
+/// How the board's link is set up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LinkOptions {
+    /// UART baud rate (8N1); caps the telemetry rate.
+    pub baud: u32,
+    /// Telemetry rate at start, Hz (0: off until the host sets one); capped like a
+    /// `SetTelemetryRate`.
+    pub telemetry_hz: u8,
+    /// The board can persist parameters (see [`LinkService::persist_job`]).
+    pub storage: bool,
+}
+
+/// Figures only the board knows, for [`Request::GetStats`].
+pub trait BoardStats {
+    /// Longest control step since start, CPU cycles (0 if not measured).
+    fn max_step_cycles(&self) -> u32;
+    /// Most stack used since start, bytes (0 if not measured).
+    fn stack_high_water_bytes(&self) -> u32;
+}
+
+/// A board that measures neither (e.g. the simulator).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoBoardStats;
+
+impl BoardStats for NoBoardStats {
+    fn max_step_cycles(&self) -> u32 {
+        0
+    }
+    fn stack_high_water_bytes(&self) -> u32 {
+        0
+    }
+}
+
+/// What the link side counted (its decoder's counters are in [`LinkService::stats`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ServiceCounters {
+    /// Frames put in the transmit buffer.
+    pub frames_sent: u32,
+    /// Telemetry samples dropped because the transmit buffer had no room.
+    pub telemetry_dropped: u32,
+    /// Requests refused with `Busy` because the control side could not take them yet.
+    pub busy: u32,
+    /// Replies that found no room in the transmit buffer (the reserve makes this 0).
+    pub replies_dropped: u32,
+}
+
+/// The link side (see the module doc). Owned by the link task.
+pub struct LinkService<'a> {
+    end: LinkEnd<'a>,
+    decoder: Decoder,
+    uploads: PathAssembler,
+    tx: TxBuffer,
+    identity: Identity,
+    /// The configuration in force (the control side confirmed it).
+    active: ParamSet,
+    active_hash: u32,
+    /// The path installed by the last confirmed commit (None: the board's own).
+    active_path: Option<CommitSummary>,
+    max_telemetry_hz: u8,
+    storage: bool,
+    /// Requests forwarded to the control side and not answered yet.
+    in_flight: usize,
+    persist: PersistPhase,
+    counters: ServiceCounters,
+}
+
+impl<'a> LinkService<'a> {
+    /// The link side talking to the control side through `end`, with `active` the
+    /// configuration the control side was built with. [`crate::start`] builds both sides
+    /// from one configuration.
+    pub fn new(
+        end: LinkEnd<'a>,
+        identity: Identity,
+        active: ParamSet,
+        options: LinkOptions,
+    ) -> Self {
+        let max_telemetry_hz = max_telemetry_rate_hz(options.baud);
+        end.set_telemetry_hz(options.telemetry_hz.min(max_telemetry_hz));
+        Self {
+            end,
+            decoder: Decoder::new(),
+            uploads: PathAssembler::new(),
+            tx: TxBuffer::new(),
+            identity,
+            active,
+            active_hash: params_hash(&active),
+            active_path: None,
+            max_telemetry_hz,
+            storage: options.storage,
+            in_flight: 0,
+            persist: PersistPhase::Idle,
+            counters: ServiceCounters::default(),
+        }
+    }
+
+    /// The configuration in force.
+    pub const fn active_params(&self) -> &ParamSet {
+        &self.active
+    }
+
+    /// The fastest telemetry rate accepted at this baud rate, Hz.
+    pub const fn max_telemetry_hz(&self) -> u8 {
+        self.max_telemetry_hz
+    }
+
+    /// What the link side counted.
+    pub const fn counters(&self) -> ServiceCounters {
+        self.counters
+    }
+
+    /// The control side's state and counters as last published.
+    pub fn control_status(&self) -> ControlStatus {
+        self.end.control_status()
+    }
+
+    /// The statistics `GetStats` reports, with the board's figures from `board`.
+    pub fn stats<B: BoardStats + ?Sized>(&self, board: &B) -> Stats {
+        let control = self.end.control_status();
+        Stats {
+            max_step_cycles: board.max_step_cycles(),
+            missed_ticks: control.missed_ticks,
+            overruns: control.overruns,
+            stack_high_water_bytes: board.stack_high_water_bytes(),
+            link: LinkStats {
+                received: self.decoder.counters(),
+                frames_sent: self.counters.frames_sent,
+                telemetry_dropped: self
+                    .counters
+                    .telemetry_dropped
+                    .wrapping_add(control.telemetry_dropped),
+            },
+        }
+    }
+
+    /// True when the transmit buffer has room for the replies owed and the reply to one
+    /// more request: only then take another received byte.
+    pub fn ready_for_input(&self) -> bool {
+        self.tx.free() >= self.reply_room_owed()
+    }
+
+    /// Takes one received byte; a byte that completes a request is acted on at once.
+    /// Call only while [`LinkService::ready_for_input`] (a byte taken anyway is decoded,
+    /// and a reply that then finds no room is counted in
+    /// [`ServiceCounters::replies_dropped`]).
+    pub fn receive_byte<B: BoardStats + ?Sized>(&mut self, byte: u8, board: &B) {
+        match self.decoder.push::<Downlink>(byte) {
+            Some(Ok(Received::Message(Downlink { seq, request }))) => {
+                self.handle(seq, request, board);
+            }
+            Some(Ok(Received::Mismatch(id))) => {
+                self.send_reply(&Uplink::VersionMismatch { received: id });
+            }
+            // Dropped frames are counted by the decoder.
+            Some(Err(_)) | None => {}
+        }
+    }
+
+    /// Takes received bytes from the front of `bytes` while
+    /// [`LinkService::ready_for_input`]; returns how many it took (keep the rest for
+    /// later).
+    pub fn receive<B: BoardStats + ?Sized>(&mut self, bytes: &[u8], board: &B) -> usize {
+        let mut taken = 0;
+        for &byte in bytes {
+            if !self.ready_for_input() {
+                break;
+            }
+            self.receive_byte(byte, board);
+            taken += 1;
+        }
+        taken
+    }
+
+    /// Turns what the control side queued (replies, events, telemetry) into frames, and
+    /// resumes a persistence that waits for room in the command queue. Call it whenever
+    /// the control side reports [`Actuation::link_has_work`](crate::Actuation), and after
+    /// sending frees room.
+    pub fn poll(&mut self) {
+        while let Some(&item) = self.end.uplink.peek() {
+            if let ToLink::Event { step, event } = item {
+                let message = Uplink::Event { step, event };
+                if !self.tx.append(&message, self.reply_room_owed_by_control()) {
+                    break; // waits in the ring until frames have gone out
+                }
+                self.counters.frames_sent = self.counters.frames_sent.wrapping_add(1);
+            }
+            let _ = self.end.uplink.pop();
+            if let ToLink::Reply { seq, op, result } = item {
+                self.in_flight = self.in_flight.saturating_sub(1);
+                self.complete(seq, op, result);
+            }
+        }
+        self.resume_persist();
+        if let Some(sample) = self.end.telemetry.pop() {
+            if self
+                .tx
+                .append(&Uplink::Telemetry(sample), self.reply_room_owed())
+            {
+                self.counters.frames_sent = self.counters.frames_sent.wrapping_add(1);
+            } else {
+                self.counters.telemetry_dropped = self.counters.telemetry_dropped.wrapping_add(1);
+            }
+        }
+    }
+
+    /// The bytes to send, oldest first. They stay in place until
+    /// [`LinkService::consume`], so a DMA transfer may read them meanwhile.
+    pub fn outgoing(&self) -> &[u8] {
+        self.tx.pending()
+    }
+
+    /// The board has sent the first `sent` bytes of [`LinkService::outgoing`].
+    pub fn consume(&mut self, sent: usize) {
+        self.tx.consume(sent);
+    }
+
+    /// Transmit-buffer room owed to replies: one more request's, and the control side's
+    /// for every request it still has.
+    fn reply_room_owed(&self) -> usize {
+        REPLY_RESERVE.saturating_add(self.reply_room_owed_by_control())
+    }
+
+    fn reply_room_owed_by_control(&self) -> usize {
+        self.in_flight.saturating_mul(CONTROL_REPLY_MAX)
+    }
+
+    /// Acts on one request; every request gets exactly one reply, now or when the control
+    /// side has answered.
+    fn handle<B: BoardStats + ?Sized>(&mut self, seq: u16, request: Request, board: &B) {
+        let now = match request {
+            Request::Info => Some(Ok(Reply::Info(self.info()))),
+            Request::Ping { nonce } => Some(Ok(Reply::Pong { nonce })),
+            Request::GetParams => Some(Ok(Reply::Params(self.active))),
+            Request::SetParams(set) => self.set_params(seq, &set),
+            Request::PersistParams => self.persist_params(seq),
+            Request::PathBegin(begin) => Some(
+                self.refuse_if_armed()
+                    .and_then(|()| self.uploads.begin(&begin)),
+            ),
+            Request::PathChunk(chunk) => Some(self.uploads.chunk(&chunk)),
+            Request::PathCommit(commit) => self.path_commit(seq, &commit),
+            Request::Arm {
+                mode,
+                initial_motion,
+            } => match arm_request(mode, initial_motion) {
+                Ok(arm) => self.forward(seq, Op::Command(Command::Arm(arm))),
+                Err(refusal) => Some(Err(refusal)),
+            },
+            Request::Disarm => self.forward(seq, Op::Command(Command::Disarm)),
+            Request::EmergencyStop => self.forward(seq, Op::Command(Command::EmergencyStop)),
+            Request::ClearFaults => self.forward(seq, Op::Command(Command::ClearFaults)),
+            Request::Heartbeat => self.forward(seq, Op::Command(Command::Heartbeat)),
+            Request::SetTelemetryRate { hz } => Some(self.set_telemetry_rate(hz)),
+            Request::GetStats => Some(Ok(Reply::Stats(self.stats(board)))),
+        };
+        if let Some(result) = now {
+            self.send_reply(&Uplink::Reply { seq, result });
+        }
+    }
+
+    fn info(&self) -> RobotInfo {
+        let id = &self.identity;
+        RobotInfo {
+            protocol: ProtocolId::OURS,
+            firmware_version: bounded(id.firmware_version),
+            git_hash: bounded(id.git_hash),
+            chip: bounded(id.chip),
+            robot_name: bounded(id.robot_name),
+            params_hash: self.active_hash,
+        }
+    }
+
+    fn set_telemetry_rate(&mut self, hz: u8) -> Result<Reply, Refusal> {
+        let hz = check_telemetry_rate(hz)?;
+        if hz > self.max_telemetry_hz {
+            return Err(Refusal::InvalidArgument(FieldProblem::new(
+                "hz",
+                "is more than this baud rate carries",
+            )));
+        }
+        self.end.set_telemetry_hz(hz);
+        Ok(Reply::Ack)
+    }
+
+    /// The last state the control side published.
+    fn state(&self) -> Option<State> {
+        self.end.control_status().state
+    }
+
+    /// `Armed` while the robot is armed (as last published; the control side checks
+    /// again when it acts).
+    fn refuse_if_armed(&self) -> Result<(), Refusal> {
+        if self.state() == Some(State::Armed) {
+            Err(Refusal::Armed)
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Queue places a request needs: all but the last, which is kept for
+    /// `EmergencyStop`.
+    fn queue_has_room(&self, op: &Op) -> bool {
+        let needed = match op {
+            Op::Command(Command::EmergencyStop) => 1,
+            _ => 2,
+        };
+        self.end.commands.free() >= needed
+    }
+
+    /// Hands `op` to the control side (its reply comes through [`LinkService::poll`]), or
+    /// refuses with `Busy` when the queue is full.
+    fn forward(&mut self, seq: u16, op: Op) -> Option<Result<Reply, Refusal>> {
+        if !self.queue_has_room(&op) || self.end.commands.push(ToControl { seq, op }).is_err() {
+            return Some(Err(self.busy()));
+        }
+        self.in_flight = self.in_flight.saturating_add(1);
+        None
+    }
+
+    fn busy(&mut self) -> Refusal {
+        self.counters.busy = self.counters.busy.wrapping_add(1);
+        Refusal::Busy
+    }
+
+    /// Checks that an install can be staged and forwarded now.
+    fn ready_to_install(&mut self) -> Result<(), Refusal> {
+        self.refuse_if_armed()?;
+        if !self.end.staging.is_empty() || !self.queue_has_room(&Op::Install) {
+            return Err(self.busy());
+        }
+        Ok(())
+    }
+
+    /// Stages `staged` and asks the control side to install it. Called only after
+    /// [`LinkService::ready_to_install`]: the mailbox is empty and the queue has room,
+    /// and only this side fills either, so neither step can fail here (a staged item
+    /// without its `Install` would block the mailbox).
+    fn install(&mut self, seq: u16, staged: Staged) -> Option<Result<Reply, Refusal>> {
+        if self.end.staging.stage(staged).is_err() {
+            return Some(Err(self.busy()));
+        }
+        self.forward(seq, Op::Install)
+    }
+
+    fn path_commit(
+        &mut self,
+        seq: u16,
+        commit: &link::PathCommit,
+    ) -> Option<Result<Reply, Refusal>> {
+        // Before the assembler closes the upload: a refusal here leaves it open.
+        if let Err(refusal) = self.ready_to_install() {
+            return Some(Err(refusal));
+        }
+        let committed = match self.uploads.commit(commit) {
+            Ok(Commit::New(committed)) => committed,
+            Ok(Commit::Repeated(summary)) if self.active_path == Some(summary) => {
+                return Some(Ok(Reply::PathCommitted(summary)));
+            }
+            // A repeat of a commit that never became active (the control side refused
+            // it): its segments are gone, the host must upload again.
+            Ok(Commit::Repeated(summary)) => {
+                return Some(Err(Refusal::UnknownUpload {
+                    upload_id: summary.upload_id,
+                }));
+            }
+            Err(refusal) => return Some(Err(refusal)),
+        };
+        match config::stage_path(committed, &self.active) {
+            Ok(staged) => self.install(seq, Staged::Path(staged)),
+            Err(refusal) => Some(Err(refusal)),
+        }
+    }
+
+    fn set_params(&mut self, seq: u16, set: &ParamSet) -> Option<Result<Reply, Refusal>> {
+        if let Err(refusal) = self.ready_to_install() {
+            return Some(Err(refusal));
+        }
+        match config::check(set, self.active.robot.control_rate_hz) {
+            Ok(params) => self.install(
+                seq,
+                Staged::Params {
+                    params,
+                    supervisor: set.supervisor,
+                },
+            ),
+            Err(refusal) => Some(Err(refusal)),
+        }
+    }
+
+    /// The control side answered the request `seq`.
+    fn complete(&mut self, seq: u16, op: OpKind, result: Result<(), Refused>) {
+        let reply = match op {
+            OpKind::Command => Some(result.map(|()| Reply::Ack).map_err(refusal)),
+            OpKind::Install => Some(self.installed(result)),
+            OpKind::BeginPersist => self.persist_started(seq, result),
+            OpKind::EndPersist => self.persist_ended(),
+        };
+        if let Some(result) = reply {
+            self.send_reply(&Uplink::Reply { seq, result });
+        }
+    }
+
+    /// The control side installed (or refused) what was staged: update the active
+    /// configuration, empty the staging area, and say what is now active.
+    fn installed(&mut self, result: Result<(), Refused>) -> Result<Reply, Refusal> {
+        let reply = match (result, self.end.staging.done()) {
+            (Err(refused), _) => Err(refusal(refused)),
+            (Ok(()), None) => Err(Refusal::Busy),
+            (Ok(()), Some(Staged::Params { params, supervisor })) => {
+                self.active = ParamSet {
+                    robot: *params.config(),
+                    supervisor: *supervisor,
+                };
+                self.active_hash = params_hash(&self.active);
+                Ok(Reply::ParamsApplied {
+                    params_hash: self.active_hash,
+                })
+            }
+            (Ok(()), Some(Staged::Path(path))) => {
+                self.active.supervisor = path.supervisor;
+                self.active_hash = params_hash(&self.active);
+                self.active_path = Some(path.summary);
+                Ok(Reply::PathCommitted(path.summary))
+            }
+        };
+        self.end.staging.clear();
+        reply
+    }
+
+    /// Appends a reply (room is reserved for it; counted if there was none).
+    fn send_reply(&mut self, message: &Uplink) {
+        if self.tx.append(message, 0) {
+            self.counters.frames_sent = self.counters.frames_sent.wrapping_add(1);
+        } else {
+            self.counters.replies_dropped = self.counters.replies_dropped.wrapping_add(1);
+        }
+    }
+}
+
+/// The supervisor's arm request for the link's `Arm`.
+fn arm_request(
+    mode: ArmMode,
+    initial_motion: Option<controller_core::kinematics::BodyVelocity>,
+) -> Result<ArmRequest, Refusal> {
+    let (mode, hold_speeds) = match mode {
+        ArmMode::FollowPath => (RunMode::FollowPath, None),
+        ArmMode::HoldWheelSpeeds(speeds) => (RunMode::HoldWheelSpeeds, Some(speeds)),
+        ArmMode::Tune => return Err(Refusal::NotPermitted(NotPermitted::Unsupported)),
+    };
+    Ok(ArmRequest {
+        mode,
+        hold_speeds,
+        initial_motion,
+    })
+}
+
+/// The link's refusal for the control side's.
+fn refusal(refused: Refused) -> Refusal {
+    match refused {
+        Refused::Armed => Refusal::Armed,
+        Refused::Faulted => Refusal::Faulted,
+        Refused::Busy => Refusal::Busy,
+        Refused::ButtonHeld => Refusal::NotPermitted(NotPermitted::ButtonHeld),
+        Refused::Invalid => Refusal::InvalidParams(FieldProblem {
+            field: link::bounded("supervisor"),
+            problem: link::bounded("is not valid"),
+        }),
+    }
+}
+
+/// The fastest telemetry rate a UART at `baud` (8N1) carries with the link's default
+/// reserve, Hz, capped to 100 Hz: `link::max_telemetry_rate_hz` in 32-bit arithmetic
+/// (the link's 64-bit division costs the target about 0.9 KiB of flash for one division;
+/// a test checks both agree).
+pub fn max_telemetry_rate_hz(baud: u32) -> u8 {
+    const KEPT_PERCENT: u32 = 100 - link::bandwidth::DEFAULT_RESERVED_PERCENT as u32;
+    let bytes_per_s = baud / link::bandwidth::BITS_PER_BYTE_8N1;
+    // ⌊bytes_per_s · kept / 100⌋ exactly, without overflowing 32 bits.
+    let usable = bytes_per_s / 100 * KEPT_PERCENT + bytes_per_s % 100 * KEPT_PERCENT / 100;
+    let rate = usable / TELEMETRY_WIRE_LEN as u32;
+    let max = *link::TELEMETRY_RATE_HZ.end();
+    u8::try_from(rate).map_or(max, |r| r.min(max))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use link::{CommitSummary, RxCounters};
+
+    fn wire_len(message: &Uplink) -> usize {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        link::encode(message, &mut buf).unwrap_or(usize::MAX)
+    }
+
+    #[test]
+    fn the_telemetry_frame_length_is_the_links() {
+        assert_eq!(TELEMETRY_WIRE_LEN, link::bandwidth::telemetry_wire_len());
+        for baud in [
+            0,
+            1_200,
+            9_600,
+            57_600,
+            115_200,
+            230_400,
+            460_800,
+            921_600,
+            3_000_000,
+            u32::MAX,
+        ] {
+            assert_eq!(
+                max_telemetry_rate_hz(baud),
+                link::max_telemetry_rate_hz(baud, link::bandwidth::DEFAULT_RESERVED_PERCENT),
+                "{baud} baud"
+            );
+        }
+    }
+
+    #[test]
+    fn every_reply_to_a_forwarded_request_fits_its_reserve() {
+        let summary = CommitSummary {
+            upload_id: u16::MAX,
+            segment_count: u8::MAX,
+            checksum: u32::MAX,
+            length_m: f32::MAX,
+            closed: true,
+        };
+        let mut results = vec![
+            Ok(Reply::Ack),
+            Ok(Reply::ParamsApplied {
+                params_hash: u32::MAX,
+            }),
+            Ok(Reply::PathCommitted(summary)),
+        ];
+        for refused in [
+            Refused::Armed,
+            Refused::Faulted,
+            Refused::Busy,
+            Refused::ButtonHeld,
+            Refused::Invalid,
+        ] {
+            results.push(Err(refusal(refused)));
+        }
+        results.push(Err(Refusal::NotPermitted(NotPermitted::StorageFailed)));
+        for result in results {
+            let message = Uplink::Reply {
+                seq: u16::MAX,
+                result,
+            };
+            let len = wire_len(&message);
+            assert!(len <= CONTROL_REPLY_MAX, "{len} B: {message:?}");
+        }
+    }
+
+    #[test]
+    fn stats_fit_a_reply_frame() {
+        let stats = Stats {
+            max_step_cycles: u32::MAX,
+            missed_ticks: u32::MAX,
+            overruns: u32::MAX,
+            stack_high_water_bytes: u32::MAX,
+            link: LinkStats {
+                received: RxCounters {
+                    frames_ok: u32::MAX,
+                    crc_errors: u32::MAX,
+                    format_errors: u32::MAX,
+                    overflows: u32::MAX,
+                    mismatches: u32::MAX,
+                    decode_errors: u32::MAX,
+                },
+                frames_sent: u32::MAX,
+                telemetry_dropped: u32::MAX,
+            },
+        };
+        let len = wire_len(&Uplink::Reply {
+            seq: u16::MAX,
+            result: Ok(Reply::Stats(stats)),
+        });
+        assert!(len <= REPLY_RESERVE, "{len}");
+    }
+
+    #[test]
+    fn arm_modes_map_to_the_supervisors() {
+        let speeds = controller_core::kinematics::WheelSpeeds::new(2.0, -1.0);
+        let hold = arm_request(ArmMode::HoldWheelSpeeds(speeds), None);
+        assert_eq!(
+            hold.map(|a| (a.mode, a.hold_speeds)),
+            Ok((RunMode::HoldWheelSpeeds, Some(speeds)))
+        );
+        let follow = arm_request(ArmMode::FollowPath, None);
+        assert_eq!(follow.map(|a| a.mode), Ok(RunMode::FollowPath));
+        assert_eq!(
+            arm_request(ArmMode::Tune, None),
+            Err(Refusal::NotPermitted(NotPermitted::Unsupported))
+        );
+    }
+}

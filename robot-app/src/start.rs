@@ -1,0 +1,150 @@
+//! Building both sides from one configuration.
+
+use core::fmt;
+
+use controller_core::controller::Controller;
+use controller_core::law::LawKind;
+use controller_core::params::{ParamError, Params};
+use controller_core::reference::Reference;
+use controller_core::supervisor::{ResetCause, Supervisor, SupervisorConfigError};
+use link::{FieldProblem, ParamSet};
+
+use crate::channel::Channels;
+use crate::control::ControlSide;
+use crate::service::{Identity, LinkOptions, LinkService};
+
+/// Everything the board decides at start.
+#[derive(Clone, Debug)]
+pub struct AppConfig {
+    /// The robot configuration and supervisor settings (persisted ones, or the board's
+    /// defaults). The supervisor's `start_pose` is the controller's starting pose.
+    pub params: ParamSet,
+    /// The path to follow until the host commits another, its speed and mode.
+    pub reference: Reference,
+    /// The steering law.
+    pub law: LawKind,
+    /// Why the chip last reset (auto-arm only after a power-on or pin reset).
+    pub reset: ResetCause,
+    /// Who the robot is, for `Info`.
+    pub identity: Identity,
+    /// The link's baud rate, telemetry rate and storage.
+    pub link: LinkOptions,
+}
+
+/// Why the sides could not be built.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StartError {
+    /// The robot configuration fails `Params::new`.
+    Robot(ParamError),
+    /// The supervisor settings fail `SupervisorConfig::validate`.
+    Supervisor(SupervisorConfigError),
+}
+
+impl fmt::Display for StartError {
+    /// The field and its requirement, no values (no float formatting).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let problem = match self {
+            StartError::Robot(e) => FieldProblem::from_param_error(e),
+            StartError::Supervisor(e) => crate::service::supervisor_problem(e),
+        };
+        write!(f, "{problem}")
+    }
+}
+
+/// The control side and the link side for `config`, talking through `channels`: the
+/// controller (in `Idle`) at the supervisor's start pose on `config.reference`, the
+/// supervisor `Disarmed`, and a link side that knows the same configuration.
+pub fn start(
+    channels: &mut Channels,
+    config: AppConfig,
+) -> Result<(ControlSide<'_>, LinkService<'_>), StartError> {
+    let params = Params::new(config.params.robot).map_err(StartError::Robot)?;
+    let supervisor_config = config.params.supervisor;
+    let supervisor = Supervisor::new(supervisor_config, &params, config.reset)
+        .map_err(StartError::Supervisor)?;
+    let controller = Controller::new(
+        params,
+        config.reference,
+        config.law,
+        supervisor_config.start_pose,
+    );
+    let (link_end, control_end) = channels.split();
+    Ok((
+        ControlSide::new(control_end, controller, supervisor),
+        LinkService::new(link_end, config.identity, config.params, config.link),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn movable_between_contexts<T: Send>() {}
+
+    /// RTIC moves each side into its task's resources: both must be `Send`.
+    #[test]
+    fn both_sides_can_move_to_their_tasks() {
+        movable_between_contexts::<ControlSide<'static>>();
+        movable_between_contexts::<LinkService<'static>>();
+        movable_between_contexts::<crate::ControlEnd<'static>>();
+        movable_between_contexts::<crate::LinkEnd<'static>>();
+    }
+
+    #[test]
+    fn an_invalid_configuration_names_its_field() {
+        use controller_core::kinematics::{Point, Pose, WheelSpeeds};
+        use controller_core::params::RobotConfig;
+        use controller_core::path::Path;
+        use controller_core::reference::ReferenceMode;
+        use controller_core::supervisor::SupervisorConfig;
+
+        let line = Path::line(Point::new(0.0, 0.0), 0.0, 1.0).expect("a line");
+        let mut robot = RobotConfig::REFERENCE_ROBOT;
+        robot.track_width_m = 0.0;
+        let config = AppConfig {
+            params: ParamSet {
+                robot,
+                supervisor: SupervisorConfig::at_rate(
+                    1000,
+                    Pose::default(),
+                    WheelSpeeds::default(),
+                ),
+            },
+            reference: Reference::new(
+                line,
+                0.2,
+                ReferenceMode::TimeIndexed {
+                    start_offset_m: 0.0,
+                },
+            )
+            .expect("a reference"),
+            law: LawKind::Tracking,
+            reset: ResetCause::PowerOn,
+            identity: Identity {
+                firmware_version: "",
+                git_hash: "",
+                chip: "",
+                robot_name: "",
+            },
+            link: LinkOptions {
+                baud: 115_200,
+                telemetry_hz: 0,
+                storage: false,
+            },
+        };
+        let mut channels = Channels::new();
+        let error = start(&mut channels, config.clone()).err();
+        assert_eq!(
+            error.map(|e| e.to_string()),
+            Some("robot.track_width_m must be > 0".into())
+        );
+        let mut config = config;
+        config.params.robot = RobotConfig::REFERENCE_ROBOT;
+        config.params.supervisor.heartbeat_timeout_steps = 0;
+        let error = start(&mut channels, config).err();
+        assert_eq!(
+            error.map(|e| e.to_string()),
+            Some("supervisor.heartbeat_timeout_steps must be ≥ 1".into())
+        );
+    }
+}

@@ -1,0 +1,329 @@
+//! The link service against the host's end of the protocol, on the fake board: framing,
+//! requests answered by the link side, configuration changes, hostile bytes, back
+//! pressure.
+
+mod support;
+
+use controller_core::supervisor::{Event, RunMode, State};
+use link::{
+    encode_raw, params_hash, ArmMode, FieldProblem, NotPermitted, ProtocolId, Refusal, Reply,
+    Request, Uplink, PROTOCOL_VERSION,
+};
+use robot_app::{service::TX_CAPACITY, Channels};
+use support::{default_params, Rig, IDENTITY};
+
+const BAUD: u32 = 921_600;
+
+#[test]
+fn requests_in_random_chunks_get_their_replies() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    // Many requests back to back, fed to the robot in random-size chunks.
+    let seqs: Vec<u16> = (0..40)
+        .map(|i| rig.send(Request::Ping { nonce: 1000 + i }))
+        .collect();
+    rig.run(50);
+    for (i, &seq) in seqs.iter().enumerate() {
+        assert_eq!(
+            rig.reply(seq),
+            Some(Ok(Reply::Pong {
+                nonce: 1000 + i as u32
+            }))
+        );
+        assert_eq!(rig.replies_to(seq), 1, "exactly one reply");
+    }
+}
+
+#[test]
+fn info_names_the_robot_and_its_parameters() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    let Ok(Reply::Info(info)) = rig.ask(Request::Info) else {
+        panic!("no info");
+    };
+    assert_eq!(info.protocol, ProtocolId::OURS);
+    assert_eq!(info.firmware_version.as_str(), IDENTITY.firmware_version);
+    assert_eq!(info.git_hash.as_str(), IDENTITY.git_hash);
+    assert_eq!(info.chip.as_str(), IDENTITY.chip);
+    assert_eq!(info.robot_name.as_str(), IDENTITY.robot_name);
+    assert_eq!(info.params_hash, params_hash(&default_params()));
+    assert_eq!(
+        rig.ask(Request::GetParams),
+        Ok(Reply::Params(default_params()))
+    );
+}
+
+#[test]
+fn corrupted_bytes_never_panic_and_are_counted() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    let mut frame = Vec::new();
+    for nonce in 0..20u32 {
+        let seq = rig.fresh_seq();
+        let start = rig.to_robot.len();
+        rig.send_with_seq(seq, Request::Ping { nonce });
+        // Corrupt one byte inside every other frame (never the delimiter).
+        if nonce % 2 == 0 {
+            let len = rig.to_robot.len() - start;
+            let at = start + rig.rng.range(0, len - 2);
+            rig.to_robot[at] = rig.to_robot[at].wrapping_add(1).max(1);
+        }
+        frame.push(seq);
+    }
+    // And noise: random non-zero bytes, then a delimiter.
+    for _ in 0..300 {
+        let b = (rig.rng.next() as u8).max(1);
+        rig.to_robot.push(b);
+    }
+    rig.to_robot.push(0);
+    rig.run(30);
+    for (i, &seq) in frame.iter().enumerate() {
+        let got = rig.reply(seq);
+        if i % 2 == 0 {
+            assert_eq!(got, None, "a corrupted frame is not acted on");
+        } else {
+            assert_eq!(got, Some(Ok(Reply::Pong { nonce: i as u32 })));
+        }
+    }
+    let Ok(Reply::Stats(stats)) = rig.ask(Request::GetStats) else {
+        panic!("no stats");
+    };
+    let rx = stats.link.received;
+    assert_eq!(rx.frames_ok, 11, "10 good pings and this GetStats");
+    assert!(
+        rx.dropped() >= 11,
+        "10 corrupted frames and the noise: {rx:?}"
+    );
+    assert_eq!(
+        rx.dropped(),
+        rx.crc_errors + rx.format_errors + rx.overflows
+    );
+}
+
+#[test]
+fn a_frame_of_another_protocol_gets_version_mismatch() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    let theirs = ProtocolId {
+        version: PROTOCOL_VERSION + 1,
+        schema_hash: 0xdead_beef,
+    };
+    let mut frame = [0u8; 64];
+    let len = encode_raw(theirs, &[1, 2, 3], &mut frame).expect("fits");
+    rig.to_robot.extend_from_slice(&frame[..len]);
+    rig.run(3);
+    assert!(rig
+        .received
+        .contains(&Uplink::VersionMismatch { received: theirs }));
+}
+
+#[test]
+fn set_params_applies_a_valid_configuration_atomically() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    let mut new = default_params();
+    new.robot.track_width_m = 0.16;
+    new.robot.wheel_radius_right_m = 0.033;
+    new.supervisor.heartbeat_timeout_steps = 250;
+    assert_eq!(
+        rig.ask(Request::SetParams(new)),
+        Ok(Reply::ParamsApplied {
+            params_hash: params_hash(&new)
+        })
+    );
+    // The control side uses it: the controller's geometry and the supervisor's settings.
+    let controller = rig.control.controller();
+    assert_eq!(controller.params().config().track_width_m, 0.16);
+    assert_eq!(controller.params().geometry().wheel_radius_right_m(), 0.033);
+    assert_eq!(
+        rig.control.supervisor().config().heartbeat_timeout_steps,
+        250
+    );
+    // The link side reports it.
+    assert_eq!(rig.ask(Request::GetParams), Ok(Reply::Params(new)));
+    let Ok(Reply::Info(info)) = rig.ask(Request::Info) else {
+        panic!("no info");
+    };
+    assert_eq!(info.params_hash, params_hash(&new));
+}
+
+#[test]
+fn invalid_params_are_refused_naming_the_field_and_change_nothing() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    let mut bad = default_params();
+    bad.robot.wheel_radius_left_m = -0.03;
+    assert_eq!(
+        rig.ask(Request::SetParams(bad)),
+        Err(Refusal::InvalidParams(FieldProblem::new(
+            "robot.wheel_radius_left_m",
+            "must be > 0"
+        )))
+    );
+    let mut bad = default_params();
+    bad.supervisor.battery.fault_v = 4.0; // below the bridge's 4.5 V minimum
+    assert_eq!(
+        rig.ask(Request::SetParams(bad)),
+        Err(Refusal::InvalidParams(FieldProblem::new(
+            "supervisor.battery",
+            "needs min supply ≤ fault_v ≤ warn_v"
+        )))
+    );
+    assert_eq!(
+        rig.ask(Request::GetParams),
+        Ok(Reply::Params(default_params()))
+    );
+}
+
+#[test]
+fn set_params_while_armed_is_refused_and_nothing_changes() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    rig.heartbeat_every = Some(100);
+    let arm = Request::Arm {
+        mode: ArmMode::HoldWheelSpeeds(controller_core::kinematics::WheelSpeeds::new(3.0, 3.0)),
+        initial_motion: None,
+    };
+    assert_eq!(rig.ask(arm), Ok(Reply::Ack));
+    assert_eq!(rig.last.map(|a| a.state), Some(State::Armed));
+    let before = *rig.control.controller().params();
+    let mut new = default_params();
+    new.robot.track_width_m = 0.2;
+    assert_eq!(rig.ask(Request::SetParams(new)), Err(Refusal::Armed));
+    assert_eq!(*rig.control.controller().params(), before);
+    assert_eq!(
+        rig.ask(Request::GetParams),
+        Ok(Reply::Params(default_params()))
+    );
+    assert!(rig
+        .events()
+        .contains(&Event::Armed(RunMode::HoldWheelSpeeds)));
+    // Disarmed, the same request is applied.
+    assert_eq!(rig.ask(Request::Disarm), Ok(Reply::Ack));
+    assert_eq!(
+        rig.ask(Request::SetParams(new)),
+        Ok(Reply::ParamsApplied {
+            params_hash: params_hash(&new)
+        })
+    );
+}
+
+#[test]
+fn the_telemetry_rate_is_checked_against_the_baud_rate() {
+    let mut channels = Channels::new();
+    // 115 200 baud carries 63 telemetry frames a second with 30 % kept free.
+    let mut rig = Rig::new(&mut channels, 115_200, false);
+    assert_eq!(rig.link.max_telemetry_hz(), 63);
+    for hz in [0u8, 64, 101] {
+        assert!(
+            matches!(
+                rig.ask(Request::SetTelemetryRate { hz }),
+                Err(Refusal::InvalidArgument(FieldProblem { ref field, .. })) if field == "hz"
+            ),
+            "{hz} Hz"
+        );
+    }
+    assert_eq!(
+        rig.ask(Request::SetTelemetryRate { hz: 50 }),
+        Ok(Reply::Ack)
+    );
+    let before = rig.telemetry().len();
+    rig.run(1000);
+    let samples = rig.telemetry();
+    assert_eq!(samples.len() - before, 50, "50 samples in one second");
+    // Samples are 20 steps apart and carry the step, the state and the supply.
+    let last = samples[samples.len() - 1];
+    let previous = samples[samples.len() - 2];
+    assert_eq!(last.step - previous.step, 20);
+    assert_eq!(last.state, State::Disarmed);
+    assert!((last.supply_v - support::SUPPLY_V).abs() < 0.01);
+}
+
+#[test]
+fn telemetry_is_dropped_when_the_line_is_stalled_but_replies_are_not() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    assert_eq!(
+        rig.ask(Request::SetTelemetryRate { hz: 100 }),
+        Ok(Reply::Ack)
+    );
+    rig.tx_paused = true;
+    rig.run(300); // 30 samples; the stalled buffer takes only the first few
+    let queued = rig.link.outgoing().len();
+    assert!(queued > 0 && queued <= TX_CAPACITY);
+    assert!(rig.link.counters().telemetry_dropped > 20);
+    // Requests still get replies: a ping answered by the link side, a heartbeat answered
+    // by the control side, a chunk acknowledged (refused: no upload).
+    let ping = rig.send(Request::Ping { nonce: 5 });
+    let heartbeat = rig.send(Request::Heartbeat);
+    let chunk = rig.send(Request::PathChunk(link::PathChunk {
+        upload_id: 9,
+        first_index: 0,
+        segments: heapless::Vec::new(),
+    }));
+    rig.run(50);
+    rig.tx_paused = false;
+    rig.run(5);
+    assert_eq!(rig.reply(ping), Some(Ok(Reply::Pong { nonce: 5 })));
+    assert_eq!(rig.reply(heartbeat), Some(Ok(Reply::Ack)));
+    assert_eq!(
+        rig.reply(chunk),
+        Some(Err(Refusal::UnknownUpload { upload_id: 9 }))
+    );
+    assert_eq!(rig.link.counters().replies_dropped, 0);
+    let Ok(Reply::Stats(stats)) = rig.ask(Request::GetStats) else {
+        panic!("no stats");
+    };
+    assert!(stats.link.telemetry_dropped >= rig.link.counters().telemetry_dropped);
+    // Counted before its own reply (and the telemetry after it) went out.
+    assert!(stats.link.frames_sent < rig.link.counters().frames_sent);
+    assert!(
+        stats.link.frames_sent >= 5,
+        "rate ack, a sample, pong, refusal, heartbeat ack"
+    );
+}
+
+#[test]
+fn a_full_command_queue_answers_busy_but_keeps_room_for_an_emergency_stop() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    // Requests straight into the link side, with no control step in between.
+    let mut seqs = Vec::new();
+    for _ in 0..4 {
+        let seq = rig.send(Request::Heartbeat);
+        seqs.push(seq);
+    }
+    let stop = rig.send(Request::EmergencyStop);
+    let bytes = std::mem::take(&mut rig.to_robot);
+    let taken = rig.link.receive(&bytes, &robot_app::NoBoardStats);
+    assert_eq!(taken, bytes.len());
+    rig.link.poll();
+    rig.drain_tx();
+    // Three heartbeats queued, the fourth refused: the last place is the stop's.
+    assert_eq!(rig.reply(seqs[3]), Some(Err(Refusal::Busy)));
+    assert_eq!(rig.link.counters().busy, 1);
+    rig.run(10);
+    for &seq in &seqs[..3] {
+        assert_eq!(rig.reply(seq), Some(Ok(Reply::Ack)));
+    }
+    assert_eq!(rig.reply(stop), Some(Ok(Reply::Ack)));
+    assert!(rig.events().contains(&Event::Faulted));
+    assert_eq!(rig.last.map(|a| a.state), Some(State::Faulted));
+    // Clearing works, and clearing again (a lost reply re-sent) is no error.
+    assert_eq!(rig.ask(Request::ClearFaults), Ok(Reply::Ack));
+    assert_eq!(rig.ask(Request::ClearFaults), Ok(Reply::Ack));
+    assert_eq!(rig.last.map(|a| a.state), Some(State::Disarmed));
+}
+
+#[test]
+fn tuning_is_not_supported() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    assert_eq!(
+        rig.ask(Request::Arm {
+            mode: ArmMode::Tune,
+            initial_motion: None
+        }),
+        Err(Refusal::NotPermitted(NotPermitted::Unsupported))
+    );
+}

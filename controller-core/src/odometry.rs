@@ -137,6 +137,10 @@ impl Odometry {
         let [k_left, k_right] = self.rad_heading_per_tick;
         let dtheta = n_right * k_right - n_left * k_left;
         let half = 0.5 * dtheta;
+        // Both branches compute the same pose to within f32 rounding; this test and the
+        // resync count below only choose the cheaper one. So `<` → `<=` or `==` here and
+        // `>=` → `<` there (always the exact sine, or a resync every step) are equivalent
+        // mutants (.cargo/mutants.toml): they change the cost, not the behaviour.
         if math::abs(half) < SMALL_HALF_TURN_RAD {
             let turn = small_sin_cos(half);
             let chord = ds * math::sinc(half);

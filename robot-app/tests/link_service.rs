@@ -369,7 +369,10 @@ fn a_path_run_ends_with_its_report_computed_on_the_robot() {
         report.estimated.samples.abs_diff(expected_samples) <= 1,
         "{report:?}"
     );
-    assert!(report.max_duty > 0.0 && report.max_duty <= 1.0, "{report:?}");
+    assert!(
+        report.max_duty > 0.0 && report.max_duty <= 1.0,
+        "{report:?}"
+    );
     assert!(report.max_wheel_speed_rad_s > 0.0, "{report:?}");
     // Asked again, the same report.
     assert_eq!(rig.ask(Request::GetRunReport), Ok(Reply::RunReport(report)));

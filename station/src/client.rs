@@ -66,7 +66,8 @@ pub struct Client<T: Transport> {
 }
 
 impl<T: Transport> Client<T> {
-    /// A client on `transport`, replies awaited 300 ms, each request tried 4 times.
+    /// A client on `transport`, replies awaited 300 ms, each request tried 8 times (a
+    /// noisy line loses a long frame such as `SetParams` more often than a short one).
     pub fn new(transport: T) -> Self {
         Self {
             transport,
@@ -74,7 +75,7 @@ impl<T: Transport> Client<T> {
             next_seq: 0,
             inbox: VecDeque::new(),
             reply_timeout: Duration::from_millis(300),
-            tries: 4,
+            tries: 8,
         }
     }
 

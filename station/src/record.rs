@@ -146,6 +146,13 @@ fn upload_arm_record<T: Transport>(
             recorder.take(message);
             (plan.progress)(recorder.run_steps(), total);
         }
+        // A report lost on the line (a corrupted frame): ask for it once the robot has
+        // been out of the run for 200 steps.
+        if recorder.report.is_none() && recorder.stopped_for() > 200 {
+            if let Reply::RunReport(report) = client.request(Request::GetRunReport)? {
+                recorder.take(Uplink::RunReport(report));
+            }
+        }
         if recorder.ended_by.is_some() && recorder.report.is_some() {
             // The robot's report is in; the virtual robot's true one follows at once.
             let deadline = Instant::now() + Duration::from_millis(500);
@@ -175,6 +182,8 @@ struct Recorder<'a> {
     runs_before: u16,
     arm_step: Option<u32>,
     last_step: Option<u32>,
+    /// Step of the first telemetry frame after arming that was not armed.
+    stopped_step: Option<u32>,
     pending: Option<TelemetryFrame>,
     rows: Vec<TraceRow>,
     report: Option<RunReport>,
@@ -204,6 +213,7 @@ impl<'a> Recorder<'a> {
             runs_before,
             arm_step: None,
             last_step: None,
+            stopped_step: None,
             pending: None,
             rows: Vec::new(),
             report: None,
@@ -226,6 +236,14 @@ impl<'a> Recorder<'a> {
         self.saw_truth && self.truth.is_none()
     }
 
+    /// Steps the robot has been out of the run (0 while it runs).
+    fn stopped_for(&self) -> u32 {
+        match (self.stopped_step, self.last_step) {
+            (Some(stop), Some(now)) => now.wrapping_sub(stop),
+            _ => 0,
+        }
+    }
+
     fn run_steps(&self) -> u64 {
         match (self.arm_step, self.last_step) {
             (Some(a), Some(now)) => u64::from(now.wrapping_sub(a)),
@@ -241,6 +259,12 @@ impl<'a> Recorder<'a> {
                 self.state = frame.state;
                 self.faults = frame.faults;
                 self.final_estimate = Some(frame.pose);
+                let after_arming = self
+                    .arm_step
+                    .is_some_and(|a| frame.step.wrapping_sub(a) < u32::MAX / 2);
+                if after_arming && frame.state != State::Armed && self.stopped_step.is_none() {
+                    self.stopped_step = Some(frame.step);
+                }
                 self.pending = Some(frame);
             }
             Uplink::GroundTruth(truth) => {

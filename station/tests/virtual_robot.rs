@@ -41,9 +41,15 @@ fn a_run_through_the_station_matches_host_sim_run_bit_for_bit() {
         settle.is_some_and(|t| t > 1.0 && t < 3.0),
         "the paper circle settles in about 2 s: {got:?}"
     );
-    assert_eq!(got.steps, want.steps, "the robot ran the scenario's duration");
+    assert_eq!(
+        got.steps, want.steps,
+        "the robot ran the scenario's duration"
+    );
     assert_eq!(got.true_error, want.true_error, "true errors, bit for bit");
-    assert_eq!(got.estimated_error, want.estimated_error, "estimated errors");
+    assert_eq!(
+        got.estimated_error, want.estimated_error,
+        "estimated errors"
+    );
     assert!(got.supervisor.faults.is_empty());
     // The trace: one row per steering period (100 Hz telemetry on a 100 Hz steering loop).
     assert!(
@@ -59,4 +65,71 @@ fn a_run_through_the_station_matches_host_sim_run_bit_for_bit() {
             .max_armed_steps,
         scenario.supervisor.max_armed_steps
     );
+}
+
+#[test]
+fn params_and_path_upload_while_armed_are_refused_with_a_clear_message() {
+    let scenario = Scenario::load("paper-line").expect("built in");
+    let mut channels = Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+    let mut client = Client::new(InProcess::new(&mut robot));
+    let params = station::ops::get_params(&mut client).expect("params");
+    station::ops::arm(&mut client, None).expect("arms");
+
+    let refused = station::ops::set_params(&mut client, params).expect_err("refused");
+    assert!(
+        matches!(
+            refused,
+            station::StationError::Refused {
+                refusal: link::Refusal::Armed,
+                ..
+            }
+        ),
+        "{refused:?}"
+    );
+    let text = refused.to_string();
+    assert!(text.starts_with("the robot refused SetParams: "), "{text}");
+    assert!(text.contains("disarm"), "{text}");
+
+    let mut progress = |_: usize, _: usize| {};
+    let refused =
+        station::ops::upload_path(&mut client, &scenario, LawKind::Tracking, 7, &mut progress)
+            .expect_err("refused");
+    assert!(
+        refused
+            .to_string()
+            .starts_with("the robot refused PathBegin: "),
+        "{refused}"
+    );
+    // Disarmed, both go through.
+    client.command(link::Request::Disarm).expect("disarms");
+    station::ops::set_params(&mut client, params).expect("applied");
+    station::ops::upload_path(&mut client, &scenario, LawKind::Tracking, 8, &mut progress)
+        .expect("committed");
+}
+
+#[test]
+fn a_robot_file_error_names_the_key() {
+    let scenario = Scenario::load("paper-line").expect("built in");
+    let current = link::ParamSet {
+        robot: scenario.robot,
+        supervisor: scenario.supervisor,
+    };
+    let error =
+        station::ops::params_from_toml("[robot]\ntrack_width_m = -0.1\n", "robot.toml", &current)
+            .expect_err("invalid");
+    let text = error.to_string();
+    assert!(
+        text.starts_with("robot.toml: robot.track_width_m"),
+        "{text}"
+    );
+    // A partial file keeps the robot's other values.
+    let set = station::ops::params_from_toml("[robot]\ntrack_width_m = 0.16\n", "f", &current)
+        .expect("valid");
+    assert_eq!(set.robot.track_width_m, 0.16);
+    assert_eq!(set.robot.gear_ratio, current.robot.gear_ratio);
+    // What `params get` writes reads back to the same configuration.
+    let text = station::ops::params_to_toml(&current);
+    let back = station::ops::params_from_toml(&text, "f", &current).expect("round trip");
+    assert_eq!(back, current);
 }

@@ -78,6 +78,7 @@ fn run() -> Result<bool> {
         ["setup"] => vec![steps::setup()],
         ["size"] => vec![steps::setup(), steps::firmware_size()],
         ["qemu"] => vec![steps::setup(), steps::qemu()],
+        ["e2e"] => vec![steps::end_to_end()],
         ["link-qemu"] => vec![steps::setup(), steps::link_qemu()],
         ["size-of", elf] => {
             let elf = PathBuf::from(elf);

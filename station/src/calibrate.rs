@@ -296,7 +296,8 @@ pub fn estimate(
 }
 
 /// `set` with the geometry corrected by `estimate` (mean radius kept), and the common
-/// `scale` of both radii.
+/// `scale` of both radii. A square measures the turn, (d_R − d_L)/L, so a common scale
+/// error k of the radii looks like a track of L/k: the track is scaled with the radii.
 pub fn corrected(set: &ParamSet, estimate: &Estimate, scale: f64) -> ParamSet {
     let mut out = *set;
     let r = &mut out.robot;
@@ -308,7 +309,7 @@ pub fn corrected(set: &ParamSet, estimate: &Estimate, scale: f64) -> ParamSet {
     let d = 2.0 * (estimate.e_d - 1.0) / (estimate.e_d + 1.0);
     r.wheel_radius_left_m = (left * (1.0 - d / 2.0) * scale) as f32;
     r.wheel_radius_right_m = (right * (1.0 + d / 2.0) * scale) as f32;
-    r.track_width_m = (f64::from(r.track_width_m) * estimate.e_b) as f32;
+    r.track_width_m = (f64::from(r.track_width_m) * estimate.e_b * scale) as f32;
     out
 }
 

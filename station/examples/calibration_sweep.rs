@@ -86,7 +86,7 @@ fn main() {
                         // The same robot on the calibration floor: its plant, the squares.
                         let mut floor = square_base.clone();
                         floor.robot = drawn.robot;
-                        floor.plant = drawn.plant.clone();
+                        floor.plant = drawn.plant;
                         let mut channels = Channels::new();
                         let Ok(mut robot) = VirtualRobot::new(&mut channels, &floor) else {
                             continue;

@@ -37,8 +37,8 @@ pub enum StationError {
     Refused {
         /// The request's name.
         request: &'static str,
-        /// Why.
-        refusal: Refusal,
+        /// Why (boxed: a refusal carries bounded strings).
+        refusal: Box<Refusal>,
     },
     /// The robot answered with something else than the request calls for.
     #[error("unexpected answer to {request}: {reply}")]
@@ -122,7 +122,7 @@ impl<T: Transport> Client<T> {
                     Some(Err(refusal)) => {
                         return Err(StationError::Refused {
                             request: name,
-                            refusal,
+                            refusal: Box::new(refusal),
                         })
                     }
                     None => {}

@@ -79,11 +79,8 @@ fn params_and_path_upload_while_armed_are_refused_with_a_clear_message() {
     let refused = station::ops::set_params(&mut client, params).expect_err("refused");
     assert!(
         matches!(
-            refused,
-            station::StationError::Refused {
-                refusal: link::Refusal::Armed,
-                ..
-            }
+            &refused,
+            station::StationError::Refused { refusal, .. } if **refusal == link::Refusal::Armed
         ),
         "{refused:?}"
     );

@@ -26,6 +26,8 @@
 //! - [`fault_suite`] — every kind of fault, one at a time, against its detector's limit.
 //! - [`plot`] — SVG figures in the style of the paper's Figs. 5–7.
 //! - [`sweep`] — Monte-Carlo over mismatch, noise and start pose, on every core.
+//! - [`serve`] — the virtual robot: robot-app's control and link sides against the
+//!   simulated hardware, speaking the runtime link over TCP, with ground truth.
 //!
 //! ```no_run
 //! use controller_core::law::LawKind;
@@ -52,6 +54,7 @@ pub mod rng;
 pub mod robot_file;
 pub mod run;
 pub mod scenario;
+pub mod serve;
 pub mod sweep;
 
 pub use metrics::{ErrorReport, Summary};

@@ -77,8 +77,13 @@ enum Command {
     /// Path upload.
     #[command(subcommand)]
     Path(PathCommand),
-    /// Arm the robot to follow its path (from rest).
-    Arm,
+    /// Arm the robot to follow its path (from rest) and keep it armed: heartbeats and the
+    /// live view until the robot stops, or Ctrl-C, which disarms first.
+    Arm {
+        /// Telemetry rate of the live view, Hz.
+        #[arg(long, default_value_t = 10)]
+        hz: u8,
+    },
     /// Disarm.
     Disarm,
     /// Emergency stop (latches a fault; `clear-faults` to recover).
@@ -293,19 +298,52 @@ fn cmd_stats(link: &LinkArgs) -> Result<()> {
 }
 
 fn cmd_watch(link: &LinkArgs, hz: u8) -> Result<()> {
-    let interrupt = interrupt_flag();
     let mut client = open(link)?;
-    let rate = ops::get_params(&mut client)?.robot.control_rate_hz;
-    record::set_telemetry_rate(&mut client, hz)?;
+    live_view(&mut client, hz, None)
+}
+
+/// Arms, then holds the robot armed with heartbeats under the live view until it stops on
+/// its own (disarm, fault, end of run) or Ctrl-C, which disarms before returning.
+fn cmd_arm(link: &LinkArgs, hz: u8) -> Result<()> {
+    let mut client = open(link)?;
+    let timeout = ops::get_params(&mut client)?
+        .supervisor
+        .heartbeat_timeout_steps;
+    ops::arm(&mut client, None)?;
+    let held = live_view(&mut client, hz, Some(record::HeartbeatPacer::new(timeout)));
+    let disarmed = client.command(Request::Disarm);
+    held?;
+    disarmed?;
+    say!("disarmed");
+    Ok(())
+}
+
+/// The live view of the telemetry until Ctrl-C; with a `heartbeat` pacer, also the
+/// heartbeats that keep a link-armed robot armed, until the robot leaves the armed state.
+fn live_view(
+    client: &mut station::client::Client<Box<dyn Transport>>,
+    hz: u8,
+    mut heartbeat: Option<record::HeartbeatPacer>,
+) -> Result<()> {
+    let interrupt = interrupt_flag();
+    let rate = ops::get_params(client)?.robot.control_rate_hz;
+    record::set_telemetry_rate(client, hz)?;
+    let mut robot_step = None;
     let mut shown = 0;
     let mut pending: Option<link::TelemetryFrame> = None;
     let mut last_draw = Instant::now() - Duration::from_secs(1);
     while !interrupt.load(Ordering::Relaxed) {
-        let Some(message) = client.next_message(Duration::from_millis(50))? else {
+        if let Some(pacer) = heartbeat.as_mut() {
+            if pacer.due(robot_step) {
+                client.send_only(Request::Heartbeat)?;
+            }
+        }
+        let Some(message) = client.next_message(Duration::from_millis(20))? else {
             continue;
         };
         let (frame, truth) = match message {
             Uplink::Telemetry(f) => {
+                robot_step = Some(f.step);
                 let previous = pending.replace(f);
                 match previous {
                     Some(p) => (p, None),
@@ -319,6 +357,14 @@ fn cmd_watch(link: &LinkArgs, hz: u8) -> Result<()> {
             Uplink::Event { step, event } => {
                 eprintln!("step {step}: {event:?}");
                 shown = 0;
+                let stopped = matches!(
+                    event,
+                    controller_core::supervisor::Event::Disarmed(_)
+                        | controller_core::supervisor::Event::Faulted
+                );
+                if heartbeat.is_some() && stopped {
+                    break;
+                }
                 continue;
             }
             _ => continue,
@@ -547,14 +593,7 @@ fn main() -> ExitCode {
         Command::Info => cmd_info(link),
         Command::Params(c) => cmd_params(link, c),
         Command::Path(PathCommand::Upload { scenario, law }) => cmd_upload(link, &scenario, law),
-        Command::Arm => cmd_simple(
-            link,
-            Request::Arm {
-                mode: link::ArmMode::FollowPath,
-                initial_motion: None,
-            },
-            "armed (send heartbeats to keep it armed: `station watch` does not; `run` does)",
-        ),
+        Command::Arm { hz } => cmd_arm(link, hz),
         Command::Disarm => cmd_simple(link, Request::Disarm, "disarmed"),
         Command::Estop => cmd_simple(link, Request::EmergencyStop, "emergency stop latched"),
         Command::ClearFaults => cmd_simple(link, Request::ClearFaults, "faults cleared"),

@@ -54,6 +54,47 @@ pub struct Recording {
     pub final_truth: Option<Pose>,
 }
 
+/// When to send the next heartbeat: every `every_steps` of the robot's own step counter
+/// (read from its telemetry), and by the host's clock only when telemetry stops coming —
+/// so a robot (or emulator) slower or faster than real time is never starved nor
+/// flooded.
+pub struct HeartbeatPacer {
+    every_steps: u32,
+    last_step: Option<u32>,
+    last_wall: Instant,
+}
+
+/// The host-clock fallback: a heartbeat at least this often when no telemetry arrives.
+const HEARTBEAT_FALLBACK: Duration = Duration::from_millis(100);
+
+impl HeartbeatPacer {
+    /// A pacer for a robot whose heartbeat timeout is `timeout_steps` control steps: five
+    /// heartbeats per timeout.
+    pub fn new(timeout_steps: u32) -> Self {
+        Self {
+            every_steps: (timeout_steps / 5).max(1),
+            last_step: None,
+            last_wall: Instant::now(),
+        }
+    }
+
+    /// True when a heartbeat is due, the robot's latest step being `robot_step` (None
+    /// before any telemetry); the caller sends one and the pacer counts from here.
+    pub fn due(&mut self, robot_step: Option<u32>) -> bool {
+        let by_robot = match (robot_step, self.last_step) {
+            (Some(now), Some(then)) => now.wrapping_sub(then) >= self.every_steps,
+            (Some(_), None) => true,
+            _ => false,
+        };
+        if by_robot || self.last_wall.elapsed() > HEARTBEAT_FALLBACK {
+            self.last_step = robot_step;
+            self.last_wall = Instant::now();
+            return true;
+        }
+        false
+    }
+}
+
 /// Sets the fastest telemetry rate the link accepts, from `hz` down; returns it.
 pub fn set_telemetry_rate<T: Transport>(
     client: &mut Client<T>,
@@ -122,25 +163,14 @@ fn upload_arm_record<T: Transport>(
     let wall = Instant::now();
     ops::arm(client, ops::initial_motion(scenario))?;
     let mut recorder = Recorder::new(scenario, plan.law, params, before);
-    let heartbeat_every = (params.supervisor.heartbeat_timeout_steps / 5).max(1);
-    let mut last_heartbeat_step: Option<u32> = None;
-    let mut last_heartbeat_wall = Instant::now();
+    let mut heartbeat = HeartbeatPacer::new(params.supervisor.heartbeat_timeout_steps);
     while !recorder.done() {
         if plan.interrupt.load(Ordering::Relaxed) {
             let _ = client.command(Request::Disarm);
             return Err(StationError::Interrupted);
         }
-        // Heartbeats paced by the robot's step counter (telemetry), and by the host's
-        // clock only when telemetry stops coming.
-        let robot_due = match (recorder.last_step, last_heartbeat_step) {
-            (Some(now), Some(then)) => now.wrapping_sub(then) >= heartbeat_every,
-            (Some(_), None) => true,
-            _ => false,
-        };
-        if robot_due || last_heartbeat_wall.elapsed() > Duration::from_millis(100) {
+        if heartbeat.due(recorder.last_step) {
             client.send_only(Request::Heartbeat)?;
-            last_heartbeat_step = recorder.last_step;
-            last_heartbeat_wall = Instant::now();
         }
         if let Some(message) = client.next_message(Duration::from_millis(20))? {
             recorder.take(message);

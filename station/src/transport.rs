@@ -94,7 +94,15 @@ impl Transport for Serial {
             .set_timeout(timeout.max(Duration::from_millis(1)))?;
         match self.port.read(buf) {
             Ok(n) => Ok(n),
-            Err(e) if e.kind() == ErrorKind::TimedOut || e.kind() == ErrorKind::WouldBlock => Ok(0),
+            // A signal (Ctrl-C) interrupts the wait: no bytes; the caller checks its flag.
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted
+                ) =>
+            {
+                Ok(0)
+            }
             Err(e) => Err(e),
         }
     }
@@ -161,7 +169,15 @@ impl Transport for Tcp {
                 "the robot closed the connection",
             )),
             Ok(n) => Ok(n),
-            Err(e) if e.kind() == ErrorKind::TimedOut || e.kind() == ErrorKind::WouldBlock => Ok(0),
+            // A signal (Ctrl-C) interrupts the wait: no bytes; the caller checks its flag.
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted
+                ) =>
+            {
+                Ok(0)
+            }
             Err(e) => Err(e),
         }
     }

@@ -646,6 +646,53 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn entering_follow_path_restarts_the_reference_and_the_steering_phase() {
+        // Idle for 7 steps, then following: the law runs on the first step and the
+        // reference starts at its beginning, as in a controller that followed at once.
+        let mut fresh = controller();
+        fresh.set_mode(Mode::FollowPath);
+        step(&mut fresh, ticks(0, 0));
+        let mut late = controller();
+        for _ in 0..7 {
+            step(&mut late, ticks(0, 0));
+        }
+        late.set_mode(Mode::FollowPath);
+        step(&mut late, ticks(0, 0));
+        assert!(late.telemetry().steering_updated);
+        assert_eq!(
+            late.telemetry().reference.progress_m,
+            fresh.telemetry().reference.progress_m
+        );
+        // Following for 0.5 s, a pause, and following again starts the path over.
+        for _ in 0..500 {
+            step(&mut late, ticks(0, 0));
+        }
+        assert!(late.telemetry().reference.progress_m > 0.09);
+        late.set_mode(Mode::Idle);
+        step(&mut late, ticks(0, 0));
+        late.set_mode(Mode::FollowPath);
+        step(&mut late, ticks(0, 0));
+        assert!(late.telemetry().steering_updated);
+        assert_eq!(
+            late.telemetry().reference.progress_m,
+            fresh.telemetry().reference.progress_m
+        );
+    }
+
+    #[test]
+    fn the_wheel_pid_parts_show_the_drive_pushing_forward() {
+        // Following from rest: both set-points are ahead of the measured 0 rad/s, so each
+        // wheel's proportional and feed-forward parts push forward.
+        let mut c = controller();
+        c.set_mode(Mode::FollowPath);
+        step(&mut c, ticks(0, 0));
+        for part in c.wheel_pid_parts() {
+            assert!(part.p > 0.0, "{part:?}");
+            assert!(part.ff > 0.0, "{part:?}");
+        }
+    }
+
+    #[test]
     fn a_late_step_moves_the_reference_by_the_time_that_passed() {
         // Two controllers, one stepped 21 times on time (steps at 0…20 ms), the other 10
         // times on time (0…9 ms) and then once covering 11 periods (at 20 ms): at that

@@ -693,6 +693,76 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn a_delta_of_exactly_the_plausible_maximum_is_no_encoder_jump() {
+        // The limit is inclusive, on each wheel.
+        let limit = Params::new(RobotConfig::REFERENCE_ROBOT)
+            .unwrap()
+            .max_ticks_per_step();
+        for (left, right) in [(limit, 0), (0, limit), (-limit, -limit)] {
+            let mut c = controller();
+            step(&mut c, ticks(left, right));
+            assert!(!c.faults().any(), "{left} {right}");
+        }
+        for (left, right) in [(limit + 1, 0), (0, -limit - 1)] {
+            let mut c = controller();
+            step(&mut c, ticks(left, right));
+            assert!(c.faults().encoder_jump, "{left} {right}");
+        }
+    }
+
+    #[test]
+    fn a_late_step_moves_the_set_point_ramp_by_the_periods_it_covered() {
+        // After a steering step, three on-time steps and one step covering three periods
+        // leave the wheel set-points at the same point of the ramp.
+        let mut on_time = controller();
+        let mut late = controller();
+        for c in [&mut on_time, &mut late] {
+            c.set_mode(Mode::FollowPath);
+            for _ in 0..25 {
+                step(c, ticks(1, 1));
+            }
+        }
+        let before = on_time.telemetry().wheel_setpoint;
+        for _ in 0..3 {
+            step(&mut on_time, ticks(1, 1));
+        }
+        late.step(StepInput {
+            ticks: ticks(3, 3),
+            periods: NonZeroU32::new(3).unwrap(),
+            supply_v: SUPPLY_V,
+        });
+        let (a, b) = (
+            on_time.telemetry().wheel_setpoint,
+            late.telemetry().wheel_setpoint,
+        );
+        assert!(
+            (a.left_rad_s - before.left_rad_s).abs() > 1e-3,
+            "the ramp moves"
+        );
+        assert!((a.left_rad_s - b.left_rad_s).abs() < 1e-5, "{a:?} {b:?}");
+        assert!((a.right_rad_s - b.right_rad_s).abs() < 1e-5, "{a:?} {b:?}");
+    }
+
+    #[test]
+    fn switching_from_holding_to_following_continues_from_the_measured_speed() {
+        // Wheels held at 8.73 rad/s (2 ticks per 1 ms step), then path following with the
+        // reference at 0.2 m/s: the acceleration limit starts from the measured 0.28 m/s,
+        // so the first set-points stay near the measured speed instead of restarting
+        // from 0.
+        let mut c = controller();
+        let held = 2.0 * core::f32::consts::TAU / 1440.0 * 1000.0;
+        c.set_mode(Mode::HoldWheelSpeeds(WheelSpeeds::new(held, held)));
+        for _ in 0..300 {
+            step(&mut c, ticks(2, 2));
+        }
+        c.set_mode(Mode::FollowPath);
+        step(&mut c, ticks(2, 2));
+        let setpoint = c.telemetry().wheel_setpoint;
+        assert!(setpoint.left_rad_s > 0.9 * held, "{setpoint:?}");
+        assert!(setpoint.right_rad_s > 0.9 * held, "{setpoint:?}");
+    }
+
+    #[test]
     fn a_late_step_moves_the_reference_by_the_time_that_passed() {
         // Two controllers, one stepped 21 times on time (steps at 0…20 ms), the other 10
         // times on time (0…9 ms) and then once covering 11 periods (at 20 ms): at that

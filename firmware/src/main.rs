@@ -236,8 +236,8 @@ mod app {
 static PANICKING: core::sync::atomic::AtomicBool = core::sync::atomic::AtomicBool::new(false);
 
 /// Panic: motors off first (PWM outputs forced low, driver inputs and STBY low), then the
-/// panic record in RAM that survives the reset (reported at the next boot), then the
-/// message over defmt (lost if the panic interrupted a log frame of its own priority),
+/// panic record (file and line) in RAM that survives the reset (reported at the next
+/// boot), then the location over defmt (lost if the panic interrupted a log frame of its own priority),
 /// then stop ([`board::halt_after_failure`]).
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
@@ -248,12 +248,12 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     if PANICKING.swap(true, core::sync::atomic::Ordering::Relaxed) {
         board::halt_after_failure()
     }
-    let mut record = match info.location() {
+    // File and line only: formatting the message would link `core::fmt`'s machinery
+    // (about 0.8 KiB of flash) for a path that must never run.
+    let record = match info.location() {
         Some(at) => robot_app::panic_record::PanicRecord::panic(at.file(), at.line()),
         None => robot_app::panic_record::PanicRecord::panic("", 0),
     };
-    // Bounded: keeps the message's first bytes, never fails.
-    let _ = core::fmt::write(record.message_mut(), format_args!("{}", info.message()));
     panic_record::store(&record);
     defmt::error!(
         "panic at {=str}:{=u32}: {=str}; motors off",

@@ -11,18 +11,25 @@
 //!
 //! ```text
 //!  board ─► READY ('R', once, after both USARTs are enabled)
-//!  plant ─► PlantStep  ('S' + 17 bytes)   ┐ one control step
-//!  board ─► BoardStep  ('A' + 48 bytes)   ┘
+//!  plant ─► PlantStep   ('S', or 'P' with the button pressed; 8 bytes typically)  ┐ one
+//!  board ─► BoardStep   ('A' 10 bytes, or 'D' 40 bytes or more with the details)    ┘ step
 //!  …
 //!  plant ─► FINISH ('F')
 //!  board ─► BoardReport ('F' + 16 bytes), then the emulator exits
 //! ```
 //!
-//! Every message is a tag byte and a fixed number of little-endian bytes (`f32` as their
-//! IEEE bits, so values cross exactly). The transport (a TCP socket behind the emulated
-//! USART) neither loses nor corrupts bytes, so there is no checksum; a byte that is no
-//! known tag, or a step whose period count is 0, is dropped and counted
-//! ([`StepDecoder::errors`]), and the plant then times out waiting for the answer.
+//! Messages are short because the emulated USART is slow: QEMU hands the guest one byte
+//! per main-loop turn (about 0.1 ms each, measured), so bytes per step set the run's
+//! speed. Integers are LEB128 varints (zig-zag for signed), `f32` their four IEEE bytes,
+//! little-endian, so values cross exactly. A [`BoardStep`] carries its details (faults,
+//! event, counters, the controller's pose and error) only when the steering law ran or
+//! one of them changed; the [`BoardDecoder`] keeps the last ones, so every decoded step
+//! is whole.
+//!
+//! The transport (a TCP socket behind the emulated USART) neither loses nor corrupts
+//! bytes, so there is no checksum; a byte that is no known tag, or a step whose period
+//! count is 0, is dropped and counted ([`StepDecoder::errors`]), and the plant then times
+//! out waiting for the answer.
 
 use core::num::NonZeroU32;
 
@@ -32,17 +39,23 @@ use controller_core::supervisor::{Bridge, DisarmReason, Event, Faults, RunMode, 
 
 /// The board's first byte on the port: both USARTs are enabled, send.
 pub const READY: u8 = b'R';
-/// Tag of a [`PlantStep`].
+/// Tag of a [`PlantStep`] with the button released.
 pub const STEP_TAG: u8 = b'S';
-/// Tag of a [`BoardStep`].
+/// Tag of a [`PlantStep`] with the button pressed.
+pub const STEP_PRESSED_TAG: u8 = b'P';
+/// Tag of a [`BoardStep`] without its details (the decoder repeats the last ones).
 pub const BOARD_STEP_TAG: u8 = b'A';
+/// Tag of a [`BoardStep`] with its details.
+pub const BOARD_DETAIL_TAG: u8 = b'D';
 /// The plant's last message, and the tag of the board's [`BoardReport`] that answers it.
 pub const FINISH: u8 = b'F';
 
-/// Bytes of a [`PlantStep`] on the wire, tag included.
-pub const PLANT_STEP_LEN: usize = 18;
-/// Bytes of a [`BoardStep`] on the wire, tag included.
-pub const BOARD_STEP_LEN: usize = 49;
+/// Most bytes of a [`PlantStep`] on the wire: tag, three varints of up to 5 bytes, an
+/// `f32`.
+pub const PLANT_STEP_MAX_LEN: usize = 1 + 3 * 5 + 4;
+/// Most bytes of a [`BoardStep`] on the wire: tag, two `f32`, the status byte, and the
+/// details (faults, event, two varint counters, six `f32`).
+pub const BOARD_STEP_MAX_LEN: usize = 1 + 8 + 1 + 2 + 2 + 2 * 5 + 24;
 /// Bytes of a [`BoardReport`] on the wire, tag included.
 pub const BOARD_REPORT_LEN: usize = 17;
 
@@ -120,7 +133,8 @@ pub enum FromBoard {
     Report(BoardReport),
 }
 
-/// Little-endian writer into a fixed buffer.
+/// Writer into a fixed buffer (bytes past its end are dropped; the buffers are sized
+/// for the longest message).
 struct Writer<'a> {
     out: &'a mut [u8],
     at: usize,
@@ -145,144 +159,327 @@ impl Writer<'_> {
     fn f32(&mut self, v: f32) {
         self.u32(v.to_bits());
     }
+    /// LEB128: seven bits a byte, the high bit set on all but the last.
+    fn varint(&mut self, mut v: u32) {
+        while v >= 0x80 {
+            self.u8(v as u8 | 0x80);
+            v >>= 7;
+        }
+        self.u8(v as u8);
+    }
+    /// Zig-zag, then LEB128: small magnitudes of either sign take one byte.
+    fn signed(&mut self, v: i32) {
+        self.varint(((v << 1) ^ (v >> 31)) as u32);
+    }
 }
 
-/// Little-endian reader of a fixed message (missing bytes read as 0; the decoders only
-/// hand over whole messages).
+/// Reader of a message that may not have arrived whole: every read is `None` past the
+/// bytes there are.
 struct Reader<'a> {
     bytes: &'a [u8],
     at: usize,
 }
 
 impl Reader<'_> {
-    fn array<const N: usize>(&mut self) -> [u8; N] {
-        let mut out = [0u8; N];
-        if let Some(bytes) = self.bytes.get(self.at..self.at + N) {
-            out.copy_from_slice(bytes);
-        }
+    fn array<const N: usize>(&mut self) -> Option<[u8; N]> {
+        let bytes = self.bytes.get(self.at..self.at + N)?;
         self.at += N;
-        out
+        bytes.try_into().ok()
     }
-    fn u8(&mut self) -> u8 {
-        self.array::<1>()[0]
+    fn u8(&mut self) -> Option<u8> {
+        self.array::<1>().map(|[b]| b)
     }
-    fn u16(&mut self) -> u16 {
-        u16::from_le_bytes(self.array())
+    fn u16(&mut self) -> Option<u16> {
+        self.array().map(u16::from_le_bytes)
     }
-    fn u32(&mut self) -> u32 {
-        u32::from_le_bytes(self.array())
+    fn u32(&mut self) -> Option<u32> {
+        self.array().map(u32::from_le_bytes)
     }
-    fn i32(&mut self) -> i32 {
-        i32::from_le_bytes(self.array())
+    fn f32(&mut self) -> Option<f32> {
+        self.u32().map(f32::from_bits)
     }
-    fn f32(&mut self) -> f32 {
-        f32::from_bits(self.u32())
+    /// A LEB128 varint of up to five bytes (longer ones read as their first five).
+    fn varint(&mut self) -> Option<u32> {
+        let mut value = 0u32;
+        for shift in [0, 7, 14, 21, 28] {
+            let byte = self.u8()?;
+            value |= u32::from(byte & 0x7F) << shift;
+            if byte & 0x80 == 0 {
+                break;
+            }
+        }
+        Some(value)
+    }
+    fn signed(&mut self) -> Option<i32> {
+        self.varint().map(|z| ((z >> 1) as i32) ^ -((z & 1) as i32))
+    }
+}
+
+/// What the bytes assembled so far hold.
+enum Parse<T> {
+    /// A whole message.
+    Whole(T),
+    /// Not yet: more bytes to come.
+    Partial,
+    /// Not a valid message.
+    Invalid,
+}
+
+impl<T> Parse<T> {
+    /// `Whole` for a message read, `Partial` when the reader ran out of bytes.
+    fn read(value: Option<T>) -> Self {
+        value.map_or(Parse::Partial, Parse::Whole)
     }
 }
 
 impl PlantStep {
-    /// The message's bytes.
-    pub fn encode(&self) -> [u8; PLANT_STEP_LEN] {
-        let mut out = [0u8; PLANT_STEP_LEN];
-        let mut w = Writer {
-            out: &mut out,
-            at: 0,
-        };
-        w.u8(STEP_TAG);
-        w.bytes(&self.ticks.left.to_le_bytes());
-        w.bytes(&self.ticks.right.to_le_bytes());
-        w.u32(self.periods.get());
+    /// Writes the message into `out`; its length.
+    pub fn encode(&self, out: &mut [u8; PLANT_STEP_MAX_LEN]) -> usize {
+        let mut w = Writer { out, at: 0 };
+        w.u8(if self.button_pressed {
+            STEP_PRESSED_TAG
+        } else {
+            STEP_TAG
+        });
+        w.signed(self.ticks.left);
+        w.signed(self.ticks.right);
+        w.varint(self.periods.get());
         w.f32(self.supply_v);
-        w.u8(u8::from(self.button_pressed));
-        out
+        w.at
     }
 
-    /// The step in `bytes` (tag included), or `None` if its period count is 0.
-    fn decode(bytes: &[u8]) -> Option<Self> {
-        let mut r = Reader { bytes, at: 1 };
-        let left = r.i32();
-        let right = r.i32();
-        let periods = NonZeroU32::new(r.u32())?;
-        let supply_v = r.f32();
-        let button_pressed = r.u8() & 1 != 0;
-        Some(Self {
-            ticks: TickDeltas { left, right },
-            periods,
-            supply_v,
-            button_pressed,
-        })
+    /// The step in `bytes` (tag included).
+    fn parse(bytes: &[u8]) -> Parse<Self> {
+        let mut r = Reader { bytes, at: 0 };
+        let read = |r: &mut Reader<'_>| {
+            let tag = r.u8()?;
+            Some((tag, r.signed()?, r.signed()?, r.varint()?, r.f32()?))
+        };
+        match read(&mut r) {
+            None => Parse::Partial,
+            Some((tag, left, right, periods, supply_v)) => match NonZeroU32::new(periods) {
+                Some(periods) => Parse::Whole(Self {
+                    ticks: TickDeltas { left, right },
+                    periods,
+                    supply_v,
+                    button_pressed: tag == STEP_PRESSED_TAG,
+                }),
+                None => Parse::Invalid,
+            },
+        }
     }
 }
 
-impl BoardStep {
-    /// The message's bytes.
-    pub fn encode(&self) -> [u8; BOARD_STEP_LEN] {
-        let mut out = [0u8; BOARD_STEP_LEN];
-        let mut w = Writer {
-            out: &mut out,
-            at: 0,
-        };
-        w.u8(BOARD_STEP_TAG);
-        w.f32(self.duty.left);
-        w.f32(self.duty.right);
-        w.u8(bridge_code(self.bridge));
-        w.u8(state_code(self.state));
-        w.u8(run_mode_code(self.run_mode));
-        w.u8(u8::from(self.battery_low) | u8::from(self.steering_updated) << 1);
-        w.u16(fault_bits(&self.faults));
-        let [kind, arg] = event_code(self.event);
-        w.u8(kind);
-        w.u8(arg);
-        w.u32(self.missed_ticks_total);
-        w.u32(self.overruns_total);
-        for v in [self.pose.x_m, self.pose.y_m, self.pose.theta_rad] {
-            w.f32(v);
+/// The parts of a [`BoardStep`] sent only when they change or the steering law ran.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Details {
+    faults: Faults,
+    event: Option<Event>,
+    missed_ticks_total: u32,
+    overruns_total: u32,
+    pose: Pose,
+    error: TrackingError,
+}
+
+impl Details {
+    const NONE: Details = Details {
+        faults: Faults {
+            core: FaultFlags {
+                encoder_jump: false,
+                non_finite: false,
+            },
+            overrun: false,
+            missed_ticks: false,
+            stall_left: false,
+            stall_right: false,
+            saturated: false,
+            divergence: false,
+            geofence: false,
+            supply_low: false,
+            supply_high: false,
+            emergency_stop: false,
+        },
+        event: None,
+        missed_ticks_total: 0,
+        overruns_total: 0,
+        pose: Pose {
+            x_m: 0.0,
+            y_m: 0.0,
+            theta_rad: 0.0,
+        },
+        error: TrackingError {
+            x_e_m: 0.0,
+            y_e_m: 0.0,
+            theta_e_rad: 0.0,
+        },
+    };
+
+    fn of(step: &BoardStep) -> Self {
+        Self {
+            faults: step.faults,
+            event: step.event,
+            missed_ticks_total: step.missed_ticks_total,
+            overruns_total: step.overruns_total,
+            pose: step.pose,
+            error: step.error,
         }
-        for v in [self.error.x_e_m, self.error.y_e_m, self.error.theta_e_rad] {
-            w.f32(v);
-        }
-        out
+    }
+}
+
+/// The board's encoder of its answers: it remembers what it last sent, to leave out
+/// the details that did not change.
+#[derive(Clone, Debug, Default)]
+pub struct BoardEncoder {
+    /// Faults and counters last sent (`None` before the first answer).
+    sent: Option<(u16, u32, u32)>,
+}
+
+impl BoardEncoder {
+    /// An encoder that sends the details with its first answer.
+    pub const fn new() -> Self {
+        Self { sent: None }
     }
 
-    /// The step in `bytes` (tag included), or `None` when a code is out of range.
-    fn decode(bytes: &[u8]) -> Option<Self> {
-        let mut r = Reader { bytes, at: 1 };
-        let duty = MotorCommand {
-            left: r.f32(),
-            right: r.f32(),
-        };
-        let bridge = bridge_from(r.u8())?;
-        let state = state_from(r.u8())?;
-        let run_mode = run_mode_from(r.u8())?;
-        let flags = r.u8();
-        let faults = faults_from(r.u16());
-        let event = event_from([r.u8(), r.u8()])?;
-        let missed_ticks_total = r.u32();
-        let overruns_total = r.u32();
-        let pose = Pose {
-            x_m: r.f32(),
-            y_m: r.f32(),
-            theta_rad: r.f32(),
-        };
-        let error = TrackingError {
-            x_e_m: r.f32(),
-            y_e_m: r.f32(),
-            theta_e_rad: r.f32(),
-        };
-        Some(Self {
+    /// Writes `step` into `out`; its length. The details go along when the steering law
+    /// ran, an event happened, or the faults or counters changed.
+    pub fn encode(&mut self, step: &BoardStep, out: &mut [u8; BOARD_STEP_MAX_LEN]) -> usize {
+        let counters = (
+            fault_bits(&step.faults),
+            step.missed_ticks_total,
+            step.overruns_total,
+        );
+        let detail = step.steering_updated || step.event.is_some() || self.sent != Some(counters);
+        self.sent = Some(counters);
+        let mut w = Writer { out, at: 0 };
+        w.u8(if detail {
+            BOARD_DETAIL_TAG
+        } else {
+            BOARD_STEP_TAG
+        });
+        w.f32(step.duty.left);
+        w.f32(step.duty.right);
+        w.u8(bridge_code(step.bridge)
+            | state_code(step.state) << 2
+            | run_mode_code(step.run_mode) << 4
+            | u8::from(step.battery_low) << 5
+            | u8::from(step.steering_updated) << 6);
+        if detail {
+            w.u16(counters.0);
+            let [kind, arg] = event_code(step.event);
+            w.u8(kind);
+            w.u8(arg);
+            w.varint(step.missed_ticks_total);
+            w.varint(step.overruns_total);
+            for v in [step.pose.x_m, step.pose.y_m, step.pose.theta_rad] {
+                w.f32(v);
+            }
+            for v in [step.error.x_e_m, step.error.y_e_m, step.error.theta_e_rad] {
+                w.f32(v);
+            }
+        }
+        w.at
+    }
+}
+
+/// A [`BoardStep`]'s fixed part: duties and the status byte's fields.
+struct Head {
+    duty: MotorCommand,
+    bridge: Bridge,
+    state: State,
+    run_mode: RunMode,
+    battery_low: bool,
+    steering_updated: bool,
+}
+
+/// Reads the fixed part after the tag; `None` inside when a code is out of range.
+fn read_head(r: &mut Reader<'_>) -> Option<Option<Head>> {
+    let duty = MotorCommand {
+        left: r.f32()?,
+        right: r.f32()?,
+    };
+    let status = r.u8()?;
+    let head = match (
+        bridge_from(status & 0b11),
+        state_from((status >> 2) & 0b11),
+        run_mode_from((status >> 4) & 1),
+    ) {
+        (Some(bridge), Some(state), Some(run_mode)) => Some(Head {
             duty,
             bridge,
             state,
             run_mode,
-            faults,
-            battery_low: flags & 1 != 0,
-            event,
-            missed_ticks_total,
-            overruns_total,
-            pose,
-            error,
-            steering_updated: flags & 2 != 0,
-        })
+            battery_low: status & 1 << 5 != 0,
+            steering_updated: status & 1 << 6 != 0,
+        }),
+        _ => None,
+    };
+    Some(head)
+}
+
+/// Reads the details; `None` inside when the event's code is out of range.
+fn read_details(r: &mut Reader<'_>) -> Option<Option<Details>> {
+    let faults = faults_from(r.u16()?);
+    let event = event_from([r.u8()?, r.u8()?]);
+    let missed_ticks_total = r.varint()?;
+    let overruns_total = r.varint()?;
+    let pose = Pose {
+        x_m: r.f32()?,
+        y_m: r.f32()?,
+        theta_rad: r.f32()?,
+    };
+    let error = TrackingError {
+        x_e_m: r.f32()?,
+        y_e_m: r.f32()?,
+        theta_e_rad: r.f32()?,
+    };
+    Some(event.map(|event| Details {
+        faults,
+        event,
+        missed_ticks_total,
+        overruns_total,
+        pose,
+        error,
+    }))
+}
+
+impl BoardStep {
+    /// The step in `bytes` (tag included), with `last`'s details when it carries none.
+    fn parse(bytes: &[u8], last: &Details) -> Parse<Self> {
+        let mut r = Reader { bytes, at: 0 };
+        let Some(tag) = r.u8() else {
+            return Parse::Partial;
+        };
+        let head = match read_head(&mut r) {
+            None => return Parse::Partial,
+            Some(None) => return Parse::Invalid,
+            Some(Some(head)) => head,
+        };
+        let details = if tag == BOARD_DETAIL_TAG {
+            match read_details(&mut r) {
+                None => return Parse::Partial,
+                Some(None) => return Parse::Invalid,
+                Some(Some(details)) => details,
+            }
+        } else {
+            Details {
+                event: None,
+                ..*last
+            }
+        };
+        Parse::read(Some(Self {
+            duty: head.duty,
+            bridge: head.bridge,
+            state: head.state,
+            run_mode: head.run_mode,
+            faults: details.faults,
+            battery_low: head.battery_low,
+            event: details.event,
+            missed_ticks_total: details.missed_ticks_total,
+            overruns_total: details.overruns_total,
+            pose: details.pose,
+            error: details.error,
+            steering_updated: head.steering_updated,
+        }))
     }
 }
 
@@ -302,24 +499,24 @@ impl BoardReport {
         out
     }
 
-    fn decode(bytes: &[u8]) -> Self {
+    fn parse(bytes: &[u8]) -> Parse<Self> {
         let mut r = Reader { bytes, at: 1 };
-        Self {
-            control_max_instructions: r.u32(),
-            link_max_instructions: r.u32(),
-            stack_high_water_bytes: r.u32(),
-            control_steps: r.u32(),
-        }
+        Parse::read((|| {
+            Some(Self {
+                control_max_instructions: r.u32()?,
+                link_max_instructions: r.u32()?,
+                stack_high_water_bytes: r.u32()?,
+                control_steps: r.u32()?,
+            })
+        })())
     }
 }
 
-/// Reassembles fixed-length tagged messages from bytes.
+/// Collects a message's bytes until they parse.
 #[derive(Clone, Debug)]
 struct Assembler<const N: usize> {
     buf: [u8; N],
     len: usize,
-    /// Bytes the message being assembled has in all (0: waiting for a tag).
-    want: usize,
     errors: u32,
 }
 
@@ -328,42 +525,48 @@ impl<const N: usize> Assembler<N> {
         Self {
             buf: [0; N],
             len: 0,
-            want: 0,
             errors: 0,
         }
     }
 
-    /// Takes `byte`; the whole message once its last byte arrived. `length_of` gives a
-    /// tag's message length (`None`: not a tag, counted as an error and dropped).
-    fn push(&mut self, byte: u8, length_of: impl Fn(u8) -> Option<usize>) -> Option<&[u8]> {
-        if self.want == 0 {
-            match length_of(byte) {
-                Some(want) if want <= N => {
-                    self.want = want;
-                    self.len = 0;
-                }
-                _ => {
-                    self.errors = self.errors.wrapping_add(1);
-                    return None;
-                }
-            }
-        }
-        if let Some(slot) = self.buf.get_mut(self.len) {
-            *slot = byte;
-        }
-        self.len += 1;
-        if self.len < self.want {
+    /// Takes `byte`. A first byte that `is_tag` refuses is dropped and counted; then the
+    /// bytes so far go to `parse` until it has a whole message (or an invalid one,
+    /// dropped and counted, as is one longer than `N` bytes).
+    fn push<T>(
+        &mut self,
+        byte: u8,
+        is_tag: impl Fn(u8) -> bool,
+        parse: impl Fn(&[u8]) -> Parse<T>,
+    ) -> Option<T> {
+        if self.len == 0 && !is_tag(byte) {
+            self.errors = self.errors.wrapping_add(1);
             return None;
         }
-        let whole = self.want;
-        self.want = 0;
-        self.buf.get(..whole)
+        let Some(slot) = self.buf.get_mut(self.len) else {
+            self.len = 0;
+            self.errors = self.errors.wrapping_add(1);
+            return None;
+        };
+        *slot = byte;
+        self.len += 1;
+        match parse(self.buf.get(..self.len).unwrap_or_default()) {
+            Parse::Partial => None,
+            Parse::Whole(message) => {
+                self.len = 0;
+                Some(message)
+            }
+            Parse::Invalid => {
+                self.len = 0;
+                self.errors = self.errors.wrapping_add(1);
+                None
+            }
+        }
     }
 }
 
 /// The board's decoder of what the plant sends.
 #[derive(Clone, Debug)]
-pub struct StepDecoder(Assembler<PLANT_STEP_LEN>);
+pub struct StepDecoder(Assembler<PLANT_STEP_MAX_LEN>);
 
 impl Default for StepDecoder {
     fn default() -> Self {
@@ -379,21 +582,18 @@ impl StepDecoder {
 
     /// Takes one received byte; the message it completes, if any.
     pub fn push(&mut self, byte: u8) -> Option<ToBoard> {
-        let message = self.0.push(byte, |tag| match tag {
-            STEP_TAG => Some(PLANT_STEP_LEN),
-            FINISH => Some(1),
-            _ => None,
-        })?;
-        match message.first() {
-            Some(&FINISH) => Some(ToBoard::Finish),
-            _ => match PlantStep::decode(message) {
-                Some(step) => Some(ToBoard::Step(step)),
-                None => {
-                    self.0.errors = self.0.errors.wrapping_add(1);
-                    None
-                }
+        self.0.push(
+            byte,
+            |tag| matches!(tag, STEP_TAG | STEP_PRESSED_TAG | FINISH),
+            |bytes| match bytes.first() {
+                Some(&FINISH) => Parse::Whole(ToBoard::Finish),
+                _ => match PlantStep::parse(bytes) {
+                    Parse::Whole(step) => Parse::Whole(ToBoard::Step(step)),
+                    Parse::Partial => Parse::Partial,
+                    Parse::Invalid => Parse::Invalid,
+                },
             },
-        }
+        )
     }
 
     /// Bytes and messages dropped: unknown tags, steps of 0 periods.
@@ -402,9 +602,13 @@ impl StepDecoder {
     }
 }
 
-/// The plant's decoder of what the board sends (after [`READY`]).
+/// The plant's decoder of what the board sends (after [`READY`]); it keeps the last
+/// details, so every [`BoardStep`] it gives is whole.
 #[derive(Clone, Debug)]
-pub struct BoardDecoder(Assembler<BOARD_STEP_LEN>);
+pub struct BoardDecoder {
+    assembler: Assembler<BOARD_STEP_MAX_LEN>,
+    last: Details,
+}
 
 impl Default for BoardDecoder {
     fn default() -> Self {
@@ -415,31 +619,40 @@ impl Default for BoardDecoder {
 impl BoardDecoder {
     /// A decoder waiting for a tag.
     pub const fn new() -> Self {
-        Self(Assembler::new())
+        Self {
+            assembler: Assembler::new(),
+            last: Details::NONE,
+        }
     }
 
     /// Takes one received byte; the message it completes, if any.
     pub fn push(&mut self, byte: u8) -> Option<FromBoard> {
-        let message = self.0.push(byte, |tag| match tag {
-            BOARD_STEP_TAG => Some(BOARD_STEP_LEN),
-            FINISH => Some(BOARD_REPORT_LEN),
-            _ => None,
-        })?;
-        match message.first() {
-            Some(&FINISH) => Some(FromBoard::Report(BoardReport::decode(message))),
-            _ => match BoardStep::decode(message) {
-                Some(step) => Some(FromBoard::Step(step)),
-                None => {
-                    self.0.errors = self.0.errors.wrapping_add(1);
-                    None
-                }
+        let last = self.last;
+        let message = self.assembler.push(
+            byte,
+            |tag| matches!(tag, BOARD_STEP_TAG | BOARD_DETAIL_TAG | FINISH),
+            |bytes| match bytes.first() {
+                Some(&FINISH) => match BoardReport::parse(bytes) {
+                    Parse::Whole(report) => Parse::Whole(FromBoard::Report(report)),
+                    Parse::Partial => Parse::Partial,
+                    Parse::Invalid => Parse::Invalid,
+                },
+                _ => match BoardStep::parse(bytes, &last) {
+                    Parse::Whole(step) => Parse::Whole(FromBoard::Step(step)),
+                    Parse::Partial => Parse::Partial,
+                    Parse::Invalid => Parse::Invalid,
+                },
             },
+        )?;
+        if let FromBoard::Step(step) = &message {
+            self.last = Details::of(step);
         }
+        Some(message)
     }
 
     /// Bytes and messages dropped: unknown tags, codes out of range.
     pub const fn errors(&self) -> u32 {
-        self.0.errors
+        self.assembler.errors
     }
 }
 
@@ -605,20 +818,24 @@ fn faults_from(bits: u16) -> Faults {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::vec::Vec;
 
-    fn step() -> PlantStep {
+    fn step(left: i32, right: i32, periods: u32, button_pressed: bool) -> PlantStep {
         PlantStep {
-            ticks: TickDeltas {
-                left: -7,
-                right: 1_000_000,
-            },
-            periods: NonZeroU32::new(3).unwrap(),
+            ticks: TickDeltas { left, right },
+            periods: NonZeroU32::new(periods).unwrap(),
             supply_v: 5.987_654,
-            button_pressed: true,
+            button_pressed,
         }
     }
 
-    fn board_step(event: Option<Event>) -> BoardStep {
+    fn plant_bytes(s: &PlantStep) -> Vec<u8> {
+        let mut out = [0u8; PLANT_STEP_MAX_LEN];
+        let len = s.encode(&mut out);
+        out[..len].to_vec()
+    }
+
+    fn board_step(event: Option<Event>, steering_updated: bool) -> BoardStep {
         BoardStep {
             duty: MotorCommand {
                 left: -0.25,
@@ -646,26 +863,74 @@ mod tests {
                 y_e_m: -0.02,
                 theta_e_rad: 1e-7,
             },
-            steering_updated: false,
+            steering_updated,
         }
     }
 
-    fn board_messages(bytes: &[u8]) -> (std::vec::Vec<FromBoard>, u32) {
+    fn board_messages(bytes: &[u8]) -> (Vec<FromBoard>, u32) {
         let mut d = BoardDecoder::new();
         let out = bytes.iter().filter_map(|&b| d.push(b)).collect();
         (out, d.errors())
     }
 
     #[test]
-    fn a_plant_step_crosses_bit_for_bit() {
-        let s = step();
-        let bytes = s.encode();
-        assert_eq!(bytes[0], STEP_TAG);
+    fn plant_steps_cross_bit_for_bit_in_few_bytes() {
+        let steps = [
+            step(-7, 3, 1, false),
+            step(i32::MIN, i32::MAX, u32::MAX, true),
+            step(0, -1, 12, false),
+        ];
         let mut d = StepDecoder::new();
-        let got: std::vec::Vec<_> = bytes.iter().filter_map(|&b| d.push(b)).collect();
-        assert_eq!(got, [ToBoard::Step(s)]);
+        let mut got = Vec::new();
+        for s in &steps {
+            got.extend(plant_bytes(s).iter().filter_map(|&b| d.push(b)));
+        }
+        assert_eq!(got, steps.map(ToBoard::Step));
+        // A step of a moving robot: tag, one byte per count, the supply.
+        assert_eq!(plant_bytes(&steps[0]).len(), 8);
+        assert_eq!(plant_bytes(&steps[0])[0], STEP_TAG);
+        assert_eq!(plant_bytes(&steps[1])[0], STEP_PRESSED_TAG);
+        assert_eq!(plant_bytes(&steps[1]).len(), PLANT_STEP_MAX_LEN);
         assert_eq!(d.push(FINISH), Some(ToBoard::Finish));
         assert_eq!(d.errors(), 0);
+    }
+
+    #[test]
+    fn the_details_go_along_only_when_needed_and_the_decoder_keeps_them() {
+        let mut encoder = BoardEncoder::new();
+        let mut out = [0u8; BOARD_STEP_MAX_LEN];
+        let mut bytes = Vec::new();
+        let mut send = |s: &BoardStep| {
+            let len = encoder.encode(s, &mut out);
+            bytes.extend_from_slice(&out[..len]);
+            len
+        };
+        let first = board_step(None, false);
+        // The first answer carries the details (the overrun count at its longest).
+        assert_eq!(send(&first), 44);
+        // Nothing changed, no steering, no event: duties and status only.
+        let mut quiet = first;
+        quiet.duty.left = 0.5;
+        assert_eq!(send(&quiet), 10);
+        // The steering law ran: details (the new pose) again.
+        let mut steering = quiet;
+        steering.steering_updated = true;
+        steering.pose.x_m = 7.0;
+        assert!(send(&steering) > 10);
+        // An event.
+        let armed = board_step(Some(Event::Armed(RunMode::FollowPath)), false);
+        assert!(send(&armed) > 10);
+        // A counter changed.
+        let mut late = board_step(None, false);
+        late.missed_ticks_total += 3;
+        assert!(send(&late) > 10);
+        let (got, errors) = board_messages(&bytes);
+        assert_eq!(errors, 0);
+        // Every step comes out whole, the quiet one with the last details.
+        assert_eq!(
+            got,
+            [first, quiet, steering, armed, late].map(FromBoard::Step)
+        );
     }
 
     #[test]
@@ -685,15 +950,18 @@ mod tests {
             Some(Event::PersistStarted),
             Some(Event::PersistEnded),
         ];
-        let mut bytes = std::vec::Vec::new();
+        let mut encoder = BoardEncoder::new();
+        let mut out = [0u8; BOARD_STEP_MAX_LEN];
+        let mut bytes = Vec::new();
         for e in events {
-            bytes.extend_from_slice(&board_step(e).encode());
+            let len = encoder.encode(&board_step(e, true), &mut out);
+            bytes.extend_from_slice(&out[..len]);
         }
         let (got, errors) = board_messages(&bytes);
         assert_eq!(errors, 0);
-        let expected: std::vec::Vec<_> = events
+        let expected: Vec<_> = events
             .iter()
-            .map(|&e| FromBoard::Step(board_step(e)))
+            .map(|&e| FromBoard::Step(board_step(e, true)))
             .collect();
         assert_eq!(got, expected);
         // Each fault flag has its own bit.
@@ -723,21 +991,24 @@ mod tests {
         assert_eq!(d.push(0x00), None);
         assert_eq!(d.push(b'x'), None);
         assert_eq!(d.errors(), 2);
-        let mut bytes = step().encode();
-        bytes[9..13].copy_from_slice(&0u32.to_le_bytes());
-        assert!(bytes.iter().all(|&b| d.push(b).is_none()));
+        // Zero periods: tag, two one-byte counts, a zero, the supply.
+        let mut zero = plant_bytes(&step(1, 1, 1, false));
+        zero[3] = 0;
+        assert!(zero.iter().all(|&b| d.push(b).is_none()));
         assert_eq!(d.errors(), 3);
         // It resynchronises on the next tag.
-        let good = step().encode();
+        let good = step(5, 5, 1, false);
         assert_eq!(
-            good.iter().filter_map(|&b| d.push(b)).last(),
-            Some(ToBoard::Step(step()))
+            plant_bytes(&good).iter().filter_map(|&b| d.push(b)).last(),
+            Some(ToBoard::Step(good))
         );
         // An out-of-range bridge code on the board's side.
-        let mut bad = board_step(None).encode();
-        bad[9] = 7;
-        let (got, errors) = board_messages(&bad);
+        let mut out = [0u8; BOARD_STEP_MAX_LEN];
+        let len = BoardEncoder::new().encode(&board_step(None, false), &mut out);
+        out[9] |= 0b11;
+        let (got, errors) = board_messages(&out[..len]);
         assert!(got.is_empty());
-        assert_eq!(errors, 1);
+        // The message and the bytes after it (read as tags) are dropped.
+        assert!(errors >= 1);
     }
 }

@@ -14,7 +14,8 @@
 
 use robot_app::channel::ring::{Consumer, Producer};
 use robot_app::lockstep::{
-    BoardReport, BoardStep, PlantStep, StepDecoder, ToBoard, BOARD_STEP_LEN, READY,
+    BoardEncoder, BoardReport, BoardStep, PlantStep, StepDecoder, ToBoard, BOARD_STEP_MAX_LEN,
+    READY,
 };
 use stm32f4xx_hal::pac;
 
@@ -25,10 +26,12 @@ use crate::stats;
 pub struct PlantPort {
     usart: pac::USART1,
     decoder: StepDecoder,
+    encoder: BoardEncoder,
     steps: Producer<'static, PlantStep, STEP_SLOTS>,
     replies: Consumer<'static, BoardStep, STEP_SLOTS>,
-    /// The message being sent and how much of it has gone.
-    sending: [u8; BOARD_STEP_LEN],
+    /// The message being sent, its length, and how much of it has gone.
+    sending: [u8; BOARD_STEP_MAX_LEN],
+    len: usize,
     sent: usize,
     /// Steps that found the queue full (the plant sent before its answer: a bug there).
     overflows: u32,
@@ -52,10 +55,12 @@ impl PlantPort {
         Self {
             usart,
             decoder: StepDecoder::new(),
+            encoder: BoardEncoder::new(),
             steps,
             replies,
-            sending: [0; BOARD_STEP_LEN],
-            sent: BOARD_STEP_LEN,
+            sending: [0; BOARD_STEP_MAX_LEN],
+            len: 0,
+            sent: 0,
             overflows: 0,
         }
     }
@@ -82,11 +87,11 @@ impl PlantPort {
     /// Sends what waits while the data register takes it; TXEIE on while bytes remain.
     fn transmit(&mut self) {
         loop {
-            if self.sent == BOARD_STEP_LEN {
+            if self.sent == self.len {
                 let Some(step) = self.replies.pop() else {
                     break;
                 };
-                self.sending = step.encode();
+                self.len = self.encoder.encode(&step, &mut self.sending);
                 self.sent = 0;
             }
             if self.usart.sr().read().txe().bit_is_clear() {
@@ -96,13 +101,13 @@ impl PlantPort {
             self.usart.dr().write(|w| w.dr().set(u16::from(byte)));
             self.sent += 1;
         }
-        let more = self.sent < BOARD_STEP_LEN;
+        let more = self.sent < self.len;
         self.usart.cr1().modify(|_, w| w.txeie().bit(more));
     }
 
     /// Flushes the last answer, sends the report and ends the emulation.
     fn finish(&mut self) -> ! {
-        while self.sent < BOARD_STEP_LEN || !self.replies.is_empty() {
+        while self.sent < self.len || !self.replies.is_empty() {
             self.transmit();
         }
         let report = BoardReport {

@@ -65,6 +65,7 @@ compile_error!("the `qemu` board has no button, LED or motor driver: drop `nucle
 mod app {
     use core::sync::atomic::{AtomicU32, Ordering};
 
+    use controller_core::supervisor::State;
     use robot_app::channel::ring::Ring;
     use robot_app::panic_record::PanicRecord;
     use robot_app::{start, Channels, ControlSide};
@@ -185,6 +186,9 @@ mod app {
         core::hint::black_box(crate::panic_canary::index());
         local.io.end_step();
         stats::CONTROL.record_since(started);
+        if out.state == State::Armed && out.event.is_none() {
+            stats::CONTROL_ARMED.record_since(started);
+        }
     }
 
     /// The plant port of the emulated board (see `board::PlantPort`).

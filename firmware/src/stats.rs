@@ -51,8 +51,12 @@ impl TaskTiming {
     }
 }
 
-/// The control task (TIM5), from its first instruction to its last.
+/// The control task (TIM5), from its first instruction to its last, every step.
 pub static CONTROL: TaskTiming = TaskTiming::new();
+/// The control task in the steps that end armed (the steps that drive the motors; the
+/// longest step overall installs a new configuration or path, which happens only while
+/// disarmed).
+pub static CONTROL_ARMED: TaskTiming = TaskTiming::new();
 /// The link task, each run.
 pub static LINK: TaskTiming = TaskTiming::new();
 

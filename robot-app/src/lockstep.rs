@@ -15,7 +15,7 @@
 //!  board ─► BoardStep   ('A' 10 bytes, or 'D' 40 bytes or more with the details)    ┘ step
 //!  …
 //!  plant ─► FINISH ('F')
-//!  board ─► BoardReport ('F' + 16 bytes), then the emulator exits
+//!  board ─► BoardReport ('F' + 20 bytes), then the emulator exits
 //! ```
 //!
 //! Messages are short because the emulated USART is slow: QEMU hands the guest one byte
@@ -57,7 +57,7 @@ pub const PLANT_STEP_MAX_LEN: usize = 1 + 3 * 5 + 4;
 /// details (faults, event, two varint counters, six `f32`).
 pub const BOARD_STEP_MAX_LEN: usize = 1 + 8 + 1 + 2 + 2 + 2 * 5 + 24;
 /// Bytes of a [`BoardReport`] on the wire, tag included.
-pub const BOARD_REPORT_LEN: usize = 17;
+pub const BOARD_REPORT_LEN: usize = 21;
 
 /// What the board's sensors read for one control step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -107,6 +107,8 @@ pub struct BoardReport {
     /// The longest control interrupt, instructions (counted with SysTick under QEMU's
     /// `-icount`).
     pub control_max_instructions: u32,
+    /// The longest control interrupt among the steps that ended armed, instructions.
+    pub control_armed_max_instructions: u32,
     /// The longest run of the link task, instructions.
     pub link_max_instructions: u32,
     /// The stack's high-water mark, bytes.
@@ -493,6 +495,7 @@ impl BoardReport {
         };
         w.u8(FINISH);
         w.u32(self.control_max_instructions);
+        w.u32(self.control_armed_max_instructions);
         w.u32(self.link_max_instructions);
         w.u32(self.stack_high_water_bytes);
         w.u32(self.control_steps);
@@ -504,6 +507,7 @@ impl BoardReport {
         Parse::read((|| {
             Some(Self {
                 control_max_instructions: r.u32()?,
+                control_armed_max_instructions: r.u32()?,
                 link_max_instructions: r.u32()?,
                 stack_high_water_bytes: r.u32()?,
                 control_steps: r.u32()?,
@@ -976,7 +980,8 @@ mod tests {
     #[test]
     fn a_report_answers_finish() {
         let r = BoardReport {
-            control_max_instructions: 1234,
+            control_max_instructions: 11_234,
+            control_armed_max_instructions: 1234,
             link_max_instructions: 98_765,
             stack_high_water_bytes: 2048,
             control_steps: 30_001,

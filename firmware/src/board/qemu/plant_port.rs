@@ -112,6 +112,7 @@ impl PlantPort {
         }
         let report = BoardReport {
             control_max_instructions: stats::CONTROL.max_units(),
+            control_armed_max_instructions: stats::CONTROL_ARMED.max_units(),
             link_max_instructions: stats::LINK.max_units(),
             stack_high_water_bytes: stats::stack_high_water_bytes(),
             control_steps: stats::CONTROL.runs(),

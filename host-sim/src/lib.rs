@@ -28,6 +28,8 @@
 //!   (QEMU), against this plant in lockstep, driven by a ground station over its link.
 //! - [`plot`] — SVG figures in the style of the paper's Figs. 5–7.
 //! - [`sweep`] — Monte-Carlo over mismatch, noise and start pose, on every core.
+//! - [`serve`] — the virtual robot: robot-app's control and link sides against the
+//!   simulated hardware, speaking the runtime link over TCP, with ground truth.
 //!
 //! ```no_run
 //! use controller_core::law::LawKind;
@@ -55,6 +57,7 @@ pub mod rng;
 pub mod robot_file;
 pub mod run;
 pub mod scenario;
+pub mod serve;
 pub mod sweep;
 
 pub use metrics::{ErrorReport, Summary};

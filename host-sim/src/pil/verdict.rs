@@ -226,6 +226,7 @@ mod tests {
                 final_heading_error_rad: 0.0,
                 rms_position_error_m: 0.002,
                 max_position_error_m: 0.003,
+                samples: 1000,
             }),
             estimated_error: ErrorReport::default(),
             hourly_rms_true_position_error_m: Vec::new(),

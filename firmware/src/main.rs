@@ -229,6 +229,7 @@ mod app {
     /// The lowest priority: count a heartbeat, then sleep until the next interrupt.
     #[idle]
     fn idle(_cx: idle::Context) -> ! {
+        stats::repaint_after_start();
         loop {
             HEARTBEAT.fetch_add(1, Ordering::Relaxed);
             cortex_m::asm::wfi();

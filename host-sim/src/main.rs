@@ -613,6 +613,8 @@ fn cmd_pil(
         "control_interrupt_max_instructions": outcome.board.control_max_instructions,
         "link_service_max_instructions": outcome.board.link_max_instructions,
         "stack_high_water_bytes": outcome.board.stack_high_water_bytes,
+        "start_stack_bytes": outcome.board.start_stack_bytes,
+        "control_armed_max_instructions": outcome.board.control_armed_max_instructions,
         "control_steps": outcome.board.control_steps,
         "steps_before_arming": outcome.held_steps,
         "digest": outcome.result.digest.to_string(),

@@ -132,6 +132,10 @@ pub fn judge(scenario: &Scenario, outcome: &PilOutcome, host: Option<&RunResult>
             "stack high-water mark (PIL): {} bytes",
             board.stack_high_water_bytes
         ),
+        format!(
+            "stack used by start-up (PIL, before the tasks run): {} bytes",
+            board.start_stack_bytes
+        ),
     ] {
         lines.push(Line { text, passed: true });
     }

@@ -115,6 +115,7 @@ impl PlantPort {
             control_armed_max_instructions: stats::CONTROL_ARMED.max_units(),
             link_max_instructions: stats::LINK.max_units(),
             stack_high_water_bytes: stats::stack_high_water_bytes(),
+            start_stack_bytes: stats::start_stack_bytes(),
             control_steps: stats::CONTROL.runs(),
         };
         for byte in report.encode() {

@@ -232,6 +232,7 @@ pub fn ci() -> Vec<Step> {
         panic_check(),
         qemu(),
         link_qemu(),
+        pil(),
     ]
 }
 
@@ -300,5 +301,14 @@ pub fn link_qemu() -> Step {
     Step::new(
         "link-qemu: the link on an emulated Cortex-M4F (USART1 over TCP, corrupted frames)",
         link_qemu::check,
+    )
+}
+
+/// The firmware in the loop: `host-sim pil` on `paper-circle`, an encoder disconnect and a
+/// link loss (see `crate::pil`).
+pub fn pil() -> Step {
+    Step::new(
+        "pil: the firmware on an emulated Cortex-M4F against host-sim's plant (paper-circle, encoder disconnect, link loss)",
+        crate::pil::check,
     )
 }

@@ -323,10 +323,8 @@ impl Session {
                 Ok(Received::Message(Uplink::Event { step, event })) => {
                     self.report.events.push(format!("step {step}: {event:?}"));
                 }
-                Ok(Received::Message(message @ Uplink::Reply { .. })) => {
-                    if reply.is_none() {
-                        reply = Some(message);
-                    }
+                Ok(Received::Message(message @ Uplink::Reply { .. })) if reply.is_none() => {
+                    reply = Some(message);
                 }
                 Ok(Received::Mismatch(id)) => {
                     bail!("the robot speaks {id}, this station {}", ProtocolId::OURS)

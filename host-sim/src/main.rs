@@ -617,7 +617,7 @@ fn cmd_pil(
         "control_armed_max_instructions": outcome.board.control_armed_max_instructions,
         "control_steps": outcome.board.control_steps,
         "steps_before_arming": outcome.held_steps,
-        "digest": outcome.result.digest.to_string(),
+        "digest": outcome.result.digest.as_ref().map(ToString::to_string),
         "verdict": lines.iter().map(|l| serde_json::json!({"line": l.text, "passed": l.passed})).collect::<Vec<_>>(),
     });
     std::fs::write(

@@ -218,7 +218,8 @@ pub struct RunResult {
     /// Trace rows (empty if not requested, or when the logic ran elsewhere).
     pub trace: Vec<TraceRow>,
     /// The trajectory's fingerprint (see [`Digest`]; hashed as [`run_with_logic`] says).
-    pub digest: Digest,
+    /// `None` for a result not computed by this loop (e.g. a station's recording).
+    pub digest: Option<Digest>,
 }
 
 impl RunResult {
@@ -735,7 +736,7 @@ pub fn run_with_logic<L: RobotLogic>(
         max_current_a: max_current,
         distance_travelled_m: travelled,
         trace,
-        digest: Digest {
+        digest: Some(Digest {
             steps: u32::try_from(total).unwrap_or(u32::MAX),
             hash: digest.finish(),
             pose_bits: m4f_scenario::digest::pose_bits(&last_estimate_pose),
@@ -747,7 +748,7 @@ pub fn run_with_logic<L: RobotLogic>(
                     p.theta_rad as f32,
                 ))
             },
-        },
+        }),
     })
 }
 

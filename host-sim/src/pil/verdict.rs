@@ -52,11 +52,15 @@ pub fn judge(scenario: &Scenario, outcome: &PilOutcome, host: Option<&RunResult>
                     passed: false,
                 }
             });
-            lines.push(if pil.digest == host.digest {
+            let shown = |d: &Option<m4f_scenario::Digest>| {
+                d.as_ref()
+                    .map_or_else(|| "none".to_string(), ToString::to_string)
+            };
+            lines.push(if pil.digest.is_some() && pil.digest == host.digest {
                 Line {
                     text: format!(
                         "PIL {name}: trajectory digest identical to host-sim ({})",
-                        pil.digest
+                        shown(&pil.digest)
                     ),
                     passed: true,
                 }
@@ -64,7 +68,8 @@ pub fn judge(scenario: &Scenario, outcome: &PilOutcome, host: Option<&RunResult>
                 Line {
                     text: format!(
                         "PIL {name}: trajectory digest differs: firmware {}, host-sim {}",
-                        pil.digest, host.digest
+                        shown(&pil.digest),
+                        shown(&host.digest)
                     ),
                     passed: false,
                 }

@@ -2,6 +2,10 @@
 //! `cortex-m-rt` (`link.x`) and `defmt` (`defmt.x`) for this crate's binary only, and
 //! makes `info` this crate's default defmt log level.
 //!
+//! It also sets `FIRMWARE_GIT_HASH` (the commit the firmware is built from, 12 hex
+//! digits, `-dirty` when the work tree differs from it; `unknown` outside git) for the
+//! link's `Info`.
+//!
 //! The scripts are passed here rather than in `.cargo/config.toml` because another
 //! `no_std` program in the workspace (in `tests/`) is built for the same target without
 //! defmt.
@@ -24,10 +28,12 @@ MEMORY
   RAM   : ORIGIN = 0x20000000, LENGTH = 64K
 }
 ";
-const MEMORY_F446: &str = "/* STM32F446RE: 512 KiB flash, 128 KiB SRAM (SRAM1 + SRAM2). */
+const MEMORY_F446: &str = "/* STM32F446RE: 512 KiB flash, 128 KiB SRAM (SRAM1 + SRAM2). FLASH
+   stops at sector 6, which with sector 7 holds the parameter records (the F411's
+   layout). */
 MEMORY
 {
-  FLASH : ORIGIN = 0x08000000, LENGTH = 512K
+  FLASH : ORIGIN = 0x08000000, LENGTH = 256K
   RAM   : ORIGIN = 0x20000000, LENGTH = 128K
 }
 ";
@@ -61,6 +67,8 @@ fn main() {
         println!("cargo:rustc-env=DEFMT_LOG=info");
     }
 
+    git_hash(&manifest);
+
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed=build.rs");
     // Only when building for the MCU: a host `cargo check` of the crate must not ask the
@@ -70,4 +78,41 @@ fn main() {
         println!("cargo:rustc-link-arg-bins=-Tlink.x");
         println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
     }
+}
+
+/// Sets `FIRMWARE_GIT_HASH` and asks cargo to rerun when HEAD, the branch it points to
+/// or the index moves.
+fn git_hash(manifest: &std::path::Path) {
+    let git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .args(args)
+            .current_dir(manifest)
+            .output()
+            .ok()
+            .filter(|out| out.status.success())
+            .map(|out| String::from_utf8_lossy(&out.stdout).trim().to_owned())
+    };
+    let hash = match git(&["rev-parse", "--short=12", "HEAD"]) {
+        Some(hash) => {
+            let dirty = git(&["status", "--porcelain", "--untracked-files=no"])
+                .is_some_and(|status| !status.is_empty());
+            for watched in ["HEAD", "index"] {
+                if let Some(path) = git(&["rev-parse", "--git-path", watched]) {
+                    println!("cargo:rerun-if-changed={}", manifest.join(path).display());
+                }
+            }
+            if let Some(branch) = git(&["symbolic-ref", "-q", "HEAD"]) {
+                if let Some(path) = git(&["rev-parse", "--git-path", &branch]) {
+                    println!("cargo:rerun-if-changed={}", manifest.join(path).display());
+                }
+            }
+            if dirty {
+                format!("{hash}-dirty")
+            } else {
+                hash
+            }
+        }
+        None => "unknown".to_owned(),
+    };
+    println!("cargo:rustc-env=FIRMWARE_GIT_HASH={hash}");
 }

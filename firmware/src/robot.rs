@@ -12,7 +12,12 @@
 //! | Mode after reset           | path following (feature `bring-up`: hold) | [`supervisor_config`] |
 //! | Auto-arm                   | off (feature `auto-arm`: 2 s after power-on) | [`supervisor_config`] |
 //! | Run time limit             | 2 min armed, then disarm            | [`supervisor_config`] |
-//! | Telemetry rate             | 20 Hz                               | [`TELEMETRY_HZ`] |
+//! | Telemetry on the link      | 20 Hz from boot (the host may change it) | [`TELEMETRY_HZ`] |
+//! | Name reported by `Info`    | `diff-drive`                        | [`ROBOT_NAME`]   |
+//!
+//! These are the built-in defaults; the link's `SetParams` replaces the configuration
+//! and `PersistParams` keeps it in flash ([`crate::persistence`]), and a committed path
+//! upload replaces the built-in path until the next reset.
 
 use core::f32::consts::FRAC_PI_3;
 
@@ -21,7 +26,10 @@ use controller_core::law::LawKind;
 use controller_core::params::RobotConfig;
 use controller_core::path::{Path, PathError};
 use controller_core::reference::ReferenceMode;
-use controller_core::supervisor::{RunMode, SupervisorConfig};
+use controller_core::reference::{Reference, ReferenceError};
+use controller_core::supervisor::{ResetCause, RunMode, SupervisorConfig};
+use link::ParamSet;
+use robot_app::{AppConfig, Identity, LinkOptions};
 
 /// The robot's geometry, encoders, rates, limits and gains (the core validates them at
 /// boot). The reference robot: 65 mm wheels, 150 mm track, 12-line encoders behind a 1:30
@@ -37,9 +45,13 @@ pub const REFERENCE_SPEED_M_S: f32 = 0.25;
 /// Wheel speeds held in bring-up mode, rad/s (5 rad/s ≈ 0.16 m/s of rim speed).
 pub const HOLD_SPEEDS: WheelSpeeds = WheelSpeeds::new(5.0, 5.0);
 
-/// Telemetry lines per second, Hz (10–50; each line is one defmt frame of ≈ 150 bytes).
-pub const TELEMETRY_HZ: u32 = 20;
-const _: () = assert!(TELEMETRY_HZ >= 10 && TELEMETRY_HZ <= 50);
+/// Telemetry frames per second on the link from boot, Hz (the host's
+/// `SetTelemetryRate` changes it; the link service caps it to what the baud rate
+/// carries).
+pub const TELEMETRY_HZ: u8 = 20;
+
+/// The robot's name in the link's `Info`.
+pub const ROBOT_NAME: &str = "diff-drive";
 
 /// A path built into the firmware.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
@@ -113,4 +125,54 @@ pub const fn supervisor_config() -> SupervisorConfig {
     // Stop by itself after 2 minutes armed (four laps of the circle).
     config.max_armed_steps = Some(120 * ROBOT.control_rate_hz);
     config
+}
+
+/// The built-in configuration: [`ROBOT`] and [`supervisor_config`].
+pub const fn default_params() -> ParamSet {
+    ParamSet {
+        robot: ROBOT,
+        supervisor: supervisor_config(),
+    }
+}
+
+/// Why the built-in path could not be set up.
+#[derive(Clone, Copy, Debug, PartialEq, defmt::Format)]
+pub enum SetupError {
+    /// The path's geometry.
+    Path(PathError),
+    /// Its reference speed or mode.
+    Reference(ReferenceError),
+}
+
+/// Everything `robot_app::start` needs: the configuration in force `params`, the
+/// built-in path at [`REFERENCE_SPEED_M_S`] with [`LAW`], who the robot is (on the
+/// board `chip`), and the link at `baud` with [`TELEMETRY_HZ`], and `storage` when the
+/// board can persist parameters.
+pub fn app_config(
+    params: ParamSet,
+    reset: ResetCause,
+    chip: &'static str,
+    baud: u32,
+    storage: bool,
+) -> Result<AppConfig, SetupError> {
+    let (path, mode) = PATH.build().map_err(SetupError::Path)?;
+    let reference =
+        Reference::new(path, REFERENCE_SPEED_M_S, mode).map_err(SetupError::Reference)?;
+    Ok(AppConfig {
+        params,
+        reference,
+        law: LAW,
+        reset,
+        identity: Identity {
+            firmware_version: env!("CARGO_PKG_VERSION"),
+            git_hash: env!("FIRMWARE_GIT_HASH"),
+            chip,
+            robot_name: ROBOT_NAME,
+        },
+        link: LinkOptions {
+            baud,
+            telemetry_hz: TELEMETRY_HZ,
+            storage,
+        },
+    })
 }

@@ -24,6 +24,8 @@
 //! - [`run`] — the loop that runs the firmware's decision path, the supervisor around the
 //!   controller, against that hardware, and [`metrics`] of the result.
 //! - [`fault_suite`] — every kind of fault, one at a time, against its detector's limit.
+//! - [`pil`] — processor in the loop: the firmware itself, on an emulated Cortex-M4F
+//!   (QEMU), against this plant in lockstep, driven by a ground station over its link.
 //! - [`plot`] — SVG figures in the style of the paper's Figs. 5–7.
 //! - [`sweep`] — Monte-Carlo over mismatch, noise and start pose, on every core.
 //! - [`serve`] — the virtual robot: robot-app's control and link sides against the
@@ -48,6 +50,7 @@ pub mod faults;
 pub mod hardware;
 pub mod metrics;
 pub mod output;
+pub mod pil;
 pub mod plant;
 pub mod plot;
 pub mod rng;

@@ -122,6 +122,43 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Processor in the loop: the firmware, built for the Cortex-M4F with its `qemu` board,
+    /// runs under qemu-system-arm against this simulator's plant in lockstep, and a ground
+    /// station drives it over its link (the station port). Prints the firmware's figures,
+    /// compares the run with `host-sim run`, writes summary.json and pil.json into --out.
+    Pil {
+        /// Built-in scenario name or a path to a .toml file.
+        scenario: String,
+        #[arg(long, value_enum, default_value_t = Law::Tracking)]
+        law: Law,
+        /// The firmware ELF [default: target/thumbv7em-none-eabihf/firmware/firmware, as
+        /// built by `cargo build --profile firmware -p firmware --target
+        /// thumbv7em-none-eabihf --features qemu`].
+        #[arg(long)]
+        firmware: Option<PathBuf>,
+        /// The QEMU binary.
+        #[arg(long, default_value = "qemu-system-arm")]
+        qemu: PathBuf,
+        /// TCP port of the firmware's link for a ground station (0: any free port, printed).
+        #[arg(long, default_value_t = 0)]
+        station_port: u16,
+        /// Who drives the link: the built-in minimal station, or none (connect your own to
+        /// the station port).
+        #[arg(long, value_enum, default_value_t = Client::Builtin)]
+        client: Client,
+        /// Simulated time, s, instead of the scenario's sim.duration_s.
+        #[arg(long)]
+        duration_s: Option<f64>,
+        /// Cut the link this many seconds after arming (a link-loss test).
+        #[arg(long)]
+        link_loss_at_s: Option<f64>,
+        /// How long the station may take to arm the robot, s (wall clock).
+        #[arg(long, default_value_t = 300)]
+        arm_timeout_s: u64,
+        /// Output directory [default: host-sim-out/<scenario>/pil].
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// The virtual robot: the robot's own application logic (supervisor, controller, link
     /// service) against the simulated hardware, speaking the runtime link on a TCP port,
     /// with ground truth. Drive it with `station --connect ADDRESS …`.
@@ -143,6 +180,15 @@ enum Command {
         /// Built-in scenario name.
         name: String,
     },
+}
+
+/// Who drives the link of a processor-in-the-loop run.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum Client {
+    /// The built-in minimal station (host_sim::pil::station).
+    Builtin,
+    /// Nobody: connect a station to the station port.
+    None,
 }
 
 /// `println!` that returns an error instead of panicking when stdout is closed (for
@@ -501,6 +547,95 @@ T_i = {} s, T_d = {} s, feed-forward k_S = {} V, k_V = {} V/(rad/s):",
     Ok(())
 }
 
+fn cmd_pil(
+    scenario: &str,
+    law: Law,
+    options: host_sim::pil::PilOptions,
+    duration_s: Option<f64>,
+    out: Option<PathBuf>,
+) -> Result<()> {
+    let mut scenario = load(scenario)?;
+    if let Some(duration_s) = duration_s {
+        scenario = scenario.with_duration_s(duration_s)?;
+    }
+    let law = LawKind::from(law);
+    say!(
+        "PIL {}: {} law, {:.1} s, firmware {}",
+        scenario.name,
+        law.name(),
+        scenario.duration_s,
+        options.firmware.display()
+    );
+    let outcome = host_sim::pil::run(&scenario, law, &options)?;
+    // The same scenario with the supervisor and controller run here, unless the link
+    // was cut (no counterpart without a link).
+    let host = match options.link_loss_at_s {
+        Some(_) => None,
+        None => Some(host_sim::run_scenario_with(
+            &scenario,
+            law,
+            host_sim::RunOptions {
+                trace_every_steps: 0,
+            },
+        )?),
+    };
+    let lines = host_sim::pil::verdict::judge(&scenario, &outcome, host.as_ref());
+    for line in &lines {
+        say!("{}", line.text);
+    }
+    if let Some(station) = &outcome.station {
+        say!(
+            "station: {} answered {} requests ({} re-sent), {} telemetry frames, {} heartbeats",
+            station.robot,
+            station.replies,
+            station.resent,
+            station.telemetry_frames,
+            station.heartbeats
+        );
+    }
+    say!(
+        "PIL {}: {} steps in {:.1} s wall ({:.2} ms a step), {} control steps before arming",
+        scenario.name,
+        outcome.result.summary.steps,
+        outcome.wall_time_s,
+        1e3 * outcome.wall_time_s / outcome.result.summary.steps.max(1) as f64,
+        outcome.held_steps
+    );
+    let dir = out.unwrap_or_else(|| default_dir(&scenario, "pil"));
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut summary = outcome.result.summary.clone();
+    summary.wall_time_s = outcome.wall_time_s;
+    std::fs::write(
+        dir.join("summary.json"),
+        serde_json::to_string_pretty(&summary)? + "\n",
+    )?;
+    let pil = serde_json::json!({
+        "control_interrupt_max_instructions": outcome.board.control_max_instructions,
+        "link_service_max_instructions": outcome.board.link_max_instructions,
+        "stack_high_water_bytes": outcome.board.stack_high_water_bytes,
+        "start_stack_bytes": outcome.board.start_stack_bytes,
+        "control_armed_max_instructions": outcome.board.control_armed_max_instructions,
+        "control_steps": outcome.board.control_steps,
+        "steps_before_arming": outcome.held_steps,
+        "digest": outcome.result.digest.as_ref().map(ToString::to_string),
+        "verdict": lines.iter().map(|l| serde_json::json!({"line": l.text, "passed": l.passed})).collect::<Vec<_>>(),
+    });
+    std::fs::write(
+        dir.join("pil.json"),
+        serde_json::to_string_pretty(&pil)? + "\n",
+    )?;
+    say!("  wrote summary.json and pil.json to {}", dir.display());
+    let failed: Vec<&str> = lines
+        .iter()
+        .filter(|l| !l.passed)
+        .map(|l| l.text.as_str())
+        .collect();
+    if !failed.is_empty() {
+        anyhow::bail!("{}", failed.join("; "));
+    }
+    Ok(())
+}
+
 fn cmd_serve(scenario: &str, listen: &str, speed: f64) -> Result<()> {
     use host_sim::serve::{serve, ServeOptions, VirtualRobot};
     if !(speed.is_finite() && speed > 0.0 && speed <= 1000.0) {
@@ -567,6 +702,36 @@ fn main() -> ExitCode {
             out,
         } => cmd_step(&scenario, setpoint_rad_s, duration_s, out),
         Command::Faults { scenario, law, out } => cmd_faults(&scenario, law, out),
+        Command::Pil {
+            scenario,
+            law,
+            firmware,
+            qemu,
+            station_port,
+            client,
+            duration_s,
+            link_loss_at_s,
+            arm_timeout_s,
+            out,
+        } => cmd_pil(
+            &scenario,
+            law,
+            host_sim::pil::PilOptions {
+                firmware: firmware.unwrap_or_else(|| {
+                    host_sim::pil::default_firmware(&PathBuf::from(concat!(
+                        env!("CARGO_MANIFEST_DIR"),
+                        "/../target"
+                    )))
+                }),
+                qemu,
+                station_port,
+                builtin_station: matches!(client, Client::Builtin),
+                link_loss_at_s,
+                arm_timeout: std::time::Duration::from_secs(arm_timeout_s),
+            },
+            duration_s,
+            out,
+        ),
         Command::Serve {
             scenario,
             listen,

@@ -10,6 +10,14 @@
 //!    (drive, brake, coast) and the watchdog, exactly as on the robot;
 //! 3. the hardware applies them and the plant integrates one period.
 //!
+//! ## Whose logic
+//!
+//! The loop asks a [`RobotLogic`] for each step's decision. [`run_scenario_with`] gives it
+//! the supervisor and controller run right here ([`LocalRobot`]); `host-sim pil` gives it
+//! the real firmware on an emulated Cortex-M4F, over the lockstep port ([`crate::pil`]).
+//! Everything else — the plant, the faults, the metrics, the digest — is the same code,
+//! so the two summaries can be compared field for field.
+//!
 //! ## Arming and a start in motion
 //!
 //! Unless the scenario's `[start]` says `arm = "none"`, the run arms at step 0 through the
@@ -32,14 +40,16 @@
 
 use std::time::Instant;
 
+use controller_core::controller::Telemetry;
 use controller_core::prelude::*;
 use controller_core::supervisor::{
     ArmRequest, Bridge, Event, Inputs, RunMode, State, Supervised, Supervisor,
 };
+use m4f_scenario::{Digest, Fnv1a64};
 use robot_app::metrics::{ErrorSample, ErrorStats};
 
 use crate::faults::Fault;
-use crate::hardware::{Actuation, SimHardware};
+use crate::hardware::{Actuation, Sensors, SimHardware};
 use crate::metrics::{fault_names, ErrorReport, FaultReport, HourlyRms, Summary, SupervisorReport};
 use crate::plant::{PlantError, PlantParams, TrueGeometry, TruePose};
 use crate::scenario::{Scenario, ScenarioError};
@@ -162,6 +172,10 @@ pub enum RunError {
     /// The supervisor's settings are invalid.
     #[error("supervisor: {0}")]
     Supervisor(controller_core::supervisor::SupervisorConfigError),
+    /// The robot's logic ran elsewhere and failed (e.g. the emulated firmware stopped
+    /// answering).
+    #[error("robot logic: {0}")]
+    Logic(String),
     /// An argument of a run function is out of range.
     #[error("{name} {rule}, got {value}")]
     Argument {
@@ -201,8 +215,11 @@ pub struct RunResult {
     pub max_current_a: f64,
     /// Length of the true path driven (sampled at the steering rate), m.
     pub distance_travelled_m: f64,
-    /// Trace rows (empty if not requested).
+    /// Trace rows (empty if not requested, or when the logic ran elsewhere).
     pub trace: Vec<TraceRow>,
+    /// The trajectory's fingerprint (see [`Digest`]; hashed as [`run_with_logic`] says).
+    /// `None` for a result not computed by this loop (e.g. a station's recording).
+    pub digest: Option<Digest>,
 }
 
 impl RunResult {
@@ -323,16 +340,50 @@ impl TrueReference {
     }
 }
 
-/// The controller, supervisor and hardware of `scenario` running `law` with `faults`.
-struct Robot {
+/// The controller's estimate after a step, as the loop records it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    /// Odometry pose, world frame (m, rad): current when `steering_updated`, otherwise
+    /// possibly that of the last steering update.
+    pub pose: Pose,
+    /// Tracking error at the last steering update, robot frame (m, rad).
+    pub error: TrackingError,
+    /// The steering law ran in this step.
+    pub steering_updated: bool,
+}
+
+/// What the robot's logic decided in one step.
+pub struct Decision<'a> {
+    /// The supervisor's outcome: duties, bridge, state, faults, event, counters.
+    pub out: Supervised,
+    /// The controller's estimate.
+    pub estimate: Estimate,
+    /// The controller's whole telemetry, when the logic runs in this process (for the
+    /// trace); `None` when it runs elsewhere.
+    pub telemetry: Option<&'a Telemetry>,
+}
+
+/// The robot's logic the loop runs against the simulated hardware: the supervisor around
+/// the controller, here or on an emulated target.
+pub trait RobotLogic {
+    /// Arms before the first step, as the operator at the robot would (`false` if this
+    /// logic cannot, or refused): the scenario's `arm = "follow"` start.
+    fn arm_locally(&mut self, request: ArmRequest) -> bool;
+    /// One control step on what the firmware reads, `sensors`.
+    fn step(&mut self, sensors: &Sensors) -> Result<Decision<'_>, RunError>;
+}
+
+/// The supervisor and controller of `scenario` running `law`, in this process.
+pub struct LocalRobot {
     controller: Controller,
     supervisor: Supervisor,
-    hardware: SimHardware,
     heartbeat: u32,
 }
 
-impl Robot {
-    fn new(scenario: &Scenario, law: LawKind, faults: &[Fault]) -> Result<Self, RunError> {
+impl LocalRobot {
+    /// The scenario's controller (its path, reference and start pose) with `law`, and its
+    /// supervisor after a power-on reset.
+    pub fn new(scenario: &Scenario, law: LawKind) -> Result<Self, RunError> {
         let params = scenario.params()?;
         let reference = Reference::new(
             scenario.path.clone(),
@@ -350,15 +401,19 @@ impl Robot {
                 controller_core::supervisor::ResetCause::PowerOn,
             )
             .map_err(RunError::Supervisor)?,
-            hardware: SimHardware::new(scenario, faults)?,
             heartbeat: 0,
         })
     }
+}
 
-    /// One control step (module doc); returns the supervisor's decision.
-    fn step(&mut self) -> Supervised {
-        let periods = self.hardware.periods_until_next_step();
-        let sensors = self.hardware.sense(periods);
+impl RobotLogic for LocalRobot {
+    fn arm_locally(&mut self, request: ArmRequest) -> bool {
+        self.supervisor
+            .arm_locally(&mut self.controller, request)
+            .is_ok()
+    }
+
+    fn step(&mut self, sensors: &Sensors) -> Result<Decision<'_>, RunError> {
         self.heartbeat = self.heartbeat.wrapping_add(1);
         let out = self.supervisor.step(
             &mut self.controller,
@@ -373,13 +428,34 @@ impl Robot {
                 command: None,
             },
         );
-        self.hardware.actuate(Actuation {
-            duty: out.duty,
-            bridge: out.bridge,
-        });
-        self.hardware.advance();
-        out
+        let t = self.controller.telemetry();
+        Ok(Decision {
+            out,
+            estimate: Estimate {
+                pose: t.pose,
+                error: t.error,
+                steering_updated: t.steering_updated,
+            },
+            telemetry: Some(t),
+        })
     }
+}
+
+/// One control step of `logic` against `hardware` (module doc): the periods the step
+/// covers, the sensors, the decision, the outputs, one period of the plant.
+fn step<'a, L: RobotLogic>(
+    logic: &'a mut L,
+    hardware: &mut SimHardware,
+) -> Result<Decision<'a>, RunError> {
+    let periods = hardware.periods_until_next_step();
+    let sensors = hardware.sense(periods);
+    let decision = logic.step(&sensors)?;
+    hardware.actuate(Actuation {
+        duty: decision.out.duty,
+        bridge: decision.out.bridge,
+    });
+    hardware.advance();
+    Ok(decision)
 }
 
 /// What happened after each injected fault (see [`FaultReport`]).
@@ -466,7 +542,27 @@ pub fn run_scenario_with(
     law: LawKind,
     options: RunOptions,
 ) -> Result<RunResult, RunError> {
-    let mut robot = Robot::new(scenario, law, &scenario.faults)?;
+    let mut robot = LocalRobot::new(scenario, law)?;
+    run_with_logic(scenario, law, options, &mut robot, "simulator")
+}
+
+/// Runs `scenario` (its plant, faults and duration) with the decisions of `logic`, which
+/// follows the path with `law`; `source` names where the logic ran (`simulator`, `pil`)
+/// in the summary.
+///
+/// The [`Digest`] hashes, at every step, the duties (their bits) and the plant's true
+/// pose when the firmware read its sensors, and at every steering update the
+/// controller's odometry pose; its final poses are the odometry pose at the last
+/// steering update and the plant's true pose at the end. Two runs with equal digests
+/// computed the same duties and estimates at every step, bit for bit.
+pub fn run_with_logic<L: RobotLogic>(
+    scenario: &Scenario,
+    law: LawKind,
+    options: RunOptions,
+    logic: &mut L,
+    source: &str,
+) -> Result<RunResult, RunError> {
+    let mut hardware = SimHardware::new(scenario, &scenario.faults)?;
     let control_hz = scenario.robot.control_rate_hz;
     let rate = f64::from(control_hz);
     let params = scenario.params()?;
@@ -481,11 +577,13 @@ pub fn run_scenario_with(
         .iter()
         .map(|f| FaultWatch::new(*f, rate))
         .collect();
+    let mut digest = Fnv1a64::new();
+    let mut last_estimate_pose = Pose::default();
 
     // Arm at step 0 (in motion if the scenario starts moving), unless told not to.
     let s = scenario.start;
     if s.v_m_s != 0.0 || s.omega_rad_s != 0.0 {
-        robot.hardware.start_moving(s.v_m_s, s.omega_rad_s);
+        hardware.start_moving(s.v_m_s, s.omega_rad_s);
     }
     let mut armed_at: Option<u64> = None;
     if scenario.arm_at_start {
@@ -496,11 +594,7 @@ pub fn run_scenario_with(
             hold_speeds: None,
             initial_motion: motion,
         };
-        if robot
-            .supervisor
-            .arm_locally(&mut robot.controller, request)
-            .is_ok()
-        {
+        if logic.arm_locally(request) {
             armed_at = Some(0);
         }
     }
@@ -520,14 +614,27 @@ pub fn run_scenario_with(
     let mut last_out = None;
 
     let wall = Instant::now();
-    while robot.hardware.period() < total {
-        let period = robot.hardware.period();
+    while hardware.period() < total {
+        let period = hardware.period();
         let t_s = period as f64 / rate;
         // The true state when the firmware reads its sensors.
-        let pose = robot.hardware.plant().pose();
-        let wheels = robot.hardware.plant().wheel_speeds();
-        let true_velocity = robot.hardware.plant().body_velocity();
-        let out = robot.step();
+        let pose = hardware.plant().pose();
+        let wheels = hardware.plant().wheel_speeds();
+        let true_velocity = hardware.plant().body_velocity();
+        let decision = step(logic, &mut hardware)?;
+        let out = decision.out;
+        let estimate = decision.estimate;
+        digest.write_f32(out.duty.left);
+        digest.write_f32(out.duty.right);
+        digest.write_pose(&Pose::new(
+            pose.x_m as f32,
+            pose.y_m as f32,
+            pose.theta_rad as f32,
+        ));
+        if estimate.steering_updated {
+            digest.write_pose(&estimate.pose);
+            last_estimate_pose = estimate.pose;
+        }
         if let Some(Event::Armed(RunMode::FollowPath)) = out.event {
             if armed_at.is_none() {
                 armed_at = Some(period);
@@ -555,20 +662,22 @@ pub fn run_scenario_with(
                 last_position = (pose.x_m, pose.y_m);
             }
         }
-        let tel = robot.controller.telemetry();
-        if tel.steering_updated {
+        if estimate.steering_updated {
             if let Some(k) = since_arming {
                 est_stats.push(ErrorSample {
                     step: k as u32,
-                    position_m: tel.error.position_m(),
-                    heading_rad: tel.error.theta_e_rad,
+                    position_m: estimate.error.position_m(),
+                    heading_rad: estimate.error.theta_e_rad,
                 });
             }
         }
         for w in &mut watches {
             w.observe(period, t_s, &out, &pose, wheels);
         }
-        if trace_every > 0 && period % trace_every == 0 {
+        if let (true, Some(tel)) = (
+            trace_every > 0 && period % trace_every == 0,
+            decision.telemetry,
+        ) {
             trace.push(TraceRow {
                 t_s,
                 true_pose: pose,
@@ -589,7 +698,7 @@ pub fn run_scenario_with(
                 state: out.state,
             });
         }
-        let [il, ir] = robot.hardware.plant().currents_a();
+        let [il, ir] = hardware.plant().currents_a();
         max_current = max_current.max(il.abs()).max(ir.abs());
         max_duty = max_duty
             .max(f64::from(out.duty.left.abs()))
@@ -612,7 +721,7 @@ pub fn run_scenario_with(
         summary: Summary {
             scenario: scenario.name.clone(),
             law: law.name().to_string(),
-            source: "simulator".to_string(),
+            source: source.to_string(),
             true_error: Some(ErrorReport::from(true_stats.summary())),
             estimated_error: ErrorReport::from(est_stats.summary()),
             hourly_rms_true_position_error_m: hourly.finish(),
@@ -627,6 +736,19 @@ pub fn run_scenario_with(
         max_current_a: max_current,
         distance_travelled_m: travelled,
         trace,
+        digest: Some(Digest {
+            steps: u32::try_from(total).unwrap_or(u32::MAX),
+            hash: digest.finish(),
+            pose_bits: m4f_scenario::digest::pose_bits(&last_estimate_pose),
+            true_pose_bits: {
+                let p = hardware.plant().pose();
+                m4f_scenario::digest::pose_bits(&Pose::new(
+                    p.x_m as f32,
+                    p.y_m as f32,
+                    p.theta_rad as f32,
+                ))
+            },
+        }),
     })
 }
 
@@ -671,37 +793,39 @@ pub fn wheel_step_response(
             value: setpoint_rad_s,
         });
     }
-    let mut robot = Robot::new(scenario, LawKind::Tracking, &[])?;
+    let mut robot = LocalRobot::new(scenario, LawKind::Tracking)?;
+    let mut hardware = SimHardware::new(scenario, &[])?;
     let sp = setpoint_rad_s as f32;
     // Warm the supply filter up before the step, as a robot that has been on for a while.
     for _ in 0..50 {
-        robot.step();
+        step(&mut robot, &mut hardware)?;
     }
-    let start = robot.hardware.period();
+    let start = hardware.period();
     let request = ArmRequest {
         mode: RunMode::HoldWheelSpeeds,
         hold_speeds: Some(WheelSpeeds::new(sp, sp)),
         initial_motion: None,
     };
-    robot
-        .supervisor
-        .arm_locally(&mut robot.controller, request)
-        .map_err(|_| RunError::Argument {
+    if !robot.arm_locally(request) {
+        return Err(RunError::Argument {
             name: "scenario",
             rule: "must let the robot arm",
             value: 0.0,
-        })?;
+        });
+    }
     let rate = f64::from(scenario.robot.control_rate_hz);
     let steps = (duration_s * rate).round() as u64;
     let mut samples = Vec::with_capacity(steps as usize);
-    while robot.hardware.period() < start + steps {
-        let k = robot.hardware.period() - start;
-        let out = robot.step();
+    while hardware.period() < start + steps {
+        let k = hardware.period() - start;
+        let decision = step(&mut robot, &mut hardware)?;
+        let measured = decision.telemetry.map_or(0.0, |t| t.wheel_speed.left_rad_s);
+        let duty = decision.out.duty.left;
         samples.push((
             k as f64 / rate,
-            robot.hardware.plant().wheel_speeds()[0],
-            f64::from(robot.controller.telemetry().wheel_speed.left_rad_s),
-            f64::from(out.duty.left),
+            hardware.plant().wheel_speeds()[0],
+            f64::from(measured),
+            f64::from(duty),
         ));
     }
     let target = setpoint_rad_s;

@@ -17,7 +17,7 @@
 //! - **COBS** removes every 0x00 from the frame, so 0x00 marks the end of a frame and a
 //!   receiver that lost bytes resynchronises at the next one. The overhead is one byte
 //!   per 254, plus the delimiter.
-//! - **CRC-32** (the Ethernet/zlib polynomial, 1 KiB table) detects corruption on the
+//! - **CRC-32** (the Ethernet/zlib polynomial, computed bit by bit: no table) detects corruption on the
 //!   line. A frame that fails COBS, the CRC, the size limit or postcard decoding is
 //!   dropped and counted ([`RxCounters`]), never acted on, never a panic.
 //! - **The header** is five fixed bytes, not postcard, and its layout never changes:
@@ -186,7 +186,8 @@ pub use crate::bandwidth::{check_telemetry_rate, max_telemetry_rate_hz, TELEMETR
 pub use crate::checksum::{crc32, params_hash, path_checksum};
 pub use crate::decoder::{Decoder, Dropped, Outcome, Received, RxCounters};
 pub use crate::frame::{
-    encode, encode_raw, encode_to_vec, max_wire_len, EncodeError, MAX_BODY_LEN, MAX_FRAME_LEN,
+    encode, encode_body, encode_raw, encode_to_vec, max_wire_len, EncodeError, MAX_BODY_LEN,
+    MAX_FRAME_LEN,
 };
 pub use crate::message::*;
 pub use crate::protocol::{Mismatch, ProtocolId, PROTOCOL_VERSION, SCHEMA_HASH};

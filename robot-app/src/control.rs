@@ -64,6 +64,12 @@ pub struct Actuation {
     pub feed_watchdog: bool,
     /// Supervisor state after the step.
     pub state: State,
+    /// The mode used when armed.
+    pub run_mode: RunMode,
+    /// Missed control ticks since start (saturating).
+    pub missed_ticks_total: u32,
+    /// Overrun steps since start (saturating).
+    pub overruns_total: u32,
     /// The status LED's level in this step (see [`led_on`]).
     pub led_on: bool,
     /// The supply is below the battery's warning threshold.
@@ -286,6 +292,9 @@ impl<'a> ControlSide<'a> {
             bridge: out.bridge,
             feed_watchdog: out.feed_watchdog,
             state: out.state,
+            run_mode: out.run_mode,
+            missed_ticks_total: out.missed_ticks_total,
+            overruns_total: out.overruns_total,
             led_on: led_on(out.state, self.step, self.rate),
             battery_low: out.battery_low,
             faults: out.faults,

@@ -13,6 +13,7 @@
 //! | [`persist`] | the parameter record in flash and the two-page rotation, as pure functions | the link task (and `init`) |
 //! | [`metrics`] | run metrics (settle time, final and windowed errors) in fixed memory | the control interrupt |
 //! | [`hw`] | register arithmetic of the STM32F4 boards, with host tests | `init` |
+//! | [`lockstep`] | the emulated board's port to a simulated plant (processor in the loop) | the `qemu` board, `host-sim pil` |
 //! | [`panic_record`] | the record of the last panic or hard fault kept in RAM across a reset | panic handler, `init` |
 //!
 //! # How a board wires it
@@ -140,6 +141,7 @@
 pub mod channel;
 pub mod control;
 pub mod hw;
+pub mod lockstep;
 pub mod metrics;
 pub mod panic_record;
 pub mod persist;

@@ -176,8 +176,10 @@ pub fn encode(params: &ParamSet, sequence: u32, page: &mut [u8]) -> Result<usize
     let too_small = StoreError::PageTooSmall { available };
     let (header, rest) = page.split_at_mut_checked(HEADER_LEN).ok_or(too_small)?;
     let body_room = rest.len().min(MAX_BODY_LEN);
-    let body_len = match postcard::to_slice(params, rest.get_mut(..body_room).unwrap_or_default()) {
-        Ok(body) => body.len(),
+    // The link's own encoder: the same code that encodes the configuration for the link
+    // and its hash, not a second copy.
+    let body_len = match link::encode_body(params, rest.get_mut(..body_room).unwrap_or_default()) {
+        Ok(len) => len,
         Err(_) if body_room < MAX_BODY_LEN => return Err(too_small),
         Err(_) => return Err(StoreError::TooLarge),
     };

@@ -451,6 +451,8 @@ impl<'a> Recorder<'a> {
                 max_current_a: f64::NAN,
                 distance_travelled_m: distance,
                 trace: self.rows,
+                // No digest: the recording has the robot's telemetry, not every step.
+                digest: None,
             },
             has_truth: self.saw_truth,
             report,

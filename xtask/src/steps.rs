@@ -14,6 +14,20 @@ pub const TARGET: &str = "thumbv7em-none-eabihf";
 /// Packages built only for [`TARGET`], never for the host.
 pub const TARGET_ONLY_PACKAGES: [&str; 3] = ["firmware", "qemu-m4f", "qemu-link"];
 
+/// The cargo profile the firmware is built with (size over speed, the control step's
+/// crate excepted; see the workspace's `Cargo.toml`).
+pub const FIRMWARE_PROFILE: &str = "firmware";
+
+/// The profile `package` is built with for [`TARGET`]: the firmware's for the firmware
+/// and for the link's QEMU program (so that its size is what the firmware pays),
+/// `release` for the rest (the core's QEMU program measures the core at opt-level 3).
+pub fn profile_for(package: &str) -> &'static str {
+    match package {
+        "firmware" | "qemu-link" => FIRMWARE_PROFILE,
+        _ => "release",
+    }
+}
+
 /// What every step needs: where the workspace is and which `cargo` runs it.
 pub struct Context {
     /// The workspace root (where the workspace's `Cargo.toml` is).
@@ -64,9 +78,9 @@ pub fn display_command(cmd: &Command) -> String {
     })
 }
 
-/// Builds `package` for [`TARGET`] in release, with `extra_args` (e.g. `--features`,
-/// possibly empty), and returns the paths of the executables it produced (diagnostics go
-/// to the terminal as usual).
+/// Builds `package` for [`TARGET`] with its profile ([`profile_for`]) and `extra_args`
+/// (e.g. `--features`, possibly empty), and returns the paths of the executables it
+/// produced (diagnostics go to the terminal as usual).
 pub fn build_target_executables(
     ctx: &Context,
     package: &str,
@@ -74,7 +88,8 @@ pub fn build_target_executables(
 ) -> Result<Vec<PathBuf>> {
     let mut args = vec![
         "build",
-        "--release",
+        "--profile",
+        profile_for(package),
         "--package",
         package,
         "--target",
@@ -217,6 +232,7 @@ pub fn ci() -> Vec<Step> {
         panic_check(),
         qemu(),
         link_qemu(),
+        pil(),
     ]
 }
 
@@ -258,7 +274,7 @@ pub fn setup() -> Step {
 /// Builds the firmware and checks flash and static RAM against the budget.
 pub fn firmware_size() -> Step {
     Step::new(
-        "firmware: release build and size budget",
+        "firmware: build (firmware profile) and size budget",
         elf_size::check_firmware,
     )
 }
@@ -267,7 +283,7 @@ pub fn firmware_size() -> Step {
 /// see the one the `panic-canary` build adds).
 pub fn panic_check() -> Step {
     Step::new(
-        "firmware: no panic path from the control interrupt (release ELF, with a canary)",
+        "firmware: no panic path from the control and link-USART interrupts (firmware ELF, with a canary)",
         panic_check::check_firmware,
     )
 }
@@ -285,5 +301,14 @@ pub fn link_qemu() -> Step {
     Step::new(
         "link-qemu: the link on an emulated Cortex-M4F (USART1 over TCP, corrupted frames)",
         link_qemu::check,
+    )
+}
+
+/// The firmware in the loop: `host-sim pil` on `paper-circle`, an encoder disconnect and a
+/// link loss (see `crate::pil`).
+pub fn pil() -> Step {
+    Step::new(
+        "pil: the firmware on an emulated Cortex-M4F against host-sim's plant (paper-circle, encoder disconnect, link loss)",
+        crate::pil::check,
     )
 }

@@ -274,12 +274,19 @@ pub struct RobotInfo {
 /// `text` as a bounded string, cut at a character boundary when longer than `N` bytes.
 pub fn bounded<const N: usize>(text: &str) -> String<N> {
     let mut out = String::new();
-    for c in text.chars() {
-        if out.push(c).is_err() {
-            break;
-        }
-    }
+    // Whole: cannot fail (at most N bytes).
+    let _ = out.push_str(prefix_within(text, N));
     out
+}
+
+/// The longest prefix of `text` of at most `cap` bytes that ends on a character
+/// boundary. Not generic, so the firmware holds one copy for every capacity.
+fn prefix_within(text: &str, cap: usize) -> &str {
+    let mut end = cap.min(text.len());
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    text.get(..end).unwrap_or_default()
 }
 
 #[cfg(test)]

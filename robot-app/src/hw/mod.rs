@@ -12,11 +12,17 @@
 //! | [`encoder_filter`] | the quadrature inputs' digital filter against the fastest real edge |
 //! | [`bridge`] | H-bridge input states (TB6612FNG, DRV8833) and safe transitions |
 //! | [`supply`] | the supply divider, ADC clock and sampling time, raw reading to volts |
+//! | [`usart`] | USART_BRR for a baud rate, and the rate's error |
+//! | [`flash`] | the storage sectors, erase and program times, the watchdog that outlasts them |
+//! | [`stack`] | the stack's high-water mark from the painted stack |
 
 pub mod bridge;
 pub mod chip;
 pub mod clock;
 pub mod encoder_filter;
+pub mod flash;
+pub mod stack;
 pub mod supply;
 pub mod tick;
+pub mod usart;
 pub mod watchdog;

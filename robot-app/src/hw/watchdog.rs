@@ -125,6 +125,28 @@ impl IwdgConfig {
         Err(WatchdogError::TooLong(timeout_us))
     }
 
+    /// The shortest setting whose timeout is at least `timeout_us` even at `fastest_lsi_hz`
+    /// (the top of the LSI's spread, where the timeout is shortest), with the smallest
+    /// prescaler that reaches it. For a watchdog that must outlast a known worst case,
+    /// such as a flash erase.
+    pub const fn at_least_us(timeout_us: u32, fastest_lsi_hz: u32) -> Result<Self, WatchdogError> {
+        let mut i = 0;
+        while i < IwdgPrescaler::ALL.len() {
+            let prescaler = IwdgPrescaler::ALL[i];
+            // Whole ticks, rounded up: ⌈timeout · f_LSI / (10⁶ · divider)⌉.
+            let per_tick = 1_000_000u64 * prescaler.divider() as u64;
+            let ticks = (timeout_us as u64 * fastest_lsi_hz as u64).div_ceil(per_tick);
+            if ticks <= MAX_RELOAD as u64 + 1 {
+                return Ok(IwdgConfig {
+                    prescaler,
+                    reload: if ticks == 0 { 0 } else { (ticks - 1) as u16 },
+                });
+            }
+            i += 1;
+        }
+        Err(WatchdogError::TooLong(timeout_us))
+    }
+
     /// The timeout at `lsi_hz`, µs: (reload + 1) × divider / f_LSI.
     pub const fn timeout_us(&self, lsi_hz: u32) -> u32 {
         ((self.reload as u64 + 1) * self.prescaler.divider() as u64 * 1_000_000 / lsi_hz as u64)
@@ -194,6 +216,36 @@ mod tests {
             }
         );
         assert_eq!(hal.tick_us(32_000), 8_000);
+    }
+
+    #[test]
+    fn at_least_holds_at_the_fastest_lsi() {
+        // 2.06 s at 47 kHz: ÷32 ticks of 680.9 µs, 3026 of them (rounded up).
+        let c = IwdgConfig::at_least_us(2_060_100, LSI.2).unwrap();
+        assert_eq!(
+            c,
+            IwdgConfig {
+                prescaler: IwdgPrescaler::Div32,
+                reload: 3025
+            }
+        );
+        assert!(c.timeout_us(LSI.2) >= 2_060_100);
+        // One tick fewer would not be enough.
+        let shorter = IwdgConfig {
+            reload: c.reload - 1,
+            ..c
+        };
+        assert!(shorter.timeout_us(LSI.2) < 2_060_100);
+        assert_eq!(c.spread(LSI).nominal_us, 3_026_000);
+        // A short one keeps the finest prescaler; an impossible one is refused.
+        assert_eq!(
+            IwdgConfig::at_least_us(1_000, LSI.2).map(|c| c.prescaler),
+            Ok(IwdgPrescaler::Div4)
+        );
+        assert_eq!(
+            IwdgConfig::at_least_us(30_000_000, LSI.2),
+            Err(WatchdogError::TooLong(30_000_000))
+        );
     }
 
     #[test]

@@ -141,7 +141,7 @@ impl fmt::Display for Digest {
 }
 
 /// Canonical bits of a pose's x, y, θ.
-pub(crate) fn pose_bits(pose: &Pose) -> [u32; 3] {
+pub fn pose_bits(pose: &Pose) -> [u32; 3] {
     [
         canonical_bits(pose.x_m),
         canonical_bits(pose.y_m),

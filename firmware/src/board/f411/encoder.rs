@@ -20,7 +20,7 @@ use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::qei::Qei;
 
-use crate::board::{polarity, LeftEncoderTimer, RightEncoderTimer, CLOCK_PLAN};
+use super::{polarity, LeftEncoderTimer, RightEncoderTimer, CLOCK_PLAN};
 use crate::robot;
 
 /// The encoder duty cycle assumed at worst (an ideal encoder has 0.5).

@@ -20,7 +20,7 @@ use robot_app::hw::tick::{has_reached, TickSchedule};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::rcc::{Enable, Rcc, Reset};
 
-use crate::board::{TickTimer, CLOCK_PLAN, TICK_TIMER_HZ};
+use super::{TickTimer, CLOCK_PLAN, TICK_TIMER_HZ};
 
 /// The control tick on [`TickTimer`].
 pub struct Tick {
@@ -29,8 +29,9 @@ pub struct Tick {
 }
 
 impl Tick {
-    /// Starts TIM5 with its first deadline one `period` (in 1 µs counts) from now.
-    pub fn start(tim: TickTimer, rcc: &mut Rcc, period: NonZeroU32) -> Self {
+    /// TIM5 clocked, reset and counting at [`TICK_TIMER_HZ`], but not yet running and
+    /// with no interrupt enabled.
+    pub fn new(tim: TickTimer, rcc: &mut Rcc) -> Self {
         pac::TIM5::enable(rcc);
         pac::TIM5::reset(rcc);
         let psc = CLOCK_PLAN.tree.timclk1_hz / TICK_TIMER_HZ - 1;
@@ -38,12 +39,20 @@ impl Tick {
         tim.arr().write(|w| w.arr().set(u32::MAX));
         // Load PSC now (it is preloaded); this also zeroes CNT and sets UIF.
         tim.egr().write(|w| w.ug().set_bit());
-        let schedule = TickSchedule::new(period, period.get());
-        tim.ccr1().write(|w| w.ccr().set(schedule.due()));
-        tim.sr().reset();
-        tim.dier().write(|w| w.cc1ie().set_bit());
-        tim.cr1().write(|w| w.cen().set_bit());
-        Self { tim, schedule }
+        Self {
+            tim,
+            schedule: TickSchedule::new(NonZeroU32::MIN, 0),
+        }
+    }
+
+    /// Starts counting with the first deadline one `period` (in 1 µs counts) from now,
+    /// and enables the compare interrupt.
+    pub fn start(&mut self, period: NonZeroU32) {
+        self.schedule = TickSchedule::new(period, period.get());
+        self.tim.ccr1().write(|w| w.ccr().set(self.schedule.due()));
+        self.tim.sr().reset();
+        self.tim.dier().write(|w| w.cc1ie().set_bit());
+        self.tim.cr1().write(|w| w.cen().set_bit());
     }
 
     /// At the start of each control step: acknowledges the interrupt, returns the control

@@ -1,118 +1,14 @@
-//! The board: clock, pin map and wiring polarity. The one place to edit for other wiring.
-//!
-//! | Signal                      | Pin  | Peripheral            | Black Pill | Nucleo-64       |
-//! |-----------------------------|------|-----------------------|------------|-----------------|
-//! | Left encoder A              | PA15 | TIM2 CH1 (32-bit QEI) | A15        | CN7-17          |
-//! | Left encoder B              | PB3  | TIM2 CH2              | B3         | D3 (CN9-4)      |
-//! | Right encoder A             | PB6  | TIM4 CH1 (16-bit QEI) | B6         | D10 (CN5-3)     |
-//! | Right encoder B             | PB7  | TIM4 CH2              | B7         | CN7-21          |
-//! | TB6612 PWMA (left motor)    | PA6  | TIM3 CH1, 20 kHz      | A6         | D12 (CN5-5)     |
-//! | TB6612 PWMB (right motor)   | PA7  | TIM3 CH2, 20 kHz      | A7         | D11 (CN5-4)     |
-//! | TB6612 AIN1 / AIN2          | PB12 / PB13 | GPIO out       | B12 / B13  | CN10-16 / -30   |
-//! | TB6612 BIN1 / BIN2          | PB14 / PB15 | GPIO out       | B14 / B15  | CN10-28 / -26   |
-//! | TB6612 STBY                 | PB10 | GPIO out (high = run) | B10        | D6 (CN9-7)      |
-//! | DRV8833 only: AIN2 / BIN2   | PB0 / PB1 | TIM3 CH3 / CH4   | B0 / B1    | A3 / CN10-24    |
-//! | Arm button (active low)     | PA0 / PC13 | GPIO in         | KEY (PA0)  | B1 USER (PC13)  |
-//! | Status LED                  | PC13 / PA5 | GPIO out        | C13 (low = on) | LD2 (PA5, high = on) |
-//! | Supply sense (divider)      | PA1  | ADC1_IN1, analog      | A1         | A1 (CN8-2)      |
-//! | Control tick                | —    | TIM5 CC1 IRQ, 1 kHz   | —          | —               |
-//! | SWD (probe)                 | PA13 / PA14 | SWDIO / SWCLK  | SWD header | ST-LINK         |
-//!
-//! The encoder inputs get the internal pull-ups (30–50 kΩ) and a digital filter
-//! ([`encoder`](crate::encoder)); add 4.7 kΩ pull-ups to 3.3 V at the MCU for
-//! open-collector encoders next to the motor wires. Put a 10 kΩ pull-down on STBY so the
-//! driver stays in standby while the MCU is in reset (its pins float then). The supply
-//! divider is 39 kΩ (supply to PA1) over 10 kΩ (PA1 to GND) with 100 nF from PA1 to GND
-//! ([`supply`](crate::supply)).
-//!
-//! Everything chip-specific the firmware writes is derived here from [`CHIP`] and
-//! [`SYSCLK_HZ`] through `robot_app::hw`, whose host tests check it against the
-//! reference manuals.
+//! The F411 board's pins: what each one does, configured by [`Pins::new`], and the
+//! writes that stop the motors from a fault handler. The wiring table is in the
+//! [board module](super).
 
 use core::convert::Infallible;
 
-use robot_app::hw::chip::{Chip, HSI_HZ};
-use robot_app::hw::clock::{self, ClockPlan};
-use robot_app::hw::supply::{AdcPrescaler, Divider, SampleTime};
-use robot_app::hw::watchdog::IwdgConfig;
 use stm32f4xx_hal::gpio::{self, Analog, Input, Output, PushPull};
 use stm32f4xx_hal::hal::digital::InputPin;
 use stm32f4xx_hal::pac;
 
-/// The part this build is for (one cargo feature each).
-#[cfg(feature = "stm32f411")]
-pub const CHIP: Chip = Chip::F411;
-/// The part this build is for (one cargo feature each).
-#[cfg(feature = "stm32f401")]
-pub const CHIP: Chip = Chip::F401;
-/// The part this build is for (one cargo feature each).
-#[cfg(feature = "stm32f446")]
-pub const CHIP: Chip = Chip::F446;
-
-/// System clock from the HSI (16 MHz RC) through the PLL, Hz. No crystal needed, so the
-/// same binary runs on a Black Pill (25 MHz crystal) and a Nucleo (no crystal).
-#[cfg(not(feature = "stm32f401"))]
-pub const SYSCLK_HZ: u32 = 100_000_000;
-/// System clock of the STM32F401, Hz: 72 MHz, not its 84 MHz maximum, because for 84 MHz
-/// from the HSI stm32f4xx-hal writes PLLN = 168, below RM0368's minimum of 192; for 72 MHz
-/// it writes M = 8, N = 216, P = 6, which RM0368 allows.
-#[cfg(feature = "stm32f401")]
-pub const SYSCLK_HZ: u32 = 72_000_000;
-
-/// The clock configuration for [`CHIP`] at [`SYSCLK_HZ`]: PLL, bus dividers, flash wait
-/// states, voltage scale (`robot_app::hw::clock::plan`). `clock::configure` checks the
-/// registers against it after the HAL has written them.
-pub const CLOCK_PLAN: ClockPlan = match clock::plan(CHIP, HSI_HZ, SYSCLK_HZ) {
-    Ok(plan) => plan,
-    Err(_) => panic!("SYSCLK_HZ is not reachable within the chip's limits"),
-};
-
-/// Motor PWM frequency, Hz: above hearing.
-pub const PWM_HZ: u32 = 20_000;
-const _: () = assert!(
-    CLOCK_PLAN.tree.timclk1_hz % PWM_HZ == 0 && CLOCK_PLAN.tree.timclk1_hz / PWM_HZ <= 65_536,
-    "the PWM period must be a whole number of 16-bit timer counts"
-);
-
-/// Counting rate of the free-running tick timer (TIM5), Hz: 1 µs resolution.
-pub const TICK_TIMER_HZ: u32 = 1_000_000;
-const _: () = assert!(CLOCK_PLAN.tree.timclk1_hz % TICK_TIMER_HZ == 0);
-
-/// Independent watchdog while `init` runs: 250 ms at the typical LSI (170–471 ms over its
-/// spread), started before the clock set-up so that no wait in `init` can hang forever.
-pub const WATCHDOG_INIT: IwdgConfig = match IwdgConfig::for_timeout_us(250_000, CHIP.lsi_hz().1) {
-    Ok(config) => config,
-    Err(_) => panic!("init watchdog timeout out of range"),
-};
-
-/// Independent watchdog from the end of `init` on: 10 ms at the typical LSI (÷4, reload
-/// 79; 6.8–18.8 ms over the LSI's 17–47 kHz). The control task feeds it every 1 ms step.
-pub const WATCHDOG_RUN: IwdgConfig = match IwdgConfig::for_timeout_us(10_000, CHIP.lsi_hz().1) {
-    Ok(config) => config,
-    Err(_) => panic!("watchdog timeout out of range"),
-};
-
-/// The supply divider: 39 kΩ from the supply to PA1, 10 kΩ from PA1 to GND (ratio
-/// 0.2041, full scale 16.2 V at 3.3 V), with 100 nF from PA1 to GND (corner 200 Hz).
-pub const SUPPLY_DIVIDER: Divider = Divider {
-    top_ohm: 39_000.0,
-    bottom_ohm: 10_000.0,
-};
-
-/// V_DDA = V_REF+ on both boards (the 3.3 V regulator), V: the ADC's reference. Its
-/// tolerance (typically ±1–2 %) is the supply reading's.
-pub const ADC_REFERENCE_V: f32 = 3.3;
-
-/// ADCCLK prescaler: the smallest that keeps ADCCLK ≤ 36 MHz (25 MHz on the F411).
-pub const ADC_PRESCALER: AdcPrescaler =
-    match AdcPrescaler::for_pclk2(CLOCK_PLAN.tree.pclk2_hz, CHIP.max_adc_clock_hz()) {
-        Some(prescaler) => prescaler,
-        None => panic!("PCLK2 too fast for the ADC"),
-    };
-
-/// Supply sampling time: 480 ADCCLK cycles (19.2 µs at 25 MHz), long enough for a
-/// 276 kΩ source; the divider's 8 kΩ needs only 28 cycles.
-pub const SUPPLY_SAMPLE_TIME: SampleTime = SampleTime::Cycles480;
+use super::PwmTimer;
 
 /// Wiring polarity: set so that a positive duty drives the wheel forward and forward
 /// wheel rotation counts up. Flip after the bring-up check in the README.
@@ -127,16 +23,6 @@ pub mod polarity {
     /// The right encoder counts down when the wheel turns forward (mirrored mounting).
     pub const RIGHT_ENCODER_INVERTED: bool = true;
 }
-
-/// Left encoder timer: 32-bit TIM2.
-pub type LeftEncoderTimer = pac::TIM2;
-/// Right encoder timer: 16-bit TIM4.
-pub type RightEncoderTimer = pac::TIM4;
-/// Timer of both motor PWM channels.
-pub type PwmTimer = pac::TIM3;
-/// Timer whose channel-1 compare is the 1 kHz control tick (interrupt `TIM5`), counting
-/// freely at 1 MHz.
-pub type TickTimer = pac::TIM5;
 
 /// Motor driver direction / standby output.
 pub type Out<const P: char, const N: u8> = gpio::Pin<P, N, Output<PushPull>>;
@@ -188,6 +74,11 @@ pub struct Pins {
     pub led: Led,
     /// The supply divider's output (ADC1 channel 1), analog mode.
     pub supply: gpio::PA1<Analog>,
+    /// The link's transmit line (USART2 TX, AF7), push-pull.
+    pub link_tx: gpio::PA2<gpio::Alternate<7>>,
+    /// The link's receive line (USART2 RX, AF7), with the pull-up: an unplugged line
+    /// idles high (a mark) instead of floating into false start bits.
+    pub link_rx: gpio::PA3<gpio::Alternate<7>>,
 }
 
 /// GPIOB pins that [`force_motors_off`] drives low: STBY (PB10) and the four direction
@@ -247,6 +138,8 @@ impl Pins {
             button,
             led,
             supply: gpioa.pa1.into_analog(),
+            link_tx: gpioa.pa2.into_alternate(),
+            link_rx: gpioa.pa3.into_alternate().internal_resistor(Pull::Up),
         }
     }
 }

@@ -16,7 +16,7 @@ use stm32f4xx_hal::gpio::{Analog, PA1};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::rcc::{Enable, Rcc, Reset};
 
-use crate::board::{ADC_PRESCALER, ADC_REFERENCE_V, SUPPLY_DIVIDER, SUPPLY_SAMPLE_TIME};
+use super::{ADC_PRESCALER, ADC_REFERENCE_V, SUPPLY_DIVIDER, SUPPLY_SAMPLE_TIME};
 
 /// ADC1 channel of PA1.
 const CHANNEL: u8 = 1;

@@ -39,7 +39,7 @@ use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::{self, Rcc};
 
-use crate::board::{CLOCK_PLAN, SYSCLK_HZ};
+use super::{CLOCK_PLAN, SYSCLK_HZ};
 
 /// Polls of PWR_CSR.VOSRDY before giving up: at least 10 ms even at one poll per cycle of
 /// 100 MHz.

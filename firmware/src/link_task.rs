@@ -1,0 +1,92 @@
+//! The link task's work: the robot's end of the runtime link (`robot_app::LinkService`)
+//! between the link USART's rings, and the flash writes it asks for.
+//!
+//! Each run (the task is pended by the USART interrupt, by the control task when a
+//! step queued something for the link, and after sending) repeats until nothing moves:
+//!
+//! 1. received bytes from the receive ring into the service, while it has room for
+//!    their replies (otherwise they wait in the ring);
+//! 2. `poll`: the control side's replies, events and telemetry into frames;
+//! 3. as many outgoing bytes as the transmit ring takes, then pend the USART interrupt
+//!    to send them;
+//! 4. a persistence job, if the service has one (`crate::persistence`).
+
+use link::MAX_FRAME_LEN;
+use robot_app::channel::ring::{Consumer, Producer};
+use robot_app::LinkService;
+use rtic::Mutex;
+use stm32f4xx_hal::pac;
+
+use crate::board::{Storage, Watchdog};
+use crate::link_uart::{RX_RING, TX_RING};
+use crate::persistence;
+use crate::stats::FirmwareStats;
+
+/// Rounds of the loop in one run before it yields (each round moves at least one byte
+/// or frame, so this only bounds a run while bytes keep arriving).
+const MAX_ROUNDS: usize = 4 * MAX_FRAME_LEN;
+
+/// The link task's state.
+pub struct LinkWorker {
+    service: LinkService<'static>,
+    rx: Consumer<'static, u8, RX_RING>,
+    tx: Producer<'static, u8, TX_RING>,
+    storage: Option<Storage>,
+}
+
+impl LinkWorker {
+    /// The worker around `service`, reading `rx`, writing `tx`, persisting to `storage`.
+    pub fn new(
+        service: LinkService<'static>,
+        rx: Consumer<'static, u8, RX_RING>,
+        tx: Producer<'static, u8, TX_RING>,
+        storage: Option<Storage>,
+    ) -> Self {
+        Self {
+            service,
+            rx,
+            tx,
+            storage,
+        }
+    }
+
+    /// One run of the task (module doc).
+    pub fn run(&mut self, watchdog: &mut impl Mutex<T = Watchdog>) {
+        for _ in 0..MAX_ROUNDS {
+            let mut moved = false;
+            while self.service.ready_for_input() {
+                let Some(byte) = self.rx.pop() else {
+                    break;
+                };
+                self.service.receive_byte(byte, &FirmwareStats);
+                moved = true;
+            }
+            self.service.poll();
+            let mut queued = 0;
+            for &byte in self.service.outgoing() {
+                if self.tx.push(byte).is_err() {
+                    break;
+                }
+                queued += 1;
+            }
+            if queued > 0 {
+                self.service.consume(queued);
+                rtic::pend(pac::Interrupt::USART2);
+                moved = true;
+            }
+            if let Some(job) = self.service.persist_job() {
+                let ok = match self.storage.as_mut() {
+                    Some(storage) => persistence::write(&job, storage, watchdog),
+                    None => false,
+                };
+                self.service.persist_finished(ok);
+                moved = true;
+            }
+            if !moved {
+                return;
+            }
+        }
+        // Still busy: run again once the higher-priority work is done.
+        rtic::pend(crate::app::LINK_TASK_INTERRUPT);
+    }
+}

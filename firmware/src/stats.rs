@@ -1,0 +1,143 @@
+//! What the firmware measures about itself: the longest run of the control task and of
+//! the link task (in the board's work unit: CPU cycles on the F411, instructions on the
+//! emulated board), and the stack's high-water mark; and the [`BoardStats`] the link
+//! service reports in `GetStats`.
+
+use core::ptr::addr_of;
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use robot_app::hw::stack::{high_water_bytes, PAINT};
+use robot_app::BoardStats;
+
+use crate::board;
+
+/// The runs of one task: how many, and the longest, in raw [`board::work_counter`]
+/// differences. Written by its task only; read from anywhere.
+pub struct TaskTiming {
+    longest_raw: AtomicU32,
+    runs: AtomicU32,
+}
+
+impl TaskTiming {
+    const fn new() -> Self {
+        Self {
+            longest_raw: AtomicU32::new(0),
+            runs: AtomicU32::new(0),
+        }
+    }
+
+    /// Records one run that started at the [`board::work_counter`] reading `started`.
+    /// Only the task this timing is for calls it (relaxed loads and stores, no
+    /// read-modify-write instruction needed).
+    #[inline(always)]
+    pub fn record_since(&self, started: u32) {
+        let raw = board::work_counter().wrapping_sub(started);
+        if raw > self.longest_raw.load(Ordering::Relaxed) {
+            self.longest_raw.store(raw, Ordering::Relaxed);
+        }
+        let runs = self.runs.load(Ordering::Relaxed);
+        self.runs.store(runs.wrapping_add(1), Ordering::Relaxed);
+    }
+
+    /// The longest run, in [`board::WORK_UNIT`]s.
+    pub fn max_units(&self) -> u32 {
+        board::work_units(self.longest_raw.load(Ordering::Relaxed))
+    }
+
+    /// Runs recorded (reported by the emulated board's plant port).
+    #[cfg_attr(not(feature = "qemu"), allow(dead_code))]
+    pub fn runs(&self) -> u32 {
+        self.runs.load(Ordering::Relaxed)
+    }
+}
+
+/// The control task (TIM5), from its first instruction to its last, every step.
+pub static CONTROL: TaskTiming = TaskTiming::new();
+/// The control task in the steps that end armed (the steps that drive the motors; the
+/// longest step overall installs a new configuration or path, which happens only while
+/// disarmed).
+pub static CONTROL_ARMED: TaskTiming = TaskTiming::new();
+/// The link task, each run.
+pub static LINK: TaskTiming = TaskTiming::new();
+
+/// The painted stack region: its lowest word (`_stack_end`) and its word count, up to
+/// `_stack_start` (cortex-m-rt's `paint-stack`; flip-link moves the region below the
+/// statics).
+fn stack_region() -> (*const u32, usize) {
+    extern "C" {
+        static _stack_end: u32;
+        static _stack_start: u32;
+    }
+    let bottom = addr_of!(_stack_end);
+    let top = addr_of!(_stack_start);
+    (bottom, (top as usize).saturating_sub(bottom as usize) / 4)
+}
+
+/// Bytes of stack used since start-up ended: the painted stack region scanned from the
+/// bottom for the first word the stack reached (`robot_app::hw::stack`), after
+/// [`repaint_after_start`] painted again what `init` used. Reads up to the whole region
+/// (about 124 KiB): call it from the link task, not the control task.
+pub fn stack_high_water_bytes() -> u32 {
+    let (bottom, words) = stack_region();
+    high_water_bytes((0..words).map(|i| {
+        // SAFETY: `bottom + i` for `i < words` lies inside the stack region the linker
+        // reserved (RAM, word-aligned: cortex-m-rt asserts both symbols' alignment);
+        // volatile, because the compiler cannot know the stack writes to it.
+        unsafe { bottom.add(i).read_volatile() }
+    }))
+}
+
+/// Bytes of stack `init` used (start-up builds the application's state in its frame
+/// before RTIC moves it into statics), measured once by [`repaint_after_start`].
+static START_STACK_BYTES: AtomicU32 = AtomicU32::new(0);
+
+/// Bytes of stack start-up used (see [`repaint_after_start`]).
+#[cfg_attr(not(feature = "qemu"), allow(dead_code))]
+pub fn start_stack_bytes() -> u32 {
+    START_STACK_BYTES.load(Ordering::Relaxed)
+}
+
+/// Bytes kept unpainted below the stack pointer while repainting: this function's own
+/// frame lies above it, and nothing is pushed below it while interrupts are off.
+const REPAINT_MARGIN_BYTES: usize = 256;
+
+/// Records the stack start-up used, then paints again the part of it below the idle
+/// loop's stack pointer, so that [`stack_high_water_bytes`] measures the running tasks
+/// (idle and the interrupts), which is what the stack must hold in operation. Call it
+/// once, first thing in `idle`. The scan runs with interrupts on; the repaint, of only
+/// what start-up used (a few KiB: a few thousand cycles), with them off, so that no
+/// interrupt frame is painted over.
+pub fn repaint_after_start() {
+    let used = stack_high_water_bytes();
+    START_STACK_BYTES.store(used, Ordering::Relaxed);
+    let (bottom, words) = stack_region();
+    let first = words.saturating_sub(used as usize / 4);
+    cortex_m::interrupt::free(|_| {
+        let sp = cortex_m::register::msp::read() as usize;
+        let limit = sp.saturating_sub(REPAINT_MARGIN_BYTES);
+        for i in first..words {
+            // SAFETY: `bottom + i` lies inside the stack region (as above), and below
+            // `limit`, under every live frame: interrupts are off, so nothing else uses
+            // the stack below this function's frame.
+            let word = unsafe { bottom.add(i) } as *mut u32;
+            if word as usize >= limit {
+                break;
+            }
+            // SAFETY: see above; a plain word store.
+            unsafe { word.write_volatile(PAINT) };
+        }
+    });
+}
+
+/// The board's figures for the link's `GetStats`.
+pub struct FirmwareStats;
+
+impl BoardStats for FirmwareStats {
+    fn max_step_cycles(&self) -> u32 {
+        CONTROL.max_units()
+    }
+
+    fn stack_high_water_bytes(&self) -> u32 {
+        stack_high_water_bytes()
+    }
+}

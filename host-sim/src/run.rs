@@ -232,6 +232,7 @@ pub fn plant_params(scenario: &Scenario) -> PlantParams {
             track_width_m: l * (1.0 + m.track_width_pct / 100.0),
         },
         slip: scenario.plant.slip,
+        load: scenario.plant.load,
     }
 }
 
@@ -302,15 +303,19 @@ impl TrueReference {
 }
 
 /// The controller, supervisor and hardware of `scenario` running `law` with `faults`.
-struct Robot {
-    controller: Controller,
-    supervisor: Supervisor,
-    hardware: SimHardware,
+pub(crate) struct Robot {
+    pub(crate) controller: Controller,
+    pub(crate) supervisor: Supervisor,
+    pub(crate) hardware: SimHardware,
     heartbeat: u32,
 }
 
 impl Robot {
-    fn new(scenario: &Scenario, law: LawKind, faults: &[Fault]) -> Result<Self, RunError> {
+    pub(crate) fn new(
+        scenario: &Scenario,
+        law: LawKind,
+        faults: &[Fault],
+    ) -> Result<Self, RunError> {
         let params = scenario.params()?;
         let reference = Reference::new(
             scenario.path.clone(),
@@ -334,7 +339,14 @@ impl Robot {
     }
 
     /// One control step (module doc); returns the supervisor's decision.
-    fn step(&mut self) -> Supervised {
+    pub(crate) fn step(&mut self) -> Supervised {
+        self.step_with_added_volts([0.0; 2])
+    }
+
+    /// One control step with `added_v` (V, [left, right]) added to what the supervisor
+    /// drives, as a disturbance at the plant's input (while the bridge drives): the loop
+    /// is broken there to measure it ([`crate::margins`]).
+    pub(crate) fn step_with_added_volts(&mut self, added_v: [f64; 2]) -> Supervised {
         let periods = self.hardware.periods_until_next_step();
         let sensors = self.hardware.sense(periods);
         self.heartbeat = self.heartbeat.wrapping_add(1);
@@ -351,8 +363,14 @@ impl Robot {
                 command: None,
             },
         );
+        let mut duty = out.duty;
+        if added_v != [0.0; 2] && out.bridge == Bridge::Drive {
+            let supply = self.hardware.plant().supply_v();
+            duty.left += (added_v[0] / supply) as f32;
+            duty.right += (added_v[1] / supply) as f32;
+        }
         self.hardware.actuate(Actuation {
-            duty: out.duty,
+            duty,
             bridge: out.bridge,
         });
         self.hardware.advance();

@@ -394,7 +394,7 @@ fn install(
 fn set_refusal(error: SupervisorSetError) -> Refused {
     match error {
         SupervisorSetError::NotDisarmed(state) => state_refusal(state),
-        SupervisorSetError::Invalid(_) => Refused::Invalid,
+        SupervisorSetError::Invalid(_) | SupervisorSetError::InvalidTune(_) => Refused::Invalid,
     }
 }
 

@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::kinematics::Pose;
+use crate::tune::TuneAbort;
 
 const HOLD: WheelSpeeds = WheelSpeeds {
     left_rad_s: 5.0,
@@ -247,12 +248,82 @@ fn long_press_while_disarmed_switches_mode_without_arming() {
     assert_eq!(events(&outs), vec![Event::Armed(RunMode::HoldWheelSpeeds)]);
     assert_eq!(r.ctl.mode(), Mode::HoldWheelSpeeds(HOLD));
     assert!(outs.last().unwrap().duty.left > 0.0);
-    // Disarm, and a second long press goes back to path following.
+    // Disarm; a second long press selects the tune, a third path following again.
     r.press(30);
+    let outs = r.press(1200);
+    assert_eq!(events(&outs), vec![Event::ModeSelected(RunMode::Tune)]);
     let outs = r.press(1200);
     assert_eq!(
         events(&outs),
         vec![Event::ModeSelected(RunMode::FollowPath)]
+    );
+}
+
+/// Long presses until the tune is selected, then a short press: armed in tune mode.
+fn arm_tune_by_button(r: &mut Rig) -> Vec<Supervised> {
+    r.press(1200);
+    r.press(1200);
+    assert_eq!(r.sup.run_mode(), RunMode::Tune);
+    let outs = r.press(30);
+    assert!(events(&outs).contains(&Event::Armed(RunMode::Tune)));
+    outs
+}
+
+#[test]
+fn the_tune_drives_rising_volts_open_loop_and_a_fault_stops_it() {
+    let mut r = rig();
+    arm_tune_by_button(&mut r);
+    // The rig's wheels do not turn: the tune's breakaway ramp keeps rising (1 V/s).
+    let outs = r.run(500);
+    assert!(outs.iter().all(|o| o.state == State::Armed));
+    assert!(matches!(r.ctl.mode(), Mode::ApplyVolts(_)));
+    let volts = r.ctl.telemetry().wheel_loop.volts;
+    assert!((volts.left_v - 0.53).abs() < 0.02, "{volts:?}");
+    assert_eq!(volts.left_v, volts.right_v);
+    assert!(outs.windows(2).all(|w| w[1].duty.left >= w[0].duty.left));
+    // A fault (the link's emergency stop) ends it: motors off, the tune stopped.
+    let out = r.command(Command::EmergencyStop);
+    assert_eq!(out.state, State::Faulted);
+    assert_eq!(out.duty, MotorCommand::STOP);
+    assert_eq!(r.sup.tune_outcome(), Some(Err(TuneAbort::Stopped)));
+    assert!(r.run(100).iter().all(|o| o.duty == MotorCommand::STOP));
+}
+
+#[test]
+fn a_tune_that_finds_nothing_disarms_with_its_reason() {
+    let mut c = config();
+    c.stall.timeout_steps = u32::MAX;
+    let mut r = Rig::new(c, ResetCause::PowerOn);
+    // The link arms the tune (heartbeats due).
+    let out = r.command(Command::Arm(ArmRequest {
+        mode: RunMode::Tune,
+        hold_speeds: None,
+        initial_motion: None,
+    }));
+    assert_eq!(out.event, Some(Event::Armed(RunMode::Tune)));
+    let mut outs = Vec::new();
+    for _ in 0..8 {
+        outs.extend(r.run(399));
+        r.command(Command::Heartbeat);
+    }
+    // The wheels never turn: at u_hi (2.4 V) plus 0.5 s the tune gives up, the supervisor
+    // disarms and brakes.
+    let at = outs
+        .iter()
+        .position(|o| o.state == State::Disarmed)
+        .expect("disarmed");
+    assert!((2850..2950).contains(&at), "{at}");
+    assert_eq!(
+        outs[at].event,
+        Some(Event::Disarmed(DisarmReason::TuneFinished))
+    );
+    assert_eq!(outs[at].bridge, Bridge::Brake);
+    assert!(outs[..at]
+        .iter()
+        .all(|o| o.duty.left * 6.0 <= 2.4 + 1e-3 && o.duty.left >= 0.0));
+    assert_eq!(
+        r.sup.tune_outcome(),
+        Some(Err(TuneAbort::NoBreakaway(crate::tune::Side::Left)))
     );
 }
 

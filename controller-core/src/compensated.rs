@@ -154,6 +154,23 @@ mod tests {
     }
 
     #[test]
+    fn results_are_normalised() {
+        // hi is the f32 nearest the value and |lo| ≤ ulp(hi)/2, as the type promises
+        // (users take `.hi` alone as the rounded constant).
+        let values = [
+            DoubleF32::TAU * 0.0325 / 1440.0,
+            DoubleF32::from_f32(0.25) / 1000.0 / 7.853_982,
+            DoubleF32::from_f32(1.0) / 3.0,
+            DoubleF32::TAU * 3.0 * 7.0,
+        ];
+        for d in values {
+            let half_ulp = f64::from(f32::from_bits(d.hi.to_bits() + 1) - d.hi) / 2.0;
+            assert!(f64::from(d.lo).abs() <= half_ulp, "{d:?}");
+            assert_eq!(d.hi, as_f64(d) as f32, "{d:?}");
+        }
+    }
+
+    #[test]
     fn compensated_sum_keeps_what_plain_f32_loses() {
         // 10⁶ additions of 1e-4 to 1.0: plain f32 drifts by ~1e-2 (each addition rounds
         // to a multiple of 1.2e-7), the compensated sum stays within an ulp of 101.

@@ -338,6 +338,50 @@ mod tests {
     }
 
     #[test]
+    fn look_ahead_places_the_reference_further_on_and_an_open_path_finishes() {
+        // A 2 m line along +x; the robot beside it at x = 0.5: the reference is 0.3 m
+        // further on, at x = 0.8, moving at the set speed.
+        let line = Path::line(Point::new(0.0, 0.0), 0.0, 2.0).unwrap();
+        let following = ReferenceMode::PathFollowing { lookahead_m: 0.3 };
+        let mut r = Reference::new(line, 0.25, following).unwrap();
+        let s = r.sample(0, HZ_100, &Pose::new(0.5, 0.2, 0.0));
+        assert!((s.progress_m - 0.8).abs() < 1e-5 && (s.pose.x_m - 0.8).abs() < 1e-5);
+        assert!(!s.finished);
+        assert_eq!(s.v_m_s, 0.25);
+        // Within the look-ahead of the end (the robot gets there in steps the windowed
+        // search follows): held at the end, finished, standing still.
+        for x in [0.9, 1.3] {
+            assert!(!r.sample(1, HZ_100, &Pose::new(x, 0.0, 0.0)).finished);
+        }
+        let end = r.sample(1, HZ_100, &Pose::new(1.8, 0.0, 0.0));
+        assert!(end.finished);
+        assert_eq!(end.v_m_s, 0.0);
+        assert!((end.progress_m - 2.0).abs() < 1e-6);
+        // On a closed path the same look-ahead wraps past the start and never finishes.
+        let mut c = Reference::new(circle(), 0.25, following).unwrap();
+        let length = c.path().length_m();
+        let near_end = c.sample(0, HZ_100, &Pose::new(1.25, -0.1, FRAC_PI_2));
+        assert!(!near_end.finished);
+        let expected = (length - 1.25 * (0.1f32 / 1.25).atan() + 0.3) - length;
+        assert!(
+            (near_end.progress_m - expected).abs() < 1e-3,
+            "{} vs {expected}",
+            near_end.progress_m
+        );
+    }
+
+    #[test]
+    fn errors_say_what_is_wrong() {
+        let speed = std::format!("{}", ReferenceError::NonPositiveSpeed);
+        assert!(speed.contains("speed") && speed.contains("> 0"), "{speed}");
+        let distance = std::format!("{}", ReferenceError::BadDistance);
+        assert!(
+            distance.contains("look-ahead") && distance.contains("≥ 0"),
+            "{distance}"
+        );
+    }
+
+    #[test]
     fn a_day_on_the_circle_keeps_the_reference_smooth_and_on_time() {
         // 24 h at 0.25 m/s, sampled every 10 periods of 1 kHz (8.64e6 samples): each
         // sample must move the reference by 2.5 mm (±1 µm), as on the first lap, and at

@@ -30,6 +30,8 @@
 //! - [`sweep`] — Monte-Carlo over mismatch, noise and start pose, on every core.
 //! - [`robustness`] — the wheel loop with fixed gains against supplies from 4.8 to 12.6 V
 //!   and motors ±30 % off.
+//! - [`serve`] — the virtual robot: robot-app's control and link sides against the
+//!   simulated hardware, speaking the runtime link over TCP, with ground truth.
 //!
 //! ```no_run
 //! use controller_core::law::LawKind;
@@ -58,6 +60,7 @@ pub mod robot_file;
 pub mod robustness;
 pub mod run;
 pub mod scenario;
+pub mod serve;
 pub mod sweep;
 
 pub use metrics::{ErrorReport, Summary};

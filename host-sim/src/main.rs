@@ -146,6 +146,20 @@ enum Command {
         #[arg(long)]
         corners: bool,
     },
+    /// The virtual robot: the robot's own application logic (supervisor, controller, link
+    /// service) against the simulated hardware, speaking the runtime link on a TCP port,
+    /// with ground truth. Drive it with `station --connect ADDRESS …`.
+    Serve {
+        /// Built-in scenario name or a path to a .toml file (robot, plant, initial path).
+        #[arg(default_value = "paper-circle")]
+        scenario: String,
+        /// Address to listen on.
+        #[arg(long, default_value = "127.0.0.1:5760")]
+        listen: String,
+        /// Simulated time per wall-clock time (1 = real time).
+        #[arg(long, default_value_t = 1.0)]
+        speed: f64,
+    },
     /// List the built-in scenarios.
     List,
     /// Print a built-in scenario's TOML (a starting point for your own).
@@ -608,6 +622,46 @@ can be too weak for the path)\n",
     Ok(())
 }
 
+fn cmd_serve(scenario: &str, listen: &str, speed: f64) -> Result<()> {
+    use host_sim::serve::{serve, ServeOptions, VirtualRobot};
+    if !(speed.is_finite() && speed > 0.0 && speed <= 1000.0) {
+        anyhow::bail!("--speed must be in (0, 1000], got {speed}");
+    }
+    let scenario = load(scenario)?;
+    let listener =
+        std::net::TcpListener::bind(listen).with_context(|| format!("listening on {listen}"))?;
+    let mut channels = robot_app::Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario)?;
+    let rate = f64::from(scenario.robot.control_rate_hz);
+    say!(
+        "virtual robot ({}) listening on {listen}, {speed}× real time; heartbeat timeout {} steps",
+        scenario.name,
+        scenario.supervisor.heartbeat_timeout_steps
+    );
+    let mut log = |r: &host_sim::serve::StepReport| {
+        use std::io::Write as _;
+        let _ = writeln!(
+            std::io::stdout(),
+            "step {} (t {:.3} s): {:?}, {} steps since the last heartbeat",
+            r.step,
+            f64::from(r.step) / rate,
+            r.event.map_or_else(String::new, |e| format!("{e:?}")),
+            r.steps_since_heartbeat
+        );
+        let _ = std::io::stdout().flush();
+    };
+    serve(
+        &mut robot,
+        &listener,
+        ServeOptions {
+            speed,
+            max_steps: None,
+        },
+        &mut log,
+    )?;
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -640,6 +694,11 @@ fn main() -> ExitCode {
             measure,
             amplitude_v,
         } => cmd_margins(&scenario, measure, amplitude_v),
+        Command::Serve {
+            scenario,
+            listen,
+            speed,
+        } => cmd_serve(&scenario, &listen, speed),
         Command::List => (|| {
             for (name, text) in BUILTIN {
                 let description = Scenario::from_toml(text, name)

@@ -43,6 +43,9 @@ pub struct ErrorReport {
     pub rms_position_error_m: f64,
     /// Largest position error over the last 10 s, m.
     pub max_position_error_m: f64,
+    /// Samples the figures come from; 0 when there was none (e.g. a fault before the
+    /// first steering update), and then every figure above is 0 and means nothing.
+    pub samples: u32,
 }
 
 impl From<ErrorSummary> for ErrorReport {
@@ -53,6 +56,7 @@ impl From<ErrorSummary> for ErrorReport {
             final_heading_error_rad: f64::from(s.final_heading_error_rad),
             rms_position_error_m: f64::from(s.rms_position_error_m),
             max_position_error_m: f64::from(s.max_position_error_m),
+            samples: s.samples,
         }
     }
 }

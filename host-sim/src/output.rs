@@ -112,7 +112,11 @@ pub fn human_summary(scenario: &Scenario, result: &RunResult) -> String {
             (None, None) => false,
             _ => true,
         };
-        if settle_differs || (est.final_position_error_m - t.final_position_error_m).abs() > 0.005 {
+        if est.samples == 0 {
+            text += "  controller's own estimate: none (no steering update ran)\n";
+        } else if settle_differs
+            || (est.final_position_error_m - t.final_position_error_m).abs() > 0.005
+        {
             text += &format!(
                 "  controller's own estimate: settle {}, final error {:.4} m (odometry ≠ truth)\n",
                 settle_text(est.settle_time_s),

@@ -244,7 +244,7 @@ pub fn run_scenario(scenario: &Scenario, law: LawKind) -> Result<RunResult, RunE
 
 /// Eq. (9) in f64: the reference seen from the true pose, robot frame: [x_e m, y_e m,
 /// θ_e rad].
-fn tracking_error_f64(pose: &TruePose, reference: &Pose) -> [f64; 3] {
+pub fn tracking_error_f64(pose: &TruePose, reference: &Pose) -> [f64; 3] {
     let dx = f64::from(reference.x_m) - pose.x_m;
     let dy = f64::from(reference.y_m) - pose.y_m;
     let (s, c) = pose.theta_rad.sin_cos();
@@ -255,11 +255,22 @@ fn tracking_error_f64(pose: &TruePose, reference: &Pose) -> [f64; 3] {
     ]
 }
 
+/// The true error as the metrics use it: the distance from the true pose to `reference`
+/// (m) and the heading error θ_r − θ wrapped to (−π, π] (rad).
+pub fn true_error(reference: &Pose, pose: &TruePose) -> (f64, f64) {
+    let dx = f64::from(reference.x_m) - pose.x_m;
+    let dy = f64::from(reference.y_m) - pose.y_m;
+    let heading = crate::plant::robot::wrap_angle(f64::from(reference.theta_rad) - pose.theta_rad);
+    (dx.hypot(dy), heading)
+}
+
 /// The reference the true error is measured against (module doc), evaluated by the
 /// simulator itself, in `f64` where the controller uses fixed point: in time-indexed mode
 /// the arc length s₀ + v_r·k/rate (k control periods since arming) modulo the lap, so a
-/// reference that drifts in the controller shows up in the true error.
-struct TrueReference {
+/// reference that drifts in the controller shows up in the true error. The virtual robot
+/// and the station measure against it too.
+#[derive(Clone, Debug)]
+pub struct TrueReference {
     path: Path,
     /// Time-indexed: (start offset m, speed m/s, control rate Hz); None when following.
     time_indexed: Option<(f64, f64, f64)>,
@@ -267,11 +278,21 @@ struct TrueReference {
 
 impl TrueReference {
     fn new(scenario: &Scenario, control_rate_hz: u32) -> Self {
-        let path = scenario.path.clone();
-        let time_indexed = match scenario.reference_mode {
+        Self::of(
+            scenario.path.clone(),
+            scenario.reference_speed_m_s,
+            scenario.reference_mode,
+            control_rate_hz,
+        )
+    }
+
+    /// The reference along `path` at `speed_m_s` (m/s) in `mode`, on a loop of
+    /// `control_rate_hz` control periods per second.
+    pub fn of(path: Path, speed_m_s: f32, mode: ReferenceMode, control_rate_hz: u32) -> Self {
+        let time_indexed = match mode {
             ReferenceMode::TimeIndexed { start_offset_m } => Some((
                 f64::from(path.normalize_m(start_offset_m)),
-                f64::from(scenario.reference_speed_m_s),
+                f64::from(speed_m_s),
                 f64::from(control_rate_hz),
             )),
             ReferenceMode::PathFollowing { .. } => None,
@@ -279,8 +300,9 @@ impl TrueReference {
         Self { path, time_indexed }
     }
 
-    /// The reference pose `periods` control periods after arming, for a robot at `pose`.
-    fn at(&self, periods: u64, pose: &TruePose) -> Pose {
+    /// The reference pose (world frame, m and rad) `periods` control periods after
+    /// arming, for a robot at `pose`.
+    pub fn at(&self, periods: u64, pose: &TruePose) -> Pose {
         let path = &self.path;
         let s_m = match self.time_indexed {
             Some((start_m, speed_m_s, rate_hz)) => {

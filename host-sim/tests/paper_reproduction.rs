@@ -143,3 +143,42 @@ fn runs_are_reproducible() {
     let b = run_scenario(&s, LawKind::Kanayama).unwrap();
     assert_eq!(a.trace, b.trace);
 }
+
+/// A fault before the first steering update (an encoder that jumps by ~10⁶ ticks at the
+/// first step): the summary carries the fault, its true errors are the trace's, and the
+/// controller's own estimate says it has no sample instead of claiming zero error.
+#[test]
+fn a_fault_before_the_first_steering_update_is_reported_as_such() {
+    let mut s = scenario("paper-circle");
+    s.plant.encoder_noise_ticks_rms = 1e6;
+    s.duration_s = 2.0;
+    let r = run_scenario_with(
+        &s,
+        LawKind::Tracking,
+        RunOptions {
+            trace_every_steps: 1,
+        },
+    )
+    .unwrap();
+    assert_eq!(r.summary.supervisor.final_state, "Faulted");
+    assert!(r
+        .summary
+        .supervisor
+        .faults
+        .contains(&"encoder_jump".to_string()));
+    let truth = r
+        .summary
+        .true_error
+        .expect("a simulation has the true error");
+    let last = r.trace.last().expect("a trace").true_error.0;
+    assert!(
+        (truth.final_position_error_m - last).abs() < 0.01,
+        "summary {} m, trace {last} m",
+        truth.final_position_error_m
+    );
+    // The robot starts 0.31 m from the reference and never gets control.
+    assert!(truth.final_position_error_m > 0.25);
+    assert!(truth.samples > 0);
+    assert_eq!(r.summary.estimated_error.samples, 0);
+    assert!(r.summary.estimated_error.settle_time_s.is_none());
+}

@@ -42,8 +42,9 @@
 //! Every [`Request`] travels in a [`Downlink`] with a `seq` that its one
 //! [`Uplink::Reply`] echoes, carrying a [`Reply`] or a [`Refusal`] (the table of which
 //! reply answers which request is in [`message`]). The robot also sends
-//! [`Uplink::Telemetry`], [`Uplink::Event`], [`Uplink::Stats`] and, from the simulator
-//! only, [`Uplink::GroundTruth`]. Messages carry the core's own types (`RobotConfig`,
+//! [`Uplink::Telemetry`], [`Uplink::Event`], [`Uplink::Stats`], [`Uplink::RunReport`]
+//! (a run's metrics, computed on the robot at the control rate, when the run ends) and,
+//! from the simulator only, [`Uplink::GroundTruth`] and [`Uplink::GroundTruthRun`]. Messages carry the core's own types (`RobotConfig`,
 //! `SupervisorConfig`, `Segment`, `Pose`, `Faults`, …), never copies of them.
 //!
 //! Sizes measured with `cargo run -p link --example sizes` (varints at their longest,

@@ -17,7 +17,7 @@ use controller_core::supervisor::{
     Bridge, Command, Event, Faults, Inputs, Refusal as SupervisorRefusal, RunMode, State,
     Supervised, Supervisor, SupervisorSetError,
 };
-use link::{PidParts, TelemetryFrame};
+use link::{PidParts, RunReport, TelemetryFrame};
 
 use crate::channel::{ControlEnd, Op, Published, Refused, Staged, ToLink};
 use crate::metrics::{ErrorSample, ErrorStats, ErrorSummary};
@@ -143,6 +143,13 @@ pub struct ControlSide<'a> {
     step: u32,
     /// Control periods since the robot was last armed to follow the path.
     run_periods: u32,
+    /// A path-following run is in progress (its report is due when it ends).
+    in_run: bool,
+    /// Path-following runs ended since start.
+    runs_ended: u16,
+    /// Largest |measured wheel speed| (rad/s) and |duty| of the run so far.
+    run_max_wheel_rad_s: f32,
+    run_max_duty: f32,
     telemetry: TelemetryClock,
 }
 
@@ -159,6 +166,10 @@ impl<'a> ControlSide<'a> {
             rate,
             step: 0,
             run_periods: 0,
+            in_run: false,
+            runs_ended: 0,
+            run_max_wheel_rad_s: 0.0,
+            run_max_duty: 0.0,
             telemetry: TelemetryClock {
                 hz: 0,
                 period: 0,
@@ -248,8 +259,10 @@ impl<'a> ControlSide<'a> {
             }
         }
 
-        // 4. Run metrics and telemetry.
-        self.track_run(&out, sensors.periods);
+        // 4. Run metrics (and the report of a run that ended) and telemetry.
+        if self.track_run(&out, sensors.periods) {
+            link_has_work = true;
+        }
         if self
             .telemetry
             .due(self.end.telemetry_hz(), self.rate, sensors.periods)
@@ -297,13 +310,19 @@ impl<'a> ControlSide<'a> {
 
     /// Feeds the run metrics: restarted when the robot is armed to follow the path, fed
     /// with the controller's estimated error at every steering update while it does.
-    fn track_run(&mut self, out: &Supervised, periods: NonZeroU32) {
+    /// When the run ends (the robot leaves armed path following), queues its
+    /// [`RunReport`] for the link side and returns true; the summary's one square root
+    /// is paid in that step only.
+    fn track_run(&mut self, out: &Supervised, periods: NonZeroU32) -> bool {
         if out.event == Some(Event::Armed(RunMode::FollowPath)) {
             self.metrics = ErrorStats::new(self.rate);
             self.run_periods = 0;
+            self.run_max_wheel_rad_s = 0.0;
+            self.run_max_duty = 0.0;
+            self.in_run = true;
         }
         if out.state != State::Armed || out.run_mode != RunMode::FollowPath {
-            return;
+            return self.in_run && self.end_run();
         }
         let t = self.controller.telemetry();
         if t.steering_updated {
@@ -313,7 +332,36 @@ impl<'a> ControlSide<'a> {
                 heading_rad: t.error.theta_e_rad,
             });
         }
+        for value in [t.wheel_speed.left_rad_s, t.wheel_speed.right_rad_s] {
+            self.run_max_wheel_rad_s = max_abs(self.run_max_wheel_rad_s, value);
+        }
+        for value in [out.duty.left, out.duty.right] {
+            self.run_max_duty = max_abs(self.run_max_duty, value);
+        }
         self.run_periods = self.run_periods.saturating_add(periods.get());
+        false
+    }
+
+    /// The run ended: its report goes to the link side (dropped if the previous one is
+    /// still there, which takes two runs ending between two link polls). Returns true.
+    fn end_run(&mut self) -> bool {
+        self.in_run = false;
+        self.runs_ended = self.runs_ended.wrapping_add(1);
+        let report = self.run_report();
+        let _ = self.end.reports.push(report);
+        true
+    }
+
+    /// The report of the current or last path-following run (a square root: see
+    /// [`ControlSide::run_summary`]).
+    pub fn run_report(&self) -> RunReport {
+        RunReport {
+            runs_ended: self.runs_ended,
+            run_steps: self.run_periods,
+            estimated: self.metrics.summary(),
+            max_wheel_speed_rad_s: self.run_max_wheel_rad_s,
+            max_duty: self.run_max_duty,
+        }
     }
 
     /// The telemetry sample of this step.
@@ -337,6 +385,16 @@ impl<'a> ControlSide<'a> {
             supply_v: t.supply_v,
             missed_ticks: out.missed_ticks_total,
         }
+    }
+}
+
+/// The larger of `max` and |`value`| (a NaN value leaves `max`).
+fn max_abs(max: f32, value: f32) -> f32 {
+    let magnitude = if value < 0.0 { -value } else { value };
+    if magnitude > max {
+        magnitude
+    } else {
+        max
     }
 }
 

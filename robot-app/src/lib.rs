@@ -113,7 +113,10 @@
 //! (mostly the staging area's room for a path). New static RAM for the firmware: about
 //! 3.7 KiB, plus the board's receive ring. `cargo run -p robot-app --example wiring`
 //! prints the host's sizes (a little larger: 8-byte pointers); the budgets below are
-//! checked at compile time on every target.
+//! checked at compile time on every target. The run report ([`link::RunReport`], sent when
+//! a path-following run ends) added 48 B to [`Channels`], 16 B to [`ControlSide`] and
+//! 48 B to [`LinkService`] on the target (read from compile-time size checks: 1 520,
+//! 3 272 and 2 336 B with it, 1 472, 3 256 and 2 288 B without).
 //!
 //! # Flash
 //!
@@ -155,5 +158,6 @@ const _: () = {
     // part of the supervisor.
     assert!(core::mem::size_of::<ControlSide<'static>>() <= 3_904);
     assert!(core::mem::size_of::<LinkService<'static>>() <= 2_560);
-    assert!(core::mem::size_of::<Channels>() <= 1_536);
+    // 1 568 B on a 64-bit host since the run-report slot (48 B on the target) was added.
+    assert!(core::mem::size_of::<Channels>() <= 1_600);
 };

@@ -38,26 +38,9 @@ pub struct ErrorSample {
     pub heading_rad: f32,
 }
 
-/// What a run's errors amounted to (see the module doc). Errors in m and rad.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[cfg_attr(
-    feature = "serde",
-    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
-)]
-pub struct ErrorSummary {
-    /// Settle time, s; `None` if the run did not end settled (or had no sample).
-    pub settle_time_s: Option<f32>,
-    /// Position error at the last sample, m.
-    pub final_position_error_m: f32,
-    /// Heading error θ_r − θ at the last sample, rad (signed).
-    pub final_heading_error_rad: f32,
-    /// RMS position error over the final window, m.
-    pub rms_position_error_m: f32,
-    /// Largest position error over the final window, m.
-    pub max_position_error_m: f32,
-    /// Samples seen.
-    pub samples: u32,
-}
+/// What a run's errors amounted to: the link's type, so what the robot sends is what it
+/// computed (fields in m, rad and s; see the module doc).
+pub use link::ErrorSummary;
 
 /// One second's worth of samples.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

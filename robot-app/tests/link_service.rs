@@ -327,3 +327,62 @@ fn tuning_is_not_supported() {
         Err(Refusal::NotPermitted(NotPermitted::Unsupported))
     );
 }
+
+#[test]
+fn a_path_run_ends_with_its_report_computed_on_the_robot() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    rig.heartbeat_every = Some(100);
+    // Before any run: an empty report.
+    assert_eq!(
+        rig.ask(Request::GetRunReport),
+        Ok(Reply::RunReport(link::RunReport::default()))
+    );
+    let arm = Request::Arm {
+        mode: ArmMode::FollowPath,
+        initial_motion: None,
+    };
+    assert_eq!(rig.ask(arm), Ok(Reply::Ack));
+    rig.run(1500);
+    assert_eq!(rig.ask(Request::Disarm), Ok(Reply::Ack));
+    rig.run(5);
+    let reports: Vec<_> = rig
+        .received
+        .iter()
+        .filter_map(|m| match m {
+            Uplink::RunReport(r) => Some(*r),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(reports.len(), 1, "one report per run, sent unasked");
+    let report = reports[0];
+    assert_eq!(report.runs_ended, 1);
+    // Armed from the arm request's step to the step before the disarm: about 1.5 s.
+    assert!(
+        (1500..1600).contains(&report.run_steps),
+        "{}",
+        report.run_steps
+    );
+    // The 1 kHz robot steers at 100 Hz: one error sample per steering update.
+    let expected_samples = report.run_steps / 10;
+    assert!(
+        report.estimated.samples.abs_diff(expected_samples) <= 1,
+        "{report:?}"
+    );
+    assert!(
+        report.max_duty > 0.0 && report.max_duty <= 1.0,
+        "{report:?}"
+    );
+    assert!(report.max_wheel_speed_rad_s > 0.0, "{report:?}");
+    // Asked again, the same report.
+    assert_eq!(rig.ask(Request::GetRunReport), Ok(Reply::RunReport(report)));
+    // A hold-speed run is not a path run: no new report.
+    let hold = Request::Arm {
+        mode: ArmMode::HoldWheelSpeeds(controller_core::kinematics::WheelSpeeds::new(3.0, 3.0)),
+        initial_motion: None,
+    };
+    assert_eq!(rig.ask(hold), Ok(Reply::Ack));
+    rig.run(50);
+    assert_eq!(rig.ask(Request::Disarm), Ok(Reply::Ack));
+    assert_eq!(rig.ask(Request::GetRunReport), Ok(Reply::RunReport(report)));
+}

@@ -2,7 +2,8 @@
 //!
 //! | command | what it does |
 //! |---|---|
-//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, firmware build and size budget, the panic check, the core and the link on an emulated Cortex-M4F. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
+//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, the station end to end, firmware build and size budget, the panic check, the core and the link on an emulated Cortex-M4F. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
+//! | `e2e` | the station against the virtual robot: in process, and the binary over TCP (same result as `host-sim run`, link loss, corruption, refusals) |
 //! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` |
 //! | `size` | builds the firmware and checks it against the flash and RAM budget |
 //! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
@@ -78,6 +79,7 @@ fn run() -> Result<bool> {
         ["setup"] => vec![steps::setup()],
         ["size"] => vec![steps::setup(), steps::firmware_size()],
         ["qemu"] => vec![steps::setup(), steps::qemu()],
+        ["e2e"] => vec![steps::end_to_end()],
         ["link-qemu"] => vec![steps::setup(), steps::link_qemu()],
         ["size-of", elf] => {
             let elf = PathBuf::from(elf);

@@ -208,13 +208,27 @@ pub fn ci() -> Vec<Step> {
             for package in TARGET_ONLY_PACKAGES {
                 args.extend(["--exclude", package]);
             }
+            // The station's tests run in their own step, next.
+            args.extend(["--exclude", "station"]);
             run_command(&mut ctx.cargo(&args))
         }),
+        end_to_end(),
         firmware_size(),
         panic_check(),
         qemu(),
         link_qemu(),
     ]
+}
+
+/// The station against the virtual robot (`station/tests`): in this process in lockstep
+/// (a run bit for bit equal to `host-sim run`, refusals while armed), and the `station`
+/// binary over TCP against `host-sim serve`'s loop at 4× real time (the same result, a
+/// killed station disarming the robot within the heartbeat timeout, a corrupted line).
+/// About 10 s of tests once built.
+pub fn end_to_end() -> Step {
+    Step::new("end-to-end: station against the virtual robot", |ctx| {
+        run_command(&mut ctx.cargo(&["test", "-p", "station", "--no-fail-fast"]))
+    })
 }
 
 /// Clippy with `-D warnings` on `package` for the ARM target, with `features` (cargo

@@ -13,13 +13,16 @@
 //! | [`Request::PathChunk`] | [`Reply::PathChunkStored`] |
 //! | [`Request::PathCommit`] | [`Reply::PathCommitted`] |
 //! | [`Request::GetStats`] | [`Reply::Stats`] |
+//! | [`Request::GetRunReport`] | [`Reply::RunReport`] |
 //! | every other request | [`Reply::Ack`] |
 //!
 //! The other [`Uplink`] messages are sent by the robot on its own: [`Uplink::Telemetry`]
 //! at the rate set by [`Request::SetTelemetryRate`], [`Uplink::Event`] on each supervisor
 //! state change, [`Uplink::GroundTruth`] from the simulator only, [`Uplink::Stats`]
-//! whenever the robot chooses, and [`Uplink::VersionMismatch`] in answer to a frame whose
-//! header names another protocol.
+//! whenever the robot chooses, [`Uplink::VersionMismatch`] in answer to a frame whose
+//! header names another protocol, [`Uplink::RunReport`] when a path-following run ends
+//! (its metrics computed on the robot at the control rate, see [`RunReport`]) and, from
+//! the simulator only, [`Uplink::GroundTruthRun`] with the true metrics of that run.
 //!
 //! **Compatibility:** the wire encoding of an enum is its variant's index. New variants
 //! and fields go at the end; any change of shape changes
@@ -28,6 +31,7 @@
 
 mod path;
 mod refusal;
+mod run;
 mod telemetry;
 
 use controller_core::kinematics::{BodyVelocity, WheelSpeeds};
@@ -40,6 +44,7 @@ use serde::{Deserialize, Serialize};
 
 pub use self::path::{CommitSummary, PathBegin, PathChunk, PathCommit, SEGMENTS_PER_CHUNK};
 pub use self::refusal::{FieldProblem, NotPermitted, PathProblem, Refusal, FIELD_CAP, PROBLEM_CAP};
+pub use self::run::{ErrorSummary, RunReport, TrueRunReport};
 pub use self::telemetry::{GroundTruth, LinkStats, PidParts, Stats, TelemetryFrame};
 use crate::protocol::ProtocolId;
 
@@ -125,6 +130,9 @@ pub enum Request {
     },
     /// Timing and link statistics ([`Reply::Stats`]).
     GetStats,
+    /// The report of the last path-following run ([`Reply::RunReport`]); the robot also
+    /// sends it unasked when a run ends ([`Uplink::RunReport`]).
+    GetRunReport,
 }
 
 impl Request {
@@ -146,6 +154,7 @@ impl Request {
             Request::Heartbeat => "Heartbeat",
             Request::SetTelemetryRate { .. } => "SetTelemetryRate",
             Request::GetStats => "GetStats",
+            Request::GetRunReport => "GetRunReport",
         }
     }
 }
@@ -201,6 +210,12 @@ pub enum Uplink {
         /// What the refused frame's header said.
         received: ProtocolId,
     },
+    /// A path-following run ended (disarm, fault or run timeout): its metrics, computed
+    /// on the robot at the control rate (see [`RunReport`]).
+    RunReport(RunReport),
+    /// The simulated robot's true metrics of the run that just ended (the virtual robot
+    /// only; never from hardware).
+    GroundTruthRun(TrueRunReport),
 }
 
 /// The payload of an accepted request's reply.
@@ -235,6 +250,8 @@ pub enum Reply {
     PathCommitted(CommitSummary),
     /// Answer to [`Request::GetStats`].
     Stats(Stats),
+    /// Answer to [`Request::GetRunReport`]: the last run's metrics.
+    RunReport(RunReport),
 }
 
 /// Who the robot is: answer to [`Request::Info`].
@@ -291,6 +308,7 @@ mod tests {
             Request::Heartbeat.name(),
             Request::SetTelemetryRate { hz: 1 }.name(),
             Request::GetStats.name(),
+            Request::GetRunReport.name(),
         ];
         for (i, a) in names.iter().enumerate() {
             for b in &names[i + 1..] {

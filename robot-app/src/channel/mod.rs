@@ -6,6 +6,7 @@
 //! | commands, link → control | a request's `seq` and what to do ([`ToControl`]) | [`COMMAND_CAPACITY`] | the link side refuses with `Busy` (one place is kept for `EmergencyStop`) |
 //! | uplink, control → link | replies to commands and supervisor events ([`ToLink`]) | [`UPLINK_CAPACITY`] | the control side takes no command (so replies always have room); an event is dropped and counted |
 //! | telemetry, control → link | the latest [`TelemetryFrame`] | [`TELEMETRY_CAPACITY`] | the sample is dropped and counted |
+//! | run reports, control → link | a path-following run's [`RunReport`], once when it ends | [`REPORT_CAPACITY`] | the report is dropped (the link side still has the previous one) |
 //! | staging, link → control → link | a new configuration or path ([`Staged`]) | one | the link side refuses with `Busy` |
 //! | status, control → link | state, step, missed ticks, overruns, drop counters | atomics | overwritten every step |
 //! | telemetry rate, link → control | Hz | an atomic | overwritten |
@@ -32,7 +33,7 @@ use controller_core::law::LawKind;
 use controller_core::params::Params;
 use controller_core::reference::Reference;
 use controller_core::supervisor::{Command, Event, State, SupervisorConfig};
-use link::{CommitSummary, TelemetryFrame};
+use link::{CommitSummary, RunReport, TelemetryFrame};
 
 use self::mailbox::{Mailbox, Receiver, Sender};
 use self::ring::{Consumer, Producer, Ring};
@@ -44,6 +45,9 @@ pub const COMMAND_CAPACITY: usize = 4;
 pub const UPLINK_CAPACITY: usize = 8;
 /// Telemetry samples the control side may queue: one; the link side sends the latest.
 pub const TELEMETRY_CAPACITY: usize = 1;
+/// Run reports the control side may queue: one (a run ends at most once per step, and
+/// the link side takes it at its next poll).
+pub const REPORT_CAPACITY: usize = 1;
 
 /// A request the link side forwards to the control side: the `seq` to answer and what to
 /// do. Each gets exactly one [`ToLink::Reply`].
@@ -243,6 +247,7 @@ pub struct Channels {
     commands: Ring<ToControl, COMMAND_CAPACITY>,
     uplink: Ring<ToLink, UPLINK_CAPACITY>,
     telemetry: Ring<TelemetryFrame, TELEMETRY_CAPACITY>,
+    reports: Ring<RunReport, REPORT_CAPACITY>,
     staging: Mailbox<Staged>,
     status: Status,
 }
@@ -260,6 +265,7 @@ impl Channels {
             commands: Ring::new(),
             uplink: Ring::new(),
             telemetry: Ring::new(),
+            reports: Ring::new(),
             staging: Mailbox::new(),
             status: Status::new(),
         }
@@ -271,12 +277,14 @@ impl Channels {
             commands,
             uplink,
             telemetry,
+            reports,
             staging,
             status,
         } = self;
         let (command_tx, command_rx) = commands.split();
         let (uplink_tx, uplink_rx) = uplink.split();
         let (telemetry_tx, telemetry_rx) = telemetry.split();
+        let (report_tx, report_rx) = reports.split();
         let (staging_tx, staging_rx) = staging.split();
         let status: &Status = status;
         (
@@ -284,6 +292,7 @@ impl Channels {
                 commands: command_tx,
                 uplink: uplink_rx,
                 telemetry: telemetry_rx,
+                reports: report_rx,
                 staging: staging_tx,
                 status,
             },
@@ -291,6 +300,7 @@ impl Channels {
                 commands: command_rx,
                 uplink: uplink_tx,
                 telemetry: telemetry_tx,
+                reports: report_tx,
                 staging: staging_rx,
                 status,
             },
@@ -304,6 +314,7 @@ pub struct LinkEnd<'a> {
     pub(crate) commands: Producer<'a, ToControl, COMMAND_CAPACITY>,
     pub(crate) uplink: Consumer<'a, ToLink, UPLINK_CAPACITY>,
     pub(crate) telemetry: Consumer<'a, TelemetryFrame, TELEMETRY_CAPACITY>,
+    pub(crate) reports: Consumer<'a, RunReport, REPORT_CAPACITY>,
     pub(crate) staging: Sender<'a, Staged>,
     status: &'a Status,
 }
@@ -331,6 +342,7 @@ pub struct ControlEnd<'a> {
     pub(crate) commands: Consumer<'a, ToControl, COMMAND_CAPACITY>,
     pub(crate) uplink: Producer<'a, ToLink, UPLINK_CAPACITY>,
     pub(crate) telemetry: Producer<'a, TelemetryFrame, TELEMETRY_CAPACITY>,
+    pub(crate) reports: Producer<'a, RunReport, REPORT_CAPACITY>,
     pub(crate) staging: Receiver<'a, Staged>,
     status: &'a Status,
 }

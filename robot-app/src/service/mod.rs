@@ -3,7 +3,7 @@
 //!
 //! [`LinkService`] decodes the host's requests from received bytes, answers what it can
 //! answer itself (`Info`, `Ping`, `GetParams`, path chunks, `SetTelemetryRate`,
-//! `GetStats`), validates configurations and paths and stages them for the control side,
+//! `GetStats`, `GetRunReport`), validates configurations and paths and stages them for the control side,
 //! forwards the rest (arming, heartbeats, persistence) as [`ToControl`] requests, and
 //! turns the control side's replies, events and telemetry into frames in a bounded
 //! transmit buffer ([`TX_CAPACITY`] bytes).
@@ -17,6 +17,8 @@
 //!   reply, heartbeat replies and path-chunk acknowledgements included, has room.
 //! - Events wait in the uplink ring when the buffer is short of room (they may not take
 //!   the room owed to replies); the control side counts the ones the ring could not take.
+//! - A run's report (sent when a path-following run ends) waits in the service until
+//!   the buffer has room beyond that reserve; a host may also ask for it again.
 //! - A telemetry sample is sent only if the buffer keeps that reserve afterwards; else it
 //!   is dropped and counted ([`LinkStats::telemetry_dropped`]).
 //! - A request the control side cannot take now (its queue is full, a staged install is
@@ -31,7 +33,7 @@ use controller_core::supervisor::{ArmRequest, Command, RunMode, State};
 use link::{
     bounded, check_telemetry_rate, params_hash, ArmMode, Commit, CommitSummary, Decoder, Downlink,
     FieldProblem, LinkStats, NotPermitted, ParamSet, PathAssembler, ProtocolId, Received, Refusal,
-    Reply, Request, RobotInfo, Stats, Uplink, MAX_FRAME_LEN,
+    Reply, Request, RobotInfo, RunReport, Stats, Uplink, MAX_FRAME_LEN,
 };
 
 use crate::channel::{
@@ -137,6 +139,9 @@ pub struct LinkService<'a> {
     in_flight: usize,
     persist: PersistPhase,
     counters: ServiceCounters,
+    /// The last run's report from the control side, and whether it still has to be sent.
+    last_report: RunReport,
+    report_unsent: bool,
 }
 
 impl<'a> LinkService<'a> {
@@ -165,6 +170,8 @@ impl<'a> LinkService<'a> {
             in_flight: 0,
             persist: PersistPhase::Idle,
             counters: ServiceCounters::default(),
+            last_report: RunReport::default(),
+            report_unsent: false,
         }
     }
 
@@ -265,6 +272,20 @@ impl<'a> LinkService<'a> {
             }
         }
         self.resume_persist();
+        if let Some(report) = self.end.reports.pop() {
+            self.last_report = report;
+            self.report_unsent = true;
+        }
+        // Sent like telemetry, without the room owed to replies, but never dropped: it
+        // waits here for room (and a host may ask for it with `GetRunReport`).
+        if self.report_unsent
+            && self
+                .tx
+                .append(&Uplink::RunReport(self.last_report), self.reply_room_owed())
+        {
+            self.report_unsent = false;
+            self.counters.frames_sent = self.counters.frames_sent.wrapping_add(1);
+        }
         if let Some(sample) = self.end.telemetry.pop() {
             if self
                 .tx
@@ -326,6 +347,7 @@ impl<'a> LinkService<'a> {
             Request::Heartbeat => self.forward(seq, Op::Command(Command::Heartbeat)),
             Request::SetTelemetryRate { hz } => Some(self.set_telemetry_rate(hz)),
             Request::GetStats => Some(Ok(Reply::Stats(self.stats(board)))),
+            Request::GetRunReport => Some(Ok(Reply::RunReport(self.last_report))),
         };
         if let Some(result) = now {
             self.send_reply(&Uplink::Reply { seq, result });

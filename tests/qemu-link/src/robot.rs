@@ -7,7 +7,7 @@ use controller_core::supervisor::SupervisorConfig;
 use link::{
     bounded, check_telemetry_rate, params_hash, ArmMode, Commit, CommitSummary, FieldProblem,
     LinkStats, NotPermitted, ParamSet, PathAssembler, ProtocolId, Refusal, Reply, Request,
-    RobotInfo, RxCounters, Stats,
+    RobotInfo, RunReport, RxCounters, Stats,
 };
 
 /// Name the robot gives in its [`RobotInfo`].
@@ -119,6 +119,8 @@ impl TestRobot {
                 },
                 ..Stats::default()
             })),
+            // This test robot never runs the controller, so it has no run to report.
+            Request::GetRunReport => Ok(Reply::RunReport(RunReport::default())),
         }
     }
 

@@ -1,0 +1,500 @@
+//! The virtual robot: the robot's own application logic against the simulated hardware,
+//! speaking the runtime link over TCP (`host-sim serve`).
+//!
+//! It runs exactly what the firmware runs — robot-app's [`ControlSide`] (supervisor and
+//! controller) and [`LinkService`] (decoding, replies, heartbeat timeout counted in
+//! control steps, path staging, run reports) — against [`SimHardware`], in one thread:
+//! bytes from the socket into the link side, one control step, the link side's poll,
+//! bytes out. Everything the station does with a robot works against it; ArduPilot's SITL
+//! is the precedent.
+//!
+//! What it adds, because it knows the truth:
+//!
+//! - [`link::Uplink::GroundTruth`] after every telemetry frame, for the same step: the
+//!   plant's pose, body velocity and wheel speeds when the sensors were read;
+//! - [`link::Uplink::GroundTruthRun`] right after the robot's own run report: the true
+//!   pose against the reference at every steering period of the run ([`TrueRun`]), the
+//!   same statistics `host-sim run` computes.
+//!
+//! # The operator's hands
+//!
+//! The virtual robot watches the link in both directions as an operator at the bench
+//! would, and acts on the plant only:
+//!
+//! - **A committed path** puts the robot at the path's start pose, at rest (a new
+//!   hardware: encoders, noise and injected faults start again, as in a fresh
+//!   `host-sim run`).
+//! - **The plant holds still until the robot is armed**: while it waits, each control
+//!   step reads the sensors of a copy of the hardware, so the noise the run will see
+//!   starts at the arming step exactly as in `host-sim run`, and the supply filter holds
+//!   the one reading it would take at arming.
+//! - **Arming in motion** (an `Arm` whose `initial_motion` is set): the plant's wheels are
+//!   spun up to that motion at the arming step. When the asserted motion (f32 on the wire)
+//!   is the scenario's start motion rounded to f32, the scenario's own f64 values are
+//!   used, and likewise for a committed start pose equal to the scenario's start: the
+//!   plant then starts exactly where `host-sim run` starts it.
+//!
+//! After a run the plant goes on (braking, coasting) until the next path is committed.
+
+mod truth;
+
+use std::io::{ErrorKind, Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::num::NonZeroU32;
+use std::time::{Duration, Instant};
+
+use controller_core::kinematics::{BodyVelocity, Pose, WheelSpeeds};
+use controller_core::law::LawKind;
+use controller_core::reference::Reference;
+use controller_core::supervisor::{Event, ResetCause, RunMode, State};
+use link::{
+    encode, Decoder, Downlink, GroundTruth, ParamSet, Received, Reply, Request, Uplink,
+    MAX_FRAME_LEN,
+};
+use robot_app::{
+    start, AppConfig, Channels, ControlSide, Identity, LinkOptions, LinkService, NoBoardStats,
+    Sensors,
+};
+
+use crate::hardware::{Actuation, SimHardware};
+use crate::plant::PlantError;
+use crate::scenario::{Scenario, StartState};
+
+pub use self::truth::TrueRun;
+
+/// The UART rate the virtual robot's link pretends to have, baud: fast enough for the
+/// link's top telemetry rate (100 Hz).
+pub const VIRTUAL_BAUD: u32 = 921_600;
+
+/// Why the virtual robot could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum ServeError {
+    /// The scenario's robot or supervisor settings are invalid.
+    #[error("robot configuration: {0}")]
+    Start(String),
+    /// The scenario's plant is invalid.
+    #[error(transparent)]
+    Plant(#[from] PlantError),
+    /// The scenario's reference could not be built.
+    #[error("reference: {0}")]
+    Reference(controller_core::reference::ReferenceError),
+}
+
+/// What one control step of the virtual robot did, for its log.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepReport {
+    /// Control step (since start).
+    pub step: u32,
+    /// The supervisor's state change in this step, if any.
+    pub event: Option<Event>,
+    /// The supervisor's state after the step.
+    pub state: State,
+    /// Control steps since the last heartbeat the robot accepted (counted by the
+    /// virtual robot from the link's traffic).
+    pub steps_since_heartbeat: u32,
+}
+
+/// The simulated robot behind the link (see the module doc).
+pub struct VirtualRobot<'a> {
+    scenario: Scenario,
+    control: ControlSide<'a>,
+    link: LinkService<'a>,
+    hardware: SimHardware,
+    /// The plant holds still (placed, not yet armed).
+    frozen: bool,
+    tap_in: Decoder,
+    tap_out: Decoder,
+    /// `initial_motion` of the last `Arm` seen on the link.
+    arm_motion: Option<BodyVelocity>,
+    /// The background counter the supervisor watches.
+    background: u32,
+    truth: Option<TrueRun>,
+    persisted: Option<ParamSet>,
+    /// Bytes received and not yet taken by the link side.
+    pending_in: Vec<u8>,
+    /// Bytes for the host, oldest first.
+    outgoing: Vec<u8>,
+    /// Control step of the last `Heartbeat` the link side took.
+    last_heartbeat_step: u32,
+}
+
+impl<'a> VirtualRobot<'a> {
+    /// The virtual robot of `scenario` (its robot, supervisor, path and plant), disarmed,
+    /// placed at the scenario's start, talking through `channels`.
+    pub fn new(channels: &'a mut Channels, scenario: &Scenario) -> Result<Self, ServeError> {
+        let reference = Reference::new(
+            scenario.path.clone(),
+            scenario.reference_speed_m_s,
+            scenario.reference_mode,
+        )
+        .map_err(ServeError::Reference)?;
+        let config = AppConfig {
+            params: ParamSet {
+                robot: scenario.robot,
+                supervisor: scenario.supervisor,
+            },
+            reference,
+            law: LawKind::Tracking,
+            reset: ResetCause::PowerOn,
+            identity: Identity {
+                firmware_version: env!("CARGO_PKG_VERSION"),
+                git_hash: "",
+                chip: "host-sim virtual robot",
+                robot_name: leak(&scenario.name),
+            },
+            link: LinkOptions {
+                baud: VIRTUAL_BAUD,
+                telemetry_hz: 0,
+                storage: true,
+            },
+        };
+        let (control, link) =
+            start(channels, config).map_err(|e| ServeError::Start(e.to_string()))?;
+        let hardware = SimHardware::new(&placed(scenario, &scenario.start), &scenario.faults)?;
+        Ok(Self {
+            scenario: scenario.clone(),
+            control,
+            link,
+            hardware,
+            frozen: true,
+            tap_in: Decoder::new(),
+            tap_out: Decoder::new(),
+            arm_motion: None,
+            background: 0,
+            truth: None,
+            persisted: None,
+            pending_in: Vec::new(),
+            outgoing: Vec::new(),
+            last_heartbeat_step: 0,
+        })
+    }
+
+    /// The control side (supervisor, controller).
+    pub fn control(&self) -> &ControlSide<'a> {
+        &self.control
+    }
+
+    /// The link side.
+    pub fn link(&self) -> &LinkService<'a> {
+        &self.link
+    }
+
+    /// The simulated hardware (the plant's true state).
+    pub fn hardware(&self) -> &SimHardware {
+        &self.hardware
+    }
+
+    /// The configuration last persisted with `PersistParams` (kept in memory).
+    pub fn persisted(&self) -> Option<&ParamSet> {
+        self.persisted.as_ref()
+    }
+
+    /// Queues bytes received from the host.
+    pub fn receive(&mut self, bytes: &[u8]) {
+        self.pending_in.extend_from_slice(bytes);
+    }
+
+    /// Bytes waiting for the host.
+    pub fn outgoing(&self) -> &[u8] {
+        &self.outgoing
+    }
+
+    /// The host took the first `sent` bytes of [`VirtualRobot::outgoing`].
+    pub fn consume(&mut self, sent: usize) {
+        self.outgoing.drain(..sent.min(self.outgoing.len()));
+    }
+
+    /// One control period (module doc).
+    pub fn step(&mut self) -> StepReport {
+        // 1. Received bytes into the link side, as far as it takes them.
+        let taken = self.link.receive(&self.pending_in, &NoBoardStats);
+        let mut heartbeat_taken = false;
+        for outcome in self.tap_in.feed::<Downlink>(&self.pending_in[..taken]) {
+            if let Ok(Received::Message(Downlink { request, .. })) = outcome {
+                match request {
+                    Request::Arm { initial_motion, .. } => self.arm_motion = initial_motion,
+                    Request::Heartbeat => heartbeat_taken = true,
+                    _ => {}
+                }
+            }
+        }
+        self.pending_in.drain(..taken);
+
+        // 2. The sensors: of a copy while the plant holds still (module doc).
+        let pose = self.hardware.plant().pose();
+        let wheels = self.hardware.plant().wheel_speeds();
+        let velocity = self.hardware.plant().body_velocity();
+        let mut probe = None;
+        let sensed = if self.frozen {
+            let mut copy = self.hardware.clone();
+            let sensed = copy.sense(1);
+            probe = Some(copy);
+            sensed
+        } else {
+            let periods = self.hardware.periods_until_next_step();
+            self.hardware.sense(periods)
+        };
+        self.background = self.background.wrapping_add(1);
+        let periods = NonZeroU32::new(sensed.periods).unwrap_or(NonZeroU32::MIN);
+        let out = self.control.step(Sensors {
+            ticks: sensed.ticks,
+            periods,
+            supply_v: sensed.supply_v,
+            button_pressed: sensed.button_pressed,
+            overrun: false,
+            background_heartbeat: self.background,
+        });
+        let step = self.control.steps();
+        if heartbeat_taken {
+            self.last_heartbeat_step = step;
+        }
+        self.link.poll();
+        self.persist();
+
+        // 3. Arming starts the plant (and the true metrics).
+        if let Some(Event::Armed(mode)) = out.event {
+            if let Some(copy) = probe.take().filter(|_| self.frozen) {
+                self.hardware = copy;
+                self.frozen = false;
+                if let Some(motion) = self.arm_motion {
+                    let (v, omega) = self.start_motion(motion);
+                    self.hardware.start_moving(v, omega);
+                }
+            }
+            if mode == RunMode::FollowPath {
+                let params = self.control.controller().params();
+                self.truth = Some(TrueRun::new(
+                    self.control.controller().reference(),
+                    params.control_rate(),
+                    params.steering_divider(),
+                    &pose,
+                ));
+            }
+        }
+        let running = out.state == State::Armed
+            && self.control.supervisor().run_mode() == RunMode::FollowPath;
+        if running {
+            if let Some(truth) = &mut self.truth {
+                truth.observe(&pose, wheels, periods.get());
+            }
+        }
+
+        // 4. Frames out, with the ground truth after each telemetry frame and after the
+        //    robot's run report.
+        let sent = self.link.outgoing().len();
+        let mut committed = false;
+        let mut frames = Vec::new();
+        for &byte in self.link.outgoing() {
+            self.outgoing.push(byte);
+            match self.tap_out.push::<Uplink>(byte) {
+                Some(Ok(Received::Message(Uplink::Telemetry(frame)))) => {
+                    frames.push(Uplink::GroundTruth(GroundTruth {
+                        step: frame.step,
+                        pose: Pose::new(pose.x_m as f32, pose.y_m as f32, pose.theta_rad as f32),
+                        velocity: BodyVelocity::new(velocity.0 as f32, velocity.1 as f32),
+                        wheel_speed: WheelSpeeds::new(wheels[0] as f32, wheels[1] as f32),
+                    }));
+                }
+                Some(Ok(Received::Message(Uplink::RunReport(report)))) => {
+                    if let Some(truth) = self.truth.take() {
+                        frames.push(Uplink::GroundTruthRun(truth.report(report.runs_ended)));
+                    }
+                }
+                Some(Ok(Received::Message(Uplink::Reply {
+                    result: Ok(Reply::PathCommitted(_)),
+                    ..
+                }))) => committed = true,
+                _ => {}
+            }
+            for frame in frames.drain(..) {
+                let mut wire = [0u8; MAX_FRAME_LEN];
+                if let Ok(len) = encode(&frame, &mut wire) {
+                    self.outgoing
+                        .extend_from_slice(wire.get(..len).unwrap_or_default());
+                }
+            }
+        }
+        self.link.consume(sent);
+        if committed {
+            self.place_at_start();
+        }
+
+        // 5. The plant runs once armed.
+        if !self.frozen {
+            self.hardware.actuate(Actuation {
+                duty: out.duty,
+                bridge: out.bridge,
+            });
+            self.hardware.advance();
+        }
+        StepReport {
+            step,
+            event: out.event,
+            state: out.state,
+            steps_since_heartbeat: step.wrapping_sub(self.last_heartbeat_step),
+        }
+    }
+
+    /// The body motion (m/s, rad/s) to spin the plant up to for an asserted `motion`:
+    /// the scenario's own f64 values when `motion` is the scenario's start motion in f32.
+    fn start_motion(&self, motion: BodyVelocity) -> (f64, f64) {
+        let s = &self.scenario.start;
+        if motion.v_m_s == s.v_m_s as f32 && motion.omega_rad_s == s.omega_rad_s as f32 {
+            (s.v_m_s, s.omega_rad_s)
+        } else {
+            (f64::from(motion.v_m_s), f64::from(motion.omega_rad_s))
+        }
+    }
+
+    /// Puts the robot at the active path's start pose, at rest, on a new hardware, and
+    /// holds the plant still until armed.
+    fn place_at_start(&mut self) {
+        let pose = self.link.active_params().supervisor.start_pose;
+        let s = &self.scenario.start;
+        let same = pose.x_m == s.x_m as f32
+            && pose.y_m == s.y_m as f32
+            && pose.theta_rad == s.theta_rad as f32;
+        let start = if same {
+            StartState {
+                v_m_s: 0.0,
+                omega_rad_s: 0.0,
+                ..*s
+            }
+        } else {
+            StartState {
+                x_m: f64::from(pose.x_m),
+                y_m: f64::from(pose.y_m),
+                theta_rad: f64::from(pose.theta_rad),
+                v_m_s: 0.0,
+                omega_rad_s: 0.0,
+            }
+        };
+        if let Ok(hardware) =
+            SimHardware::new(&placed(&self.scenario, &start), &self.scenario.faults)
+        {
+            self.hardware = hardware;
+            self.frozen = true;
+        }
+    }
+
+    /// The flash work of a `PersistParams`, in memory.
+    fn persist(&mut self) {
+        if let Some(job) = self.link.persist_job() {
+            self.persisted = Some(job.params);
+            self.link.persist_finished(true);
+        }
+    }
+}
+
+/// `scenario` with the robot placed at `start` (pose and motion).
+fn placed(scenario: &Scenario, start: &StartState) -> Scenario {
+    let mut s = scenario.clone();
+    s.start = *start;
+    s
+}
+
+/// A string that lives as long as the program (the robot's name, once per virtual robot).
+fn leak(text: &str) -> &'static str {
+    Box::leak(text.to_string().into_boxed_str())
+}
+
+/// How `host-sim serve` runs the virtual robot.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ServeOptions {
+    /// Simulated time per wall-clock time (1: real time).
+    pub speed: f64,
+    /// Stop after this many control steps (None: run until killed).
+    pub max_steps: Option<u64>,
+}
+
+/// Runs the virtual robot on `listener`, one host at a time (a new connection replaces
+/// the previous one), paced at `options.speed` × real time. `log` gets every step that
+/// changed the supervisor's state. Returns after `options.max_steps`, or on an I/O error
+/// of the listener.
+pub fn serve(
+    robot: &mut VirtualRobot<'_>,
+    listener: &TcpListener,
+    options: ServeOptions,
+    log: &mut dyn FnMut(&StepReport),
+) -> std::io::Result<()> {
+    listener.set_nonblocking(true)?;
+    let rate = f64::from(robot.scenario.robot.control_rate_hz);
+    let speed = if options.speed.is_finite() && options.speed > 0.0 {
+        options.speed
+    } else {
+        1.0
+    };
+    let mut host: Option<TcpStream> = None;
+    let started = Instant::now();
+    let mut steps: u64 = 0;
+    let mut buf = [0u8; 4096];
+    loop {
+        if options.max_steps.is_some_and(|max| steps >= max) {
+            return Ok(());
+        }
+        match listener.accept() {
+            Ok((stream, _)) => {
+                stream.set_nonblocking(true)?;
+                let _ = stream.set_nodelay(true);
+                host = Some(stream);
+                robot.pending_in.clear();
+                robot.outgoing.clear();
+            }
+            Err(e) if e.kind() == ErrorKind::WouldBlock => {}
+            Err(e) => return Err(e),
+        }
+        // Steps due by now; at most 50 ms of simulated time at once, so a stalled host
+        // process slows the robot down instead of bursting it.
+        let due = (started.elapsed().as_secs_f64() * rate * speed) as u64;
+        let batch = due.saturating_sub(steps).min((rate * 0.05).max(1.0) as u64);
+        if batch == 0 {
+            std::thread::sleep(Duration::from_micros(500));
+            continue;
+        }
+        for _ in 0..batch {
+            if let Some(stream) = &mut host {
+                if !read_from(stream, &mut buf, robot) {
+                    host = None;
+                }
+            }
+            let report = robot.step();
+            if report.event.is_some() {
+                log(&report);
+            }
+            if let Some(stream) = &mut host {
+                if !write_to(stream, robot) {
+                    host = None;
+                }
+            }
+            steps += 1;
+        }
+    }
+}
+
+/// Moves what the host sent into the robot; false when the connection is gone.
+fn read_from(stream: &mut TcpStream, buf: &mut [u8], robot: &mut VirtualRobot<'_>) -> bool {
+    loop {
+        match stream.read(buf) {
+            Ok(0) => return false,
+            Ok(n) => robot.receive(&buf[..n]),
+            Err(e) if e.kind() == ErrorKind::WouldBlock => return true,
+            Err(e) if e.kind() == ErrorKind::Interrupted => {}
+            Err(_) => return false,
+        }
+    }
+}
+
+/// Sends what the robot has for the host; false when the connection is gone. Bytes the
+/// socket cannot take now wait.
+fn write_to(stream: &mut TcpStream, robot: &mut VirtualRobot<'_>) -> bool {
+    while !robot.outgoing().is_empty() {
+        match stream.write(robot.outgoing()) {
+            Ok(0) => return false,
+            Ok(n) => robot.consume(n),
+            Err(e) if e.kind() == ErrorKind::WouldBlock => return true,
+            Err(e) if e.kind() == ErrorKind::Interrupted => {}
+            Err(_) => return false,
+        }
+    }
+    true
+}

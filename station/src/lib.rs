@@ -1,0 +1,33 @@
+//! # station
+//!
+//! The ground station: one command-line tool for the robot (over a serial port) and for
+//! its virtual twin (`host-sim serve`, over TCP), speaking the runtime link of the `link`
+//! crate.
+//!
+//! | module | what it is |
+//! |---|---|
+//! | [`transport`] | serial port, TCP, or the virtual robot in this process (lockstep) |
+//! | [`client`] | requests and replies: numbering, re-sending, matching by `seq`, errors |
+//! | [`ops`] | one function per request: info, parameters (host-sim's robot-file code), path upload, arming |
+//! | [`record`] | a scenario run: heartbeats paced by the robot's step counter, trace rows, the robot's run report as the simulator's summary |
+//! | [`watch`] | the live terminal view of the telemetry |
+//! | [`calibrate`] | UMBmark odometry calibration: the squares, the fit for filleted corners, the corrected geometry |
+//!
+//! A run recorded through the station is written with host-sim's own output code
+//! (`trace.csv`, `summary.json`, Figs. 5–7), so a robot's run and a simulated one read the
+//! same. A real robot knows only its estimate: its summary has `estimated_error` and no
+//! `true_error`. The virtual robot also sends its ground truth, and its summary then has
+//! both. Per-step metrics (settle time, RMS) come from the robot, computed at the control
+//! rate ([`link::RunReport`]), never from decimated telemetry.
+
+#![deny(missing_docs)]
+#![forbid(unsafe_code)]
+
+pub mod calibrate;
+pub mod client;
+pub mod ops;
+pub mod record;
+pub mod transport;
+pub mod watch;
+
+pub use client::{Client, StationError};

@@ -1,0 +1,177 @@
+//! The station's requests, one function each: who the robot is, its parameters (through
+//! host-sim's robot-file code), path upload from a scenario, arming.
+
+use controller_core::kinematics::{BodyVelocity, Pose};
+use controller_core::law::LawKind;
+use controller_core::params::Params;
+use host_sim::robot_file::{DivergenceSetting, Keyword, NumberOr, RobotFile, SectionError};
+use host_sim::Scenario;
+use link::{
+    path_checksum, upload, ArmMode, CommitSummary, ParamSet, PathBegin, PathCommit, Reply, Request,
+    RobotInfo,
+};
+
+use crate::client::{Client, StationError};
+use crate::transport::Transport;
+
+/// Why a robot file could not be applied.
+#[derive(Debug, thiserror::Error)]
+pub enum ParamsError {
+    /// The file names a bad key or value.
+    #[error("{file}: {error}")]
+    File {
+        /// The file's name.
+        file: String,
+        /// The key and what is wrong.
+        error: SectionError,
+    },
+    /// The link failed or the robot refused.
+    #[error(transparent)]
+    Link(#[from] StationError),
+}
+
+fn unexpected(request: &'static str, reply: Reply) -> StationError {
+    StationError::Unexpected {
+        request,
+        reply: format!("{reply:?}"),
+    }
+}
+
+/// Who the robot is.
+pub fn info<T: Transport>(client: &mut Client<T>) -> Result<RobotInfo, StationError> {
+    match client.request(Request::Info)? {
+        Reply::Info(info) => Ok(info),
+        other => Err(unexpected("Info", other)),
+    }
+}
+
+/// The robot's active configuration.
+pub fn get_params<T: Transport>(client: &mut Client<T>) -> Result<ParamSet, StationError> {
+    match client.request(Request::GetParams)? {
+        Reply::Params(set) => Ok(set),
+        other => Err(unexpected("GetParams", other)),
+    }
+}
+
+/// The robot's configuration as a robot file (`[robot]` and `[supervisor]`, every key).
+pub fn params_to_toml(set: &ParamSet) -> String {
+    RobotFile::of(&set.robot, &set.supervisor).to_toml()
+}
+
+/// The configuration `text` (a robot file named `file`) describes, over `current` (the
+/// robot's): keys the file leaves out keep the robot's values; the path-derived checks
+/// (`divergence`, `geofence_radius_m`) left at "auto" keep the robot's, which it derives
+/// again from each committed path. Errors name the key.
+pub fn params_from_toml(
+    text: &str,
+    file: &str,
+    current: &ParamSet,
+) -> Result<ParamSet, ParamsError> {
+    let named = |error| ParamsError::File {
+        file: file.to_string(),
+        error,
+    };
+    let parsed = RobotFile::from_toml(text).map_err(named)?;
+    let params: Params = parsed.robot.params(current.robot, "robot").map_err(named)?;
+    let mut supervisor = parsed
+        .supervisor
+        .config(&params, None, "supervisor")
+        .map_err(named)?;
+    supervisor.start_pose = current.supervisor.start_pose;
+    if matches!(
+        parsed.supervisor.divergence,
+        None | Some(DivergenceSetting::Keyword(Keyword::Auto))
+    ) {
+        supervisor.divergence = current.supervisor.divergence;
+    }
+    if matches!(
+        parsed.supervisor.geofence_radius_m,
+        None | Some(NumberOr::Keyword(Keyword::Auto))
+    ) {
+        supervisor.geofence_radius_m = current.supervisor.geofence_radius_m;
+    }
+    Ok(ParamSet {
+        robot: *params.config(),
+        supervisor,
+    })
+}
+
+/// Sends `set`; returns the robot's hash of the configuration it now runs.
+pub fn set_params<T: Transport>(
+    client: &mut Client<T>,
+    set: ParamSet,
+) -> Result<u32, StationError> {
+    match client.request(Request::SetParams(set))? {
+        Reply::ParamsApplied { params_hash } => Ok(params_hash),
+        other => Err(unexpected("SetParams", other)),
+    }
+}
+
+/// The start pose of `scenario` as the robot takes it (world frame, m and rad).
+pub fn start_pose(scenario: &Scenario) -> Pose {
+    let s = scenario.start;
+    Pose::new(s.x_m as f32, s.y_m as f32, s.theta_rad as f32)
+}
+
+/// The body motion `scenario` starts in, if it starts moving (robot frame, m/s, rad/s).
+pub fn initial_motion(scenario: &Scenario) -> Option<BodyVelocity> {
+    let s = scenario.start;
+    (s.v_m_s != 0.0 || s.omega_rad_s != 0.0)
+        .then(|| BodyVelocity::new(s.v_m_s as f32, s.omega_rad_s as f32))
+}
+
+/// Uploads `scenario`'s path, reference speed and mode and start pose, to be followed
+/// with `law`, under `upload_id`; commits it. `progress(sent, total)` after each chunk.
+pub fn upload_path<T: Transport>(
+    client: &mut Client<T>,
+    scenario: &Scenario,
+    law: LawKind,
+    upload_id: u16,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<CommitSummary, StationError> {
+    let segments = scenario.path.segments();
+    let count = u8::try_from(segments.len()).unwrap_or(u8::MAX);
+    let begin = PathBegin {
+        upload_id,
+        segment_count: count,
+        speed_m_s: scenario.reference_speed_m_s,
+        mode: scenario.reference_mode,
+        law,
+        start_pose: start_pose(scenario),
+    };
+    client.request(Request::PathBegin(begin))?;
+    let chunks: Vec<_> = upload::chunks(upload_id, segments).collect();
+    let total = chunks.len();
+    for (i, chunk) in chunks.into_iter().enumerate() {
+        client.request(Request::PathChunk(chunk))?;
+        progress(i + 1, total);
+    }
+    let commit = PathCommit {
+        upload_id,
+        segment_count: count,
+        checksum: path_checksum(segments),
+    };
+    match client.request(Request::PathCommit(commit))? {
+        Reply::PathCommitted(summary) => Ok(summary),
+        other => Err(unexpected("PathCommit", other)),
+    }
+}
+
+/// Arms the robot to follow its path, asserting `initial_motion` when it is already moving.
+pub fn arm<T: Transport>(
+    client: &mut Client<T>,
+    initial_motion: Option<BodyVelocity>,
+) -> Result<(), StationError> {
+    client.command(Request::Arm {
+        mode: ArmMode::FollowPath,
+        initial_motion,
+    })
+}
+
+/// An upload id that differs from the last few: the low bits of the clock.
+pub fn fresh_upload_id() -> u16 {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(1, |d| d.subsec_nanos());
+    (nanos >> 10) as u16 | 1
+}

@@ -1,0 +1,489 @@
+//! Recording a run: heartbeats paced by the robot's own step counter, telemetry and
+//! ground truth joined into the simulator's trace rows, and the robot's run report
+//! (computed on the robot at the control rate) turned into the simulator's summary.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use controller_core::kinematics::Pose;
+use controller_core::law::LawKind;
+use controller_core::params::Params;
+use controller_core::supervisor::{Event, Faults, RunMode, State};
+use host_sim::metrics::{ErrorReport, Summary, SupervisorReport};
+use host_sim::plant::TruePose;
+use host_sim::run::{tracking_error_f64, true_error, RunResult, TraceRow, TrueReference};
+use host_sim::Scenario;
+use link::{
+    GroundTruth, ParamSet, Reply, Request, RunReport, TelemetryFrame, TrueRunReport, Uplink,
+};
+
+use crate::client::{Client, StationError};
+use crate::ops;
+use crate::transport::Transport;
+
+/// What `run` needs besides the link.
+pub struct RunPlan<'a> {
+    /// The scenario: path, reference, start, duration.
+    pub scenario: &'a Scenario,
+    /// The steering law.
+    pub law: LawKind,
+    /// Telemetry rate to ask for, Hz (lower rates are tried when the link refuses).
+    pub telemetry_hz: u8,
+    /// Set by Ctrl-C: disarm and stop.
+    pub interrupt: &'a AtomicBool,
+    /// Called with (run steps so far, run steps in all).
+    pub progress: &'a mut dyn FnMut(u64, u64),
+}
+
+/// A recorded run.
+#[derive(Clone, Debug)]
+pub struct Recording {
+    /// In the simulator's own types: `trace`, `summary`.
+    pub result: RunResult,
+    /// True when the robot sent ground truth (the virtual robot).
+    pub has_truth: bool,
+    /// The robot's own report.
+    pub report: RunReport,
+    /// The virtual robot's true report, if any.
+    pub truth: Option<TrueRunReport>,
+    /// How the run ended (the event that ended it).
+    pub ended_by: Option<Event>,
+    /// The robot's final odometry pose (world frame), from the last telemetry frame.
+    pub final_estimate: Option<Pose>,
+    /// The true final pose, from the last ground-truth frame.
+    pub final_truth: Option<Pose>,
+}
+
+/// When to send the next heartbeat: every `every_steps` of the robot's own step counter
+/// (read from its telemetry), and by the host's clock only when telemetry stops coming —
+/// so a robot (or emulator) slower or faster than real time is never starved nor
+/// flooded.
+pub struct HeartbeatPacer {
+    every_steps: u32,
+    last_step: Option<u32>,
+    last_wall: Instant,
+}
+
+/// The host-clock fallback: a heartbeat at least this often when no telemetry arrives.
+const HEARTBEAT_FALLBACK: Duration = Duration::from_millis(100);
+
+impl HeartbeatPacer {
+    /// A pacer for a robot whose heartbeat timeout is `timeout_steps` control steps: five
+    /// heartbeats per timeout.
+    pub fn new(timeout_steps: u32) -> Self {
+        Self {
+            every_steps: (timeout_steps / 5).max(1),
+            last_step: None,
+            last_wall: Instant::now(),
+        }
+    }
+
+    /// True when a heartbeat is due, the robot's latest step being `robot_step` (None
+    /// before any telemetry); the caller sends one and the pacer counts from here.
+    pub fn due(&mut self, robot_step: Option<u32>) -> bool {
+        let by_robot = match (robot_step, self.last_step) {
+            (Some(now), Some(then)) => now.wrapping_sub(then) >= self.every_steps,
+            (Some(_), None) => true,
+            _ => false,
+        };
+        if by_robot || self.last_wall.elapsed() > HEARTBEAT_FALLBACK {
+            self.last_step = robot_step;
+            self.last_wall = Instant::now();
+            return true;
+        }
+        false
+    }
+}
+
+/// Sets the fastest telemetry rate the link accepts, from `hz` down; returns it.
+pub fn set_telemetry_rate<T: Transport>(
+    client: &mut Client<T>,
+    hz: u8,
+) -> Result<u8, StationError> {
+    let mut rate = hz.clamp(1, 100);
+    loop {
+        match client.request(Request::SetTelemetryRate { hz: rate }) {
+            Ok(_) => return Ok(rate),
+            Err(StationError::Refused { .. }) if rate > 1 => rate /= 2,
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+/// Uploads `plan.scenario`'s path, arms (in motion when the scenario starts moving), and
+/// records until the robot ends the run — at the scenario's duration, which the robot
+/// counts itself (`max_armed_steps`, restored afterwards), or on a fault — or until
+/// Ctrl-C, which disarms first. Returns the recording in the simulator's types.
+pub fn run<T: Transport>(
+    client: &mut Client<T>,
+    plan: &mut RunPlan<'_>,
+) -> Result<Recording, StationError> {
+    let scenario = plan.scenario;
+    let original = ops::get_params(client)?;
+    let rate_hz = original.robot.control_rate_hz;
+    let total = (scenario.duration_s * f64::from(rate_hz)).round() as u64;
+    let mut timed = original;
+    timed.supervisor.max_armed_steps = Some(u32::try_from(total).unwrap_or(u32::MAX));
+    if timed != original {
+        ops::set_params(client, timed)?;
+    }
+    let outcome = upload_arm_record(client, plan, &original, total);
+    // Whatever happened: disarmed, and the robot's own time limit back.
+    let disarmed = client.command(Request::Disarm);
+    let restored = if timed != original {
+        ops::set_params(client, original).map(|_| ())
+    } else {
+        Ok(())
+    };
+    let recording = outcome?;
+    disarmed?;
+    restored?;
+    Ok(recording)
+}
+
+fn upload_arm_record<T: Transport>(
+    client: &mut Client<T>,
+    plan: &mut RunPlan<'_>,
+    params: &ParamSet,
+    total: u64,
+) -> Result<Recording, StationError> {
+    let scenario = plan.scenario;
+    set_telemetry_rate(client, plan.telemetry_hz)?;
+    ops::upload_path(
+        client,
+        scenario,
+        plan.law,
+        ops::fresh_upload_id(),
+        &mut |_, _| {},
+    )?;
+    let before = match client.request(Request::GetRunReport)? {
+        Reply::RunReport(r) => r.runs_ended,
+        _ => 0,
+    };
+    let wall = Instant::now();
+    ops::arm(client, ops::initial_motion(scenario))?;
+    let mut recorder = Recorder::new(scenario, plan.law, params, before);
+    let mut heartbeat = HeartbeatPacer::new(params.supervisor.heartbeat_timeout_steps);
+    while !recorder.done() {
+        if plan.interrupt.load(Ordering::Relaxed) {
+            let _ = client.command(Request::Disarm);
+            return Err(StationError::Interrupted);
+        }
+        if heartbeat.due(recorder.last_step) {
+            client.send_only(Request::Heartbeat)?;
+        }
+        if let Some(message) = client.next_message(Duration::from_millis(20))? {
+            recorder.take(message);
+            (plan.progress)(recorder.run_steps(), total);
+        }
+        // A report lost on the line (a corrupted frame): ask for it once the robot has
+        // been out of the run for 200 steps.
+        if recorder.report.is_none() && recorder.stopped_for() > 200 {
+            if let Reply::RunReport(report) = client.request(Request::GetRunReport)? {
+                recorder.take(Uplink::RunReport(report));
+            }
+        }
+        if recorder.ended_by.is_some() && recorder.report.is_some() {
+            // The robot's report is in; the virtual robot's true one follows at once.
+            let deadline = Instant::now() + Duration::from_millis(500);
+            while recorder.expects_truth() && Instant::now() < deadline {
+                if let Some(message) = client.next_message(Duration::from_millis(20))? {
+                    recorder.take(message);
+                }
+            }
+            break;
+        }
+    }
+    let stats = match client.request(Request::GetStats)? {
+        Reply::Stats(s) => s,
+        _ => link::Stats::default(),
+    };
+    Ok(recorder.finish(wall.elapsed().as_secs_f64(), stats))
+}
+
+/// Joins telemetry and ground truth into trace rows and keeps the run's reports.
+struct Recorder<'a> {
+    scenario: &'a Scenario,
+    law: LawKind,
+    params: Option<Params>,
+    reference: TrueReference,
+    rate_hz: f64,
+    /// `runs_ended` before this run: a report with a higher count is this run's.
+    runs_before: u16,
+    arm_step: Option<u32>,
+    last_step: Option<u32>,
+    /// Step of the first telemetry frame after arming that was not armed.
+    stopped_step: Option<u32>,
+    pending: Option<TelemetryFrame>,
+    rows: Vec<TraceRow>,
+    report: Option<RunReport>,
+    truth: Option<TrueRunReport>,
+    saw_truth: bool,
+    ended_by: Option<Event>,
+    state: State,
+    faults: Faults,
+    final_estimate: Option<Pose>,
+    final_truth: Option<Pose>,
+}
+
+impl<'a> Recorder<'a> {
+    fn new(scenario: &'a Scenario, law: LawKind, params: &ParamSet, runs_before: u16) -> Self {
+        let rate = params.robot.control_rate_hz;
+        Self {
+            scenario,
+            law,
+            params: Params::new(params.robot).ok(),
+            reference: TrueReference::of(
+                scenario.path.clone(),
+                scenario.reference_speed_m_s,
+                scenario.reference_mode,
+                rate,
+            ),
+            rate_hz: f64::from(rate),
+            runs_before,
+            arm_step: None,
+            last_step: None,
+            stopped_step: None,
+            pending: None,
+            rows: Vec::new(),
+            report: None,
+            truth: None,
+            saw_truth: false,
+            ended_by: None,
+            state: State::Disarmed,
+            faults: Faults::default(),
+            final_estimate: None,
+            final_truth: None,
+        }
+    }
+
+    fn done(&self) -> bool {
+        self.report.is_some() && !self.expects_truth()
+    }
+
+    /// The virtual robot's true report is still to come.
+    fn expects_truth(&self) -> bool {
+        self.saw_truth && self.truth.is_none()
+    }
+
+    /// Steps the robot has been out of the run (0 while it runs).
+    fn stopped_for(&self) -> u32 {
+        match (self.stopped_step, self.last_step) {
+            (Some(stop), Some(now)) => now.wrapping_sub(stop),
+            _ => 0,
+        }
+    }
+
+    fn run_steps(&self) -> u64 {
+        match (self.arm_step, self.last_step) {
+            (Some(a), Some(now)) => u64::from(now.wrapping_sub(a)),
+            _ => 0,
+        }
+    }
+
+    fn take(&mut self, message: Uplink) {
+        match message {
+            Uplink::Telemetry(frame) => {
+                self.flush(None);
+                self.last_step = Some(frame.step);
+                self.state = frame.state;
+                self.faults = frame.faults;
+                self.final_estimate = Some(frame.pose);
+                let after_arming = self
+                    .arm_step
+                    .is_some_and(|a| frame.step.wrapping_sub(a) < u32::MAX / 2);
+                if after_arming && frame.state != State::Armed && self.stopped_step.is_none() {
+                    self.stopped_step = Some(frame.step);
+                }
+                self.pending = Some(frame);
+            }
+            Uplink::GroundTruth(truth) => {
+                self.saw_truth = true;
+                self.final_truth = Some(truth.pose);
+                self.flush(Some(truth));
+            }
+            Uplink::Event { step, event } => match event {
+                Event::Armed(RunMode::FollowPath) if self.arm_step.is_none() => {
+                    self.arm_step = Some(step);
+                }
+                Event::Disarmed(_) | Event::Faulted if self.arm_step.is_some() => {
+                    self.ended_by.get_or_insert(event);
+                }
+                _ => {}
+            },
+            Uplink::RunReport(report) if report.runs_ended != self.runs_before => {
+                self.report = Some(report);
+                if self.ended_by.is_none() {
+                    self.ended_by = Some(Event::Disarmed(
+                        controller_core::supervisor::DisarmReason::Link,
+                    ));
+                }
+            }
+            Uplink::GroundTruthRun(truth) if truth.runs_ended != self.runs_before => {
+                self.saw_truth = true;
+                self.truth = Some(truth);
+            }
+            _ => {}
+        }
+    }
+
+    /// Turns the pending telemetry frame into a row, with `truth` when it is the same
+    /// step's.
+    fn flush(&mut self, truth: Option<GroundTruth>) {
+        let Some(frame) = self.pending.take() else {
+            return;
+        };
+        let truth = truth.filter(|t| t.step == frame.step);
+        let (Some(arm), true) = (self.arm_step, frame.state == State::Armed) else {
+            return;
+        };
+        let k = u64::from(frame.step.wrapping_sub(arm));
+        self.rows.push(self.row(&frame, truth.as_ref(), k));
+    }
+
+    fn row(&self, f: &TelemetryFrame, truth: Option<&GroundTruth>, k: u64) -> TraceRow {
+        let nan = f64::NAN;
+        let true_pose = truth.map_or(
+            TruePose {
+                x_m: nan,
+                y_m: nan,
+                theta_rad: nan,
+            },
+            |t| TruePose {
+                x_m: f64::from(t.pose.x_m),
+                y_m: f64::from(t.pose.y_m),
+                theta_rad: f64::from(t.pose.theta_rad),
+            },
+        );
+        // Where the reference is measured from: the truth when known, else the estimate.
+        let seen_from = truth.map_or(
+            TruePose {
+                x_m: f64::from(f.pose.x_m),
+                y_m: f64::from(f.pose.y_m),
+                theta_rad: f64::from(f.pose.theta_rad),
+            },
+            |_| true_pose,
+        );
+        let reference = self.reference.at(k, &seen_from);
+        let command = self
+            .params
+            .map(|p| p.geometry().forward(f.wheel_setpoint))
+            .unwrap_or_default();
+        let volts = |p: &link::PidParts| p.p_v + p.i_v + p.d_v + p.ff_v;
+        TraceRow {
+            t_s: k as f64 / self.rate_hz,
+            true_pose,
+            est_pose: f.pose,
+            reference,
+            error: f.tracking_error,
+            true_error: truth.map_or((nan, nan), |_| true_error(&reference, &true_pose)),
+            true_tracking: truth.map_or([nan; 3], |_| tracking_error_f64(&true_pose, &reference)),
+            lyapunov: f.lyapunov,
+            command,
+            true_velocity: truth.map_or((nan, nan), |t| {
+                (
+                    f64::from(t.velocity.v_m_s),
+                    f64::from(t.velocity.omega_rad_s),
+                )
+            }),
+            setpoint: f.wheel_setpoint,
+            measured: f.wheel_speed,
+            true_wheel: truth.map_or([nan; 2], |t| {
+                [
+                    f64::from(t.wheel_speed.left_rad_s),
+                    f64::from(t.wheel_speed.right_rad_s),
+                ]
+            }),
+            volts: [volts(&f.pid_left), volts(&f.pid_right)],
+            duty: f.duty,
+            supply_v: f.supply_v,
+            state: f.state,
+        }
+    }
+
+    fn finish(mut self, wall_time_s: f64, stats: link::Stats) -> Recording {
+        self.flush(None);
+        let report = self.report.unwrap_or_default();
+        let truth = self.truth;
+        let steps = u64::from(report.run_steps);
+        let summary = Summary {
+            scenario: self.scenario.name.clone(),
+            law: self.law.name().to_string(),
+            source: if self.saw_truth {
+                "virtual-robot"
+            } else {
+                "robot"
+            }
+            .to_string(),
+            true_error: truth.map(|t| ErrorReport::from(t.error)),
+            estimated_error: ErrorReport::from(report.estimated),
+            hourly_rms_true_position_error_m: Vec::new(),
+            max_wheel_speed_rad_s: f64::from(
+                truth.map_or(report.max_wheel_speed_rad_s, |t| t.max_wheel_speed_rad_s),
+            ),
+            max_duty: f64::from(report.max_duty),
+            supervisor: SupervisorReport::new(
+                self.state,
+                &self.faults,
+                stats.missed_ticks,
+                stats.overruns,
+            ),
+            injected_faults: Vec::new(),
+            sim_time_s: steps as f64 / self.rate_hz,
+            wall_time_s,
+            steps,
+        };
+        let distance = truth.map_or_else(
+            || {
+                self.rows
+                    .windows(2)
+                    .map(|w| {
+                        f64::from(w[1].est_pose.x_m - w[0].est_pose.x_m)
+                            .hypot(f64::from(w[1].est_pose.y_m - w[0].est_pose.y_m))
+                    })
+                    .sum()
+            },
+            |t| f64::from(t.distance_m),
+        );
+        Recording {
+            result: RunResult {
+                summary,
+                max_current_a: f64::NAN,
+                distance_travelled_m: distance,
+                trace: self.rows,
+            },
+            has_truth: self.saw_truth,
+            report,
+            truth,
+            ended_by: self.ended_by,
+            final_estimate: self.final_estimate,
+            final_truth: self.final_truth,
+        }
+    }
+}
+
+/// The trace with the estimate in place of the missing truth, for the figures of a run
+/// without ground truth (their titles say so).
+pub fn estimate_as_truth(trace: &[TraceRow]) -> Vec<TraceRow> {
+    trace
+        .iter()
+        .map(|r| {
+            let est = TruePose {
+                x_m: f64::from(r.est_pose.x_m),
+                y_m: f64::from(r.est_pose.y_m),
+                theta_rad: f64::from(r.est_pose.theta_rad),
+            };
+            TraceRow {
+                true_pose: est,
+                true_error: true_error(&r.reference, &est),
+                true_tracking: tracking_error_f64(&est, &r.reference),
+                true_velocity: (f64::from(r.command.v_m_s), f64::from(r.command.omega_rad_s)),
+                true_wheel: [
+                    f64::from(r.measured.left_rad_s),
+                    f64::from(r.measured.right_rad_s),
+                ],
+                ..*r
+            }
+        })
+        .collect()
+}

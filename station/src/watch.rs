@@ -1,0 +1,127 @@
+//! The live view: the latest telemetry (state, pose, errors, speeds, volts, faults)
+//! redrawn in place in the terminal.
+
+use std::fmt::Write as _;
+
+use link::{GroundTruth, TelemetryFrame};
+
+/// The screen for `frame` (and the virtual robot's `truth` for the same step, if any),
+/// as lines of text, at `rate_hz` control steps per second.
+pub fn screen(frame: &TelemetryFrame, truth: Option<&GroundTruth>, rate_hz: u32) -> String {
+    let mut s = String::new();
+    let t = f64::from(frame.step) / f64::from(rate_hz.max(1));
+    let faults = host_sim::metrics::fault_names(&frame.faults);
+    let _ = writeln!(
+        s,
+        "step {:>10}  t {:>9.2} s   state {:?} ({:?})",
+        frame.step, t, frame.state, frame.run_mode
+    );
+    let p = frame.pose;
+    let _ = writeln!(
+        s,
+        "pose (odometry)   x {:+8.3} m   y {:+8.3} m   θ {:+7.2}°",
+        p.x_m,
+        p.y_m,
+        p.theta_rad.to_degrees()
+    );
+    match truth {
+        Some(g) => {
+            let _ = writeln!(
+                s,
+                "pose (true)       x {:+8.3} m   y {:+8.3} m   θ {:+7.2}°",
+                g.pose.x_m,
+                g.pose.y_m,
+                g.pose.theta_rad.to_degrees()
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "pose (true)       (a real robot knows only its estimate)"
+            );
+        }
+    }
+    let e = frame.tracking_error;
+    let _ = writeln!(
+        s,
+        "error (estimate)  x_e {:+7.4} m   y_e {:+7.4} m   θ_e {:+6.2}°   V {:.4}  V̇ {:+.4}",
+        e.x_e_m,
+        e.y_e_m,
+        e.theta_e_rad.to_degrees(),
+        frame.lyapunov,
+        frame.lyapunov_rate
+    );
+    let _ = writeln!(
+        s,
+        "wheels rad/s      set {:+7.2} / {:+7.2}   measured {:+7.2} / {:+7.2}",
+        frame.wheel_setpoint.left_rad_s,
+        frame.wheel_setpoint.right_rad_s,
+        frame.wheel_speed.left_rad_s,
+        frame.wheel_speed.right_rad_s
+    );
+    let volts = |p: &link::PidParts| p.p_v + p.i_v + p.d_v + p.ff_v;
+    let _ = writeln!(
+        s,
+        "motors            {:+6.2} V / {:+6.2} V   duty {:+5.2} / {:+5.2}   supply {:.2} V",
+        volts(&frame.pid_left),
+        volts(&frame.pid_right),
+        frame.duty.left,
+        frame.duty.right,
+        frame.supply_v
+    );
+    let _ = writeln!(
+        s,
+        "faults            {}   missed ticks {}",
+        if faults.is_empty() {
+            "none".to_string()
+        } else {
+            faults.join(", ")
+        },
+        frame.missed_ticks
+    );
+    s
+}
+
+/// Terminal escape: cursor up `lines` lines and clear to the end of the screen, to
+/// redraw a screen of `lines` lines in place.
+pub fn redraw_prefix(lines: usize) -> String {
+    if lines == 0 {
+        String::new()
+    } else {
+        format!("\x1b[{lines}A\x1b[J")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use controller_core::kinematics::Pose;
+
+    #[test]
+    fn the_screen_names_state_pose_and_faults() {
+        let mut frame = TelemetryFrame {
+            step: 2500,
+            state: controller_core::supervisor::State::Armed,
+            run_mode: controller_core::supervisor::RunMode::FollowPath,
+            faults: Default::default(),
+            pose: Pose::new(1.0, -0.5, 0.0),
+            tracking_error: Default::default(),
+            lyapunov: 0.0,
+            lyapunov_rate: 0.0,
+            wheel_setpoint: Default::default(),
+            wheel_speed: Default::default(),
+            duty: controller_core::controller::MotorCommand::STOP,
+            pid_left: Default::default(),
+            pid_right: Default::default(),
+            supply_v: 6.0,
+            missed_ticks: 0,
+        };
+        let text = screen(&frame, None, 1000);
+        assert!(text.contains("t      2.50 s"), "{text}");
+        assert!(text.contains("x   +1.000 m   y   -0.500 m"), "{text}");
+        assert!(text.contains("faults            none"), "{text}");
+        frame.faults.stall_left = true;
+        assert!(screen(&frame, None, 1000).contains("stall_left"));
+        assert_eq!(redraw_prefix(7), "\x1b[7A\x1b[J");
+    }
+}

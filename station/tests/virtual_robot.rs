@@ -1,0 +1,132 @@
+//! The station against the virtual robot in this process, in lockstep (deterministic: no
+//! wall-clock timing decides anything here).
+
+use std::sync::atomic::AtomicBool;
+
+use controller_core::law::LawKind;
+use host_sim::serve::VirtualRobot;
+use host_sim::Scenario;
+use robot_app::Channels;
+use station::client::Client;
+use station::record::{self, RunPlan};
+use station::transport::InProcess;
+
+#[test]
+fn a_run_through_the_station_matches_host_sim_run_bit_for_bit() {
+    let scenario = Scenario::load("paper-circle").expect("built in");
+    let expected = host_sim::run_scenario(&scenario, LawKind::Tracking).expect("runs");
+
+    let mut channels = Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+    let mut client = Client::new(InProcess::new(&mut robot));
+    let interrupt = AtomicBool::new(false);
+    let mut progress = |_: u64, _: u64| {};
+    let recording = record::run(
+        &mut client,
+        &mut RunPlan {
+            scenario: &scenario,
+            law: LawKind::Tracking,
+            telemetry_hz: 100,
+            interrupt: &interrupt,
+            progress: &mut progress,
+        },
+    )
+    .expect("the run completes");
+
+    let got = &recording.result.summary;
+    let want = &expected.summary;
+    assert_eq!(got.source, "virtual-robot");
+    let settle = got.true_error.and_then(|e| e.settle_time_s);
+    assert!(
+        settle.is_some_and(|t| t > 1.0 && t < 3.0),
+        "the paper circle settles in about 2 s: {got:?}"
+    );
+    assert_eq!(
+        got.steps, want.steps,
+        "the robot ran the scenario's duration"
+    );
+    assert_eq!(got.true_error, want.true_error, "true errors, bit for bit");
+    assert_eq!(
+        got.estimated_error, want.estimated_error,
+        "estimated errors"
+    );
+    assert!(got.supervisor.faults.is_empty());
+    // The trace: one row per steering period (100 Hz telemetry on a 100 Hz steering loop).
+    assert!(
+        recording.result.trace.len() as u64 >= want.steps / 10 - 2,
+        "{} rows",
+        recording.result.trace.len()
+    );
+    // The robot's time limit was restored after the run.
+    assert_eq!(
+        station::ops::get_params(&mut client)
+            .expect("params")
+            .supervisor
+            .max_armed_steps,
+        scenario.supervisor.max_armed_steps
+    );
+}
+
+#[test]
+fn params_and_path_upload_while_armed_are_refused_with_a_clear_message() {
+    let scenario = Scenario::load("paper-line").expect("built in");
+    let mut channels = Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+    let mut client = Client::new(InProcess::new(&mut robot));
+    let params = station::ops::get_params(&mut client).expect("params");
+    station::ops::arm(&mut client, None).expect("arms");
+
+    let refused = station::ops::set_params(&mut client, params).expect_err("refused");
+    assert!(
+        matches!(
+            &refused,
+            station::StationError::Refused { refusal, .. } if **refusal == link::Refusal::Armed
+        ),
+        "{refused:?}"
+    );
+    let text = refused.to_string();
+    assert!(text.starts_with("the robot refused SetParams: "), "{text}");
+    assert!(text.contains("disarm"), "{text}");
+
+    let mut progress = |_: usize, _: usize| {};
+    let refused =
+        station::ops::upload_path(&mut client, &scenario, LawKind::Tracking, 7, &mut progress)
+            .expect_err("refused");
+    assert!(
+        refused
+            .to_string()
+            .starts_with("the robot refused PathBegin: "),
+        "{refused}"
+    );
+    // Disarmed, both go through.
+    client.command(link::Request::Disarm).expect("disarms");
+    station::ops::set_params(&mut client, params).expect("applied");
+    station::ops::upload_path(&mut client, &scenario, LawKind::Tracking, 8, &mut progress)
+        .expect("committed");
+}
+
+#[test]
+fn a_robot_file_error_names_the_key() {
+    let scenario = Scenario::load("paper-line").expect("built in");
+    let current = link::ParamSet {
+        robot: scenario.robot,
+        supervisor: scenario.supervisor,
+    };
+    let error =
+        station::ops::params_from_toml("[robot]\ntrack_width_m = -0.1\n", "robot.toml", &current)
+            .expect_err("invalid");
+    let text = error.to_string();
+    assert!(
+        text.starts_with("robot.toml: robot.track_width_m"),
+        "{text}"
+    );
+    // A partial file keeps the robot's other values.
+    let set = station::ops::params_from_toml("[robot]\ntrack_width_m = 0.16\n", "f", &current)
+        .expect("valid");
+    assert_eq!(set.robot.track_width_m, 0.16);
+    assert_eq!(set.robot.gear_ratio, current.robot.gear_ratio);
+    // What `params get` writes reads back to the same configuration.
+    let text = station::ops::params_to_toml(&current);
+    let back = station::ops::params_from_toml(&text, "f", &current).expect("round trip");
+    assert_eq!(back, current);
+}

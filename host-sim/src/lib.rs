@@ -30,6 +30,8 @@
 //! - [`sweep`] — Monte-Carlo over mismatch, noise and start pose, on every core.
 //! - [`robustness`] — the wheel loop with fixed gains against supplies from 4.8 to 12.6 V
 //!   and motors ±30 % off.
+//! - [`tune`] — the core's wheel-loop tune on the simulated robot, its identification
+//!   against the linearised plant and the tuned loop's step response.
 //! - [`serve`] — the virtual robot: robot-app's control and link sides against the
 //!   simulated hardware, speaking the runtime link over TCP, with ground truth.
 //!
@@ -62,6 +64,7 @@ pub mod run;
 pub mod scenario;
 pub mod serve;
 pub mod sweep;
+pub mod tune;
 
 pub use metrics::{ErrorReport, Summary};
 pub use run::{run_scenario, run_scenario_with, RunError, RunOptions, RunResult};

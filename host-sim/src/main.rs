@@ -160,6 +160,32 @@ enum Command {
         #[arg(long, default_value_t = 1.0)]
         speed: f64,
     },
+    /// The core's wheel-loop tune on the simulated robot (ground or lifted, the scenario's
+    /// `[plant] load`): the identified model against the linearised plant, the gains (as
+    /// robot-file sections), a 0 → 15 rad/s step at 6 V tuned vs the scenario's gains
+    /// (SVG) and the scenario's settle time with both.
+    Tune {
+        /// Built-in scenario name or a path to a .toml file.
+        #[arg(default_value = "paper-circle")]
+        scenario: String,
+        /// Output directory for the plot (default: out/<scenario>/tune).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Also the acceptance sweep: the identification on 36 robots (supply 5–12.6 V,
+        /// each motor parameter ±30 %) against their linearised truth.
+        #[arg(long)]
+        sweep: bool,
+        /// SIMC's τ_c over the loop's effective dead time (default: the core's).
+        #[arg(long)]
+        tau_c_per_dead_time: Option<f32>,
+        /// Length of the tune's hold and step, s (default: the core's).
+        #[arg(long)]
+        hold_s: Option<f32>,
+        /// Tune with the wheels lifted (the plant's load set to `lifted`): τ is corrected
+        /// for the chassis before the PI is set.
+        #[arg(long)]
+        lifted: bool,
+    },
     /// List the built-in scenarios.
     List,
     /// Print a built-in scenario's TOML (a starting point for your own).
@@ -525,6 +551,181 @@ T_i = {} s, T_d = {} s, feed-forward k_S = {} V, k_V = {} V/(rad/s):",
     Ok(())
 }
 
+/// The options of `host-sim tune`.
+struct TuneOptions {
+    out: Option<PathBuf>,
+    sweep: bool,
+    tau_c_per_dead_time: Option<f32>,
+    hold_s: Option<f32>,
+    lifted: bool,
+}
+
+fn cmd_tune(scenario: &str, options: TuneOptions) -> Result<()> {
+    use host_sim::tune;
+    let TuneOptions {
+        out,
+        sweep,
+        tau_c_per_dead_time,
+        hold_s,
+        lifted,
+    } = options;
+    let mut scenario = load(scenario)?;
+    if lifted {
+        scenario.plant.load = host_sim::plant::Load::Lifted;
+    }
+    let mut config = tune::config_for(&scenario);
+    if let Some(x) = tau_c_per_dead_time {
+        config.tau_c_per_dead_time = x;
+    }
+    if let Some(x) = hold_s {
+        config.hold_s = x;
+    }
+    config
+        .validate(&scenario.params()?)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let truth = tune::truth(&scenario)?;
+    say!(
+        "{}: tune on the {} load, {} V supply; u_hi {} V, holds {} s, τ_c = {} θ_e",
+        scenario.name,
+        scenario.plant.load.name(),
+        scenario.plant.driver.supply_v,
+        config.experiment_volts_v,
+        config.hold_s,
+        config.tau_c_per_dead_time
+    );
+    let run = tune::run_tune(&scenario, config)?;
+    say!(
+        "  ran {:.2} s, robot moved up to {:.3} m from its start, wheels up to {:.1} rad/s",
+        run.duration_s,
+        run.max_distance_m,
+        run.max_wheel_speed_rad_s
+    );
+    let result = match run.outcome {
+        Ok(r) => r,
+        Err(e) => anyhow::bail!("the tune stopped: {e}"),
+    };
+    say!(
+        "  linearised truth (motoring, straight): k_V {:.5} V/(rad/s), τ {:.1} ms (ground τ {:.1} ms)",
+        truth.kv_v_per_rad_s,
+        truth.time_constant_s * 1e3,
+        truth.ground_time_constant_s * 1e3
+    );
+    for (side, m) in ["left ", "right"].iter().zip(result.models) {
+        say!(
+            "  {side}: k_S {:.3} V, k_V {:.5} V/(rad/s) ({:+.1} %), K {:.3} rad/s/V, τ {:.1} ms \
+({:+.1} %), θ {:.1} ms, design τ {:.1} ms",
+            m.ks_v,
+            m.kv_v_per_rad_s,
+            tune::error_pct(f64::from(m.kv_v_per_rad_s), truth.kv_v_per_rad_s),
+            m.gain_rad_s_per_v,
+            m.time_constant_s * 1e3,
+            tune::error_pct(f64::from(m.time_constant_s), truth.time_constant_s),
+            m.dead_time_s * 1e3,
+            m.design_time_constant_s * 1e3
+        );
+    }
+    say!("\nthe tuned wheel loops (SIMC PI with feed-forward), for the robot file:\n");
+    say!("{}", tune::robot_file_sections(&result).trim_end());
+
+    // The tuned loop against the scenario's own, on the ground at 6 V.
+    let mut ground = scenario.clone();
+    ground.plant.load = host_sim::plant::Load::Ground;
+    ground.plant.driver.supply_v = 6.0;
+    let tuned = tune::with_tuned_loops(&ground, &result);
+    let hand_step = wheel_step_response(&ground, 15.0, 0.4)?;
+    let tuned_step = wheel_step_response(&tuned, 15.0, 0.4)?;
+    let opt = |v: Option<f64>| v.map_or("never".to_string(), |t| format!("{:.1} ms", t * 1e3));
+    say!(
+        "\n0 → 15 rad/s step from rest, on the ground at 6 V (aim: rise ≤ 60 ms, overshoot ≤ 5 %):"
+    );
+    for (label, r) in [("hand-tuned", &hand_step), ("tuned", &tuned_step)] {
+        say!(
+            "  {label:>10}: rise (10→90 %) {}, overshoot {:.1} %, settling (±5 %) {}",
+            opt(r.rise_time_s),
+            r.overshoot_pct,
+            opt(r.settling_time_s)
+        );
+    }
+    let mut on_scenario = scenario.clone();
+    on_scenario.plant.load = host_sim::plant::Load::Ground;
+    let hand_run = run_scenario(&on_scenario, LawKind::Tracking)?;
+    let tuned_run = run_scenario(
+        &tune::with_tuned_loops(&on_scenario, &result),
+        LawKind::Tracking,
+    )?;
+    let settle = |r: &RunResult| r.summary.headline_error().settle_time_s;
+    let (hand_settle, tuned_settle) = (settle(&hand_run), settle(&tuned_run));
+    say!(
+        "\n{} on the ground with the tracking law (aim: tuned settles within 10 % of hand-tuned):",
+        scenario.name
+    );
+    say!(
+        "  settle (1 cm, 1°): hand-tuned {}, tuned {}{}",
+        opt(hand_settle),
+        opt(tuned_settle),
+        match (hand_settle, tuned_settle) {
+            (Some(h), Some(t)) => format!(" ({:+.1} %)", tune::error_pct(t, h)),
+            _ => String::new(),
+        }
+    );
+    let dir = out.unwrap_or_else(|| default_dir(&scenario, "tune"));
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let file = dir.join("tune_step.svg");
+    plot::step_comparison(
+        &file,
+        &format!("{}, ground, 6 V: tuned vs hand-tuned", scenario.name),
+        &[("tuned", &tuned_step), ("hand-tuned", &hand_step)],
+    )?;
+    say!("  wrote {}", file.display());
+
+    if sweep {
+        let variations = tune::sweep_variations();
+        let cases = tune::identification_sweep(&scenario, config, &variations)?;
+        say!(
+            "\nidentification sweep, {} load: k_V and τ of the worse wheel against the linearised truth",
+            scenario.plant.load.name()
+        );
+        say!(
+            "  {:<24} {:>10} {:>8} {:>9} {:>8}",
+            "robot",
+            "k_V truth",
+            "k_V err",
+            "τ truth",
+            "τ err"
+        );
+        let (mut worst_kv, mut worst_tau, mut failed) = (0.0f64, 0.0f64, 0usize);
+        for c in &cases {
+            match c.errors_pct() {
+                Some((kv, tau)) => {
+                    worst_kv = worst_kv.max(kv.abs());
+                    worst_tau = worst_tau.max(tau.abs());
+                    say!(
+                        "  {:<24} {:>10.5} {:>+7.1}% {:>7.1}ms {:>+7.1}%",
+                        c.variation.label(),
+                        c.truth.kv_v_per_rad_s,
+                        kv,
+                        c.truth.time_constant_s * 1e3,
+                        tau
+                    );
+                }
+                None => {
+                    failed += 1;
+                    let why = c.run.outcome.err().map_or(String::new(), |e| e.to_string());
+                    say!("  {:<24} no model: {why}", c.variation.label());
+                }
+            }
+        }
+        say!(
+            "  {} robots, {} without a model; largest error: k_V {:.1} %, τ {:.1} % (aim ≤ 10 %)",
+            cases.len(),
+            failed,
+            worst_kv,
+            worst_tau
+        );
+    }
+    Ok(())
+}
+
 fn cmd_margins(scenario: &str, measure: bool, amplitude_v: f64) -> Result<()> {
     use host_sim::margins;
     let scenario = load(scenario)?;
@@ -699,6 +900,23 @@ fn main() -> ExitCode {
             listen,
             speed,
         } => cmd_serve(&scenario, &listen, speed),
+        Command::Tune {
+            scenario,
+            out,
+            sweep,
+            tau_c_per_dead_time,
+            hold_s,
+            lifted,
+        } => cmd_tune(
+            &scenario,
+            TuneOptions {
+                out,
+                sweep,
+                tau_c_per_dead_time,
+                hold_s,
+                lifted,
+            },
+        ),
         Command::List => (|| {
             for (name, text) in BUILTIN {
                 let description = Scenario::from_toml(text, name)

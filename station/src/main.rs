@@ -310,14 +310,15 @@ fn cmd_tune(link: &LinkArgs, timeout_s: f64) -> Result<()> {
         anyhow::bail!("--timeout-s must be in (0, 600], got {timeout_s}");
     }
     let mut client = open(link)?;
-    let set = ops::get_params(&mut client)?;
-    // Five heartbeats per timeout, by the host's clock (a robot in real time).
-    let timeout_steps = set.supervisor.heartbeat_timeout_steps;
-    let every = Duration::from_secs_f64(
-        f64::from(timeout_steps) / f64::from(set.robot.control_rate_hz) / 5.0,
-    );
+    let timeout_steps = ops::get_params(&mut client)?
+        .supervisor
+        .heartbeat_timeout_steps;
     eprintln!("tuning: the robot drives about a metre forward and back…");
-    let report = ops::tune(&mut client, every, Duration::from_secs_f64(timeout_s))?;
+    let report = ops::tune(
+        &mut client,
+        timeout_steps,
+        Duration::from_secs_f64(timeout_s),
+    )?;
     let text = ops::describe_tune(&report);
     if report.outcome.is_err() || report.tunes_ended == 0 {
         anyhow::bail!("{text}");

@@ -186,43 +186,54 @@ pub fn tune_report<T: Transport>(client: &mut Client<T>) -> Result<TuneReport, S
 }
 
 /// Tunes the robot's wheel loops ([`ArmMode::Tune`]): arms it in tune mode, keeps it armed
-/// with heartbeats every `heartbeat_every` of host time until the tune ends (the robot
-/// disarms by itself, or a fault, the button or a link loss stops it), and returns the
-/// new report. Gives up after `limit` with the robot disarmed.
+/// with heartbeats paced by its own step counter (from 10 Hz telemetry; a robot whose
+/// heartbeat timeout is `heartbeat_timeout_steps`) until the tune ends (the robot disarms
+/// by itself, or a fault, the button or a link loss stops it), and returns the new
+/// report. Gives up after `limit` of host time with the robot disarmed.
 pub fn tune<T: Transport>(
     client: &mut Client<T>,
-    heartbeat_every: std::time::Duration,
+    heartbeat_timeout_steps: u32,
     limit: std::time::Duration,
 ) -> Result<TuneReport, StationError> {
     let before = tune_report(client)?.tunes_ended;
+    crate::record::set_telemetry_rate(client, 10)?;
     client.command(Request::Arm {
         mode: ArmMode::Tune,
         initial_motion: None,
     })?;
+    let mut pacer = crate::record::HeartbeatPacer::new(heartbeat_timeout_steps);
+    let mut robot_step = None;
     let start = std::time::Instant::now();
-    let mut last_heartbeat = start;
-    while start.elapsed() < limit {
-        if last_heartbeat.elapsed() >= heartbeat_every {
+    let mut report = None;
+    while report.is_none() && start.elapsed() < limit {
+        if pacer.due(robot_step) {
             client.send_only(Request::Heartbeat)?;
-            last_heartbeat = std::time::Instant::now();
         }
         match client.next_message(std::time::Duration::from_millis(10))? {
-            Some(Uplink::TuneReport(report)) if report.tunes_ended != before => return Ok(report),
+            Some(Uplink::Telemetry(frame)) => robot_step = Some(frame.step),
+            Some(Uplink::TuneReport(r)) if r.tunes_ended != before => report = Some(r),
             Some(Uplink::Event {
                 event: Event::Disarmed(_) | Event::Faulted,
                 ..
             }) => {
                 // The report follows the event; ask for it should it have been lost.
-                let report = tune_report(client)?;
-                if report.tunes_ended != before {
-                    return Ok(report);
+                let r = tune_report(client)?;
+                if r.tunes_ended != before {
+                    report = Some(r);
                 }
             }
             _ => {}
         }
     }
-    client.command(Request::Disarm)?;
-    tune_report(client)
+    let report = match report {
+        Some(r) => r,
+        None => {
+            client.command(Request::Disarm)?;
+            tune_report(client)?
+        }
+    };
+    client.request(Request::SetTelemetryRate { hz: 1 })?;
+    Ok(report)
 }
 
 /// A tune's report as text: per wheel the identified model, then the wheel loops as a

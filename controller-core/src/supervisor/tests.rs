@@ -290,6 +290,26 @@ fn the_tune_drives_rising_volts_open_loop_and_a_fault_stops_it() {
 }
 
 #[test]
+fn a_detected_fault_stops_the_tune_too() {
+    let mut r = rig();
+    arm_tune_by_button(&mut r);
+    r.run(300);
+    assert!(r.sup.tune_outcome().is_none());
+    // The supply collapses: the supervisor's own check faults, the tune ends with it.
+    r.supply_v = 4.4;
+    let outs = r.run(600);
+    let last = outs.last().unwrap();
+    assert!(last.faults.supply_low);
+    assert_eq!(last.state, State::Faulted);
+    assert_eq!(last.duty, MotorCommand::STOP);
+    assert_eq!(r.sup.tune_outcome(), Some(Err(TuneAbort::Stopped)));
+    // Clearing the fault does not resume it: a new tune needs a new arm.
+    r.supply_v = SUPPLY_V;
+    r.run(50);
+    assert!(r.run(100).iter().all(|o| o.duty == MotorCommand::STOP));
+}
+
+#[test]
 fn a_tune_that_finds_nothing_disarms_with_its_reason() {
     let mut c = config();
     c.stall.timeout_steps = u32::MAX;

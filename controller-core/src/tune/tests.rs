@@ -55,6 +55,8 @@ struct Bench {
     /// Encoder: +1 or −1 (an encoder wired the wrong way round).
     encoder_sign: [f32; 2],
     ticks_seen: [i32; 2],
+    /// From this step on, the left wheel is held (a blocked wheel): (step, static friction).
+    block_left_at: Option<(usize, f32)>,
     /// Every voltage the tune asked for, and the true speeds after each step.
     asked: Vec<WheelVolts>,
     speeds: Vec<[f32; 2]>,
@@ -67,6 +69,7 @@ impl Bench {
             wheels: [wheel; 2],
             encoder_sign: [1.0; 2],
             ticks_seen: [0; 2],
+            block_left_at: None,
             asked: Vec::new(),
             speeds: Vec::new(),
         }
@@ -96,6 +99,11 @@ impl Bench {
                 },
                 6.0,
             ));
+            if let Some((at, ks)) = self.block_left_at {
+                if k == at {
+                    self.wheels[0].ks = ks;
+                }
+            }
             let applied = self.controller.telemetry().wheel_loop.volts;
             self.wheels[0].advance(applied.left_v, 0.001);
             self.wheels[1].advance(applied.right_v, 0.001);
@@ -319,4 +327,55 @@ fn config_errors_name_the_field() {
         panic!()
     };
     assert!((ground_inertia_factor - 3.4006).abs() < 1e-3);
+}
+
+#[test]
+fn once_turning_the_voltage_stays_well_above_breakaway_until_the_brake() {
+    let mut bench = Bench::new(ground_wheel());
+    let c = config(&bench);
+    let mut tuner = Tuner::new(c, &bench.params());
+    bench.run(&mut tuner, None).unwrap();
+    // The forward half: after the breakaway ramp's peak, every voltage is 0 (the brake)
+    // or at least u_lo = k_S + 0.3 (u_hi − k_S), far above the static friction k_S.
+    let split = bench.asked.iter().position(|v| v.left_v < 0.0).unwrap();
+    let forward = &bench.asked[..split];
+    let moved = bench
+        .speeds
+        .iter()
+        .position(|w| w[0] >= MOVING_RAD_S)
+        .unwrap();
+    let ks = ground_wheel().ks;
+    let floor = ks + 0.3 * (c.experiment_volts_v - ks);
+    let after = &forward[moved + 1..];
+    let experiment: Vec<f32> = after
+        .iter()
+        .map(|v| v.left_v)
+        .take_while(|v| *v != 0.0)
+        .collect();
+    assert!(experiment.len() > 2000, "{}", experiment.len());
+    assert!(
+        experiment.iter().all(|v| *v >= 0.97 * floor),
+        "min {:?} floor {floor}",
+        experiment.iter().copied().reduce(f32::min)
+    );
+    // And the wheels kept turning all along (the speed never fell to rest before the
+    // brake).
+    let stopped_at = moved + 1 + experiment.len();
+    assert!(bench.speeds[moved + 50..stopped_at]
+        .iter()
+        .all(|w| w[0] > 1.0 && w[1] > 1.0));
+}
+
+#[test]
+fn a_wheel_that_stops_while_driven_stops_the_tune() {
+    let mut bench = Bench::new(ground_wheel());
+    // Blocked in the middle of the forward experiment (the hold or the step).
+    bench.block_left_at = Some((2000, 10.0));
+    let mut tuner = Tuner::new(config(&bench), &bench.params());
+    assert_eq!(
+        bench.run(&mut tuner, None),
+        Err(TuneAbort::Stalled(Side::Left))
+    );
+    // Within the speed window and its grace of the block, not at the end of the phase.
+    assert!(bench.asked.len() < 2000 + 300, "{}", bench.asked.len());
 }

@@ -228,19 +228,21 @@ impl WheelDrive {
     /// Restarts both loops for new `setpoint`s at `measured` wheel speeds (rad/s). With
     /// `keep_output` (a mode change while driving) each PID continues from the voltage it
     /// applied, so nothing jumps; without it (leaving a standstill) it starts from the
-    /// feed-forward alone.
+    /// feed-forward plus the proportional action on the error: a set-point step from rest
+    /// gets the PID's full response, within the current limit.
     pub fn restart(&mut self, setpoint: WheelSpeeds, measured: WheelSpeeds, keep_output: bool) {
         let sp = [setpoint.left_rad_s, setpoint.right_rad_s];
         let ms = [measured.left_rad_s, measured.right_rad_s];
         for (i, wheel) in self.wheels.iter_mut().enumerate() {
-            let feedback = if keep_output {
-                wheel.volts - wheel.feed_forward(sp[i])
+            let error = if keep_output {
+                wheel.pid.reset(wheel.volts - wheel.feed_forward(sp[i]));
+                sp[i] - ms[i]
             } else {
                 wheel.volts = 0.0;
+                wheel.pid.reset(0.0);
                 0.0
             };
-            wheel.pid.reset(feedback);
-            wheel.pid.prime(sp[i] - ms[i]);
+            wheel.pid.prime(error);
             wheel.saturated = false;
         }
     }
@@ -439,10 +441,10 @@ mod tests {
         let (duty12, rep12) = run(12.0);
         assert!((rep6.volts.left_v - rep12.volts.left_v).abs() < 1e-5);
         assert!((duty6.left - 2.0 * duty12.left).abs() < 1e-5);
-        // Primed with the 1 rad/s error, so no P kick: FF 0.33 + 1.57 V plus 20 ms of
-        // integral, 0.9·0.02/0.03 = 0.6 V.
+        // Leaving a standstill: FF 0.33 + 1.57 V, the proportional action on the 1 rad/s
+        // error, 0.6 V, and 20 ms of integral, 0.6·0.02/0.09 = 0.133 V.
         assert!(
-            (rep6.volts.left_v - 2.5).abs() < 1e-4,
+            (rep6.volts.left_v - 2.6333).abs() < 1e-4,
             "{}",
             rep6.volts.left_v
         );

@@ -34,6 +34,9 @@
 //!    [`controller::StepInput`], apply the two duties it returns, read
 //!    [`controller::Controller::telemetry`] to log or plot.
 //!
+//! [`tune`] identifies each wheel (feed-forward from a voltage ramp, a first-order model
+//! from a voltage step) and sets its PI by the SIMC rule, in the supervisor's tune mode.
+//!
 //! [`supervisor`] holds the safety logic around the controller (arming, the link's
 //! commands, faults, brake and coast, watchdog feeding): the firmware and the simulator
 //! both run it, so host tests and simulations exercise exactly what the robot runs.
@@ -88,6 +91,7 @@ pub mod pid;
 pub mod reference;
 pub mod supervisor;
 pub mod time;
+pub mod tune;
 
 /// The types needed to build and run a controller.
 pub mod prelude {

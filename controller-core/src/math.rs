@@ -1,4 +1,4 @@
-//! The one place where the core computes `sqrt`, `sin`, `cos` and `atan2`.
+//! The one place where the core computes `sqrt`, `sin`, `cos`, `atan2`, `exp` and `ln`.
 //!
 //! Every function here is built from IEEE-754 `f32` add, subtract, multiply and divide
 //! only (never a fused multiply-add, never `f64`), so a host build and a Cortex-M4F build
@@ -14,6 +14,7 @@
 //! | [`sin`], [`cos`], [`sin_cos`] | ≤ 2e-7 absolute for \|x\| ≤ 8π; ≤ 1e-5 for \|x\| ≤ 1e4 | ~40 instructions |
 //! | [`atan2`] | ≤ 3e-7 rad | ~50 instructions, 1–2 divisions |
 //! | [`sqrt`] | correctly rounded | a call to `vsqrt.f32` (14 cycles) |
+//! | [`exp`], [`ln`] | ≤ 4e-7 relative / ≤ 2e-7 absolute (see tests) | ~30 instructions, 1 division for `ln` (only the wheel-loop tune uses them, never the control step) |
 //!
 //! The alternatives were measured and rejected: `micromath`'s `sqrt` is ~5 % off, and
 //! `libm`'s `sinf`/`cosf` evaluate in `f64`, which is software on the M4F (1200–2100
@@ -245,6 +246,80 @@ pub fn wrap_angle(a: f32) -> f32 {
     w
 }
 
+/// ln 2 split in two (Cody–Waite): `n · LN2_HI` is exact for |n| ≤ 2⁸.
+const LN2_HI: f32 = 0.693_145_75;
+const LN2_LO: f32 = 1.428_606_8e-6;
+
+/// e^x. Underflows to 0 below −87.3 and saturates to +∞ above 88.7 (like `f32::exp`); NaN
+/// gives NaN.
+pub fn exp(x: f32) -> f32 {
+    if x.is_nan() {
+        return x;
+    }
+    if x > 88.7 {
+        return f32::INFINITY;
+    }
+    if x < -87.3 {
+        return 0.0;
+    }
+    // x = n ln 2 + r, |r| ≤ ln 2 / 2; e^x = 2ⁿ e^r with e^r from its Taylor series to r⁷
+    // (truncation below 3e-9 relative).
+    let n = round_to_i32(x * core::f32::consts::LOG2_E);
+    let nf = n as f32;
+    let r = (x - nf * LN2_HI) - nf * LN2_LO;
+    let p = 1.0
+        + r * (1.0
+            + r * (0.5
+                + r * (1.0 / 6.0
+                    + r * (1.0 / 24.0
+                        + r * (1.0 / 120.0 + r * (1.0 / 720.0 + r * (1.0 / 5040.0)))))));
+    // 2ⁿ for n in −126..=128, as two factors so neither leaves the normal range.
+    let half = n / 2;
+    p * pow2(half) * pow2(n - half)
+}
+
+/// 2ⁿ for n in −126..=127 (clamped), built from its bits.
+fn pow2(n: i32) -> f32 {
+    let biased = (n.clamp(-126, 127) + 127) as u32;
+    f32::from_bits(biased << 23)
+}
+
+/// Natural logarithm. ln 0 = −∞, ln of a negative number or NaN is NaN, ln ∞ = ∞.
+pub fn ln(x: f32) -> f32 {
+    // Written so that NaN takes the first branch.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if !(x > 0.0) {
+        return if x == 0.0 {
+            f32::NEG_INFINITY
+        } else {
+            f32::NAN
+        };
+    }
+    if x == f32::INFINITY {
+        return x;
+    }
+    // Subnormals: scale into the normal range first.
+    let (x, mut e) = if x < f32::MIN_POSITIVE {
+        (x * 8_388_608.0, -23)
+    } else {
+        (x, 0)
+    };
+    let bits = x.to_bits();
+    e += ((bits >> 23) & 0xff) as i32 - 127;
+    // The mantissa m in [1, 2), then in [√½, √2) so |z| below is ≤ 0.172.
+    let mut m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
+    if m > core::f32::consts::SQRT_2 {
+        m *= 0.5;
+        e += 1;
+    }
+    // ln m = 2 atanh z, z = (m − 1)/(m + 1), by its series to z⁹ (error below 1e-9).
+    let z = (m - 1.0) / (m + 1.0);
+    let z2 = z * z;
+    let series = 2.0 * z * (1.0 + z2 * (1.0 / 3.0 + z2 * (0.2 + z2 * (1.0 / 7.0 + z2 / 9.0))));
+    let ef = e as f32;
+    ef * LN2_HI + (ef * LN2_LO + series)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -443,5 +518,45 @@ mod tests {
         assert_eq!(abs(-0.0).to_bits(), 0.0f32.to_bits());
         assert_eq!(abs(-2.5), 2.5);
         assert_eq!(hypot(3.0, -4.0), 5.0);
+    }
+
+    #[test]
+    fn exp_and_ln_match_f64_over_their_range() {
+        let rel = |f: &dyn Fn(f32) -> f32, g: &dyn Fn(f64) -> f64, lo: f64, hi: f64| {
+            let n = 100_000;
+            (0..=n)
+                .map(|i| {
+                    let x = (lo + (hi - lo) * i as f64 / n as f64) as f32;
+                    let exact = g(x as f64);
+                    ((f(x) as f64 - exact) / exact.abs().max(1e-30)).abs()
+                })
+                .fold(0.0, f64::max)
+        };
+        assert!(rel(&exp, &f64::exp, -87.0, 88.0) < 4e-7);
+        assert!(rel(&exp, &f64::exp, -1.0, 1.0) < 2e-7);
+        // ln: relative error away from 1, absolute near it (where ln → 0).
+        assert!(rel(&ln, &f64::ln, 1e-30, 0.5) < 2e-7);
+        assert!(rel(&ln, &f64::ln, 2.0, 1e30) < 2e-7);
+        assert!(max_err(ln, f64::ln, 0.5, 2.0) < 2e-7);
+        assert!(max_err(|x| ln(exp(x)), |x| x, -20.0, 20.0) < 3e-6);
+    }
+
+    #[test]
+    fn exp_and_ln_at_their_edges() {
+        assert_eq!(exp(0.0), 1.0);
+        assert_eq!(ln(1.0), 0.0);
+        assert_eq!(exp(-100.0), 0.0);
+        assert_eq!(exp(100.0), f32::INFINITY);
+        assert!(exp(f32::NAN).is_nan());
+        assert_eq!(ln(0.0), f32::NEG_INFINITY);
+        assert!(ln(-1.0).is_nan() && ln(f32::NAN).is_nan());
+        assert_eq!(ln(f32::INFINITY), f32::INFINITY);
+        // Subnormal input.
+        let tiny = 1e-40f32;
+        assert!((ln(tiny) as f64 - (tiny as f64).ln()).abs() < 1e-5);
+        // The top of the range: e^88.7 is just below f32::MAX.
+        assert!(exp(88.7).is_finite() && exp(88.7) > 3.0e38);
+        assert!((exp(-87.0) as f64 / (-87.0f64).exp() - 1.0).abs() < 1e-6);
+        assert!((ln(2.0) - core::f32::consts::LN_2).abs() <= f32::EPSILON);
     }
 }

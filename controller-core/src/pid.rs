@@ -12,11 +12,19 @@
 //! Additions a real wheel loop needs, none of which change (38) when switched off:
 //!
 //! - **Output bounds with anti-windup**: every step gets its own bounds (the wheel loop's
-//!   voltage, current and slew limits change with the supply and the wheel speed), and
-//!   the stored m(k−1) is the bounded output, so the integrator cannot wind up while the
-//!   motor is saturated (the velocity form's natural anti-windup). When a limit *after*
-//!   the PID changes the output, [`IncrementalPid::apply_output`] tells it (back
-//!   calculation, as ArduPilot's `AC_PID` is told when an actuator saturates).
+//!   voltage, current and slew limits change with the supply and the wheel speed). While
+//!   the output is held at a bound, an integral increment K_i·e that pushes further into
+//!   it is dropped (conditional integration), so the integrator cannot wind up while the
+//!   motor is saturated; the proportional and derivative increments are kept. The stored
+//!   m(k−1) is therefore the positional PID's P + I + D with I frozen, which may lie
+//!   beyond the bound by the P and D parts. (The velocity form's usual anti-windup,
+//!   storing the bounded output, also throws away the proportional action of a set-point
+//!   step that saturates: after a 15 rad/s step of the reference wheel the output then
+//!   falls back to the feed-forward within a few steps, and only the integral brings the
+//!   speed up, which tied the integral time to the rise time instead of to the margins.)
+//!   When a limit *after* the PID changes the output, [`IncrementalPid::apply_output`]
+//!   tells it (back calculation, as ArduPilot's `AC_PID` is told when an actuator
+//!   saturates).
 //! - **Feed-forward** u = m + u_ff: the motor model's voltage for the set-point, so the
 //!   PID only corrects the model's error. The bounds apply to the sum.
 //! - **First-order filter on the D term**: d(k) = α d(k−1) + (1−α) K_d Δe(k); the
@@ -29,9 +37,10 @@
 //! ## The parts, for telemetry
 //!
 //! The velocity form stores only m(k−1), so "the I term" is not a state of its own. The
-//! parts are defined so that they add up to the output: P = K_p·e(k), D = d(k) (the
-//! filtered derivative term), FF = u_ff, and I = m(k) − P − D: what the integrator holds
-//! after the bounds have been applied ([`PidParts`]).
+//! parts are defined so that they add up to the output the PID asked for, before its
+//! bounds: P = K_p·e(k), D = d(k) (the filtered derivative term), FF = u_ff, and
+//! I = m(k) − P − D: what the integrator holds ([`PidParts`]). Unless the output was
+//! held at a bound, that is the output.
 
 use crate::math;
 
@@ -140,7 +149,7 @@ impl Bounds {
 pub struct PidParts {
     /// Proportional part K_p·e(k).
     pub p: f32,
-    /// Integral part: the bounded output's remainder m(k) − P − D.
+    /// Integral part: what the PID asked for minus P, D and FF (the integrator).
     pub i: f32,
     /// Derivative part d(k) (filtered).
     pub d: f32,
@@ -196,18 +205,25 @@ impl IncrementalPid {
         let g = &self.gains;
         let delta_error = error - self.error_1;
         // Eq. (37): Δm = K_p Δe + K_i e + Δ(D term); with α = 0 and one period, eq. (38).
-        let mut increment = g.kp * delta_error + g.ki * periods * error;
+        let mut proportional_derivative = g.kp * delta_error;
+        let integral = g.ki * periods * error;
         if g.kd != 0.0 {
             let derivative = g.d_filter_alpha * self.derivative
                 + (1.0 - g.d_filter_alpha) * g.kd * delta_error / periods;
-            increment += derivative - self.derivative;
+            proportional_derivative += derivative - self.derivative;
             self.derivative = derivative;
         }
-        let wanted = self.feedback + increment + feed_forward;
+        let held = self.feedback + proportional_derivative;
+        let wanted = held + integral + feed_forward;
         let output = bounds.clamp(wanted);
         self.clamped = output != wanted;
-        // Anti-windup: remember the bounded output, not the unbounded sum.
-        self.feedback = output - feed_forward;
+        // Anti-windup by conditional integration: an integral increment that pushes the
+        // output further into the bound it is held at is dropped.
+        self.feedback = if self.clamped && integral * (wanted - output) > 0.0 {
+            held
+        } else {
+            held + integral
+        };
         self.feed_forward = feed_forward;
         self.error_1 = error;
         output
@@ -383,10 +399,35 @@ mod tests {
         assert!(pid.clamped());
         assert_eq!(pid.step(0.0, -3.0, b, 1.0), 0.5);
         assert!(pid.clamped());
-        // The feed-forward is reported as such, and the parts add up to the bounded output.
+        // The feed-forward is reported as such, and the parts add up to what was asked.
         let parts = pid.parts();
         assert_eq!(parts.ff, -3.0);
-        assert!((parts.p + parts.i + parts.d + parts.ff - 0.5).abs() < 1e-6);
+        assert!((parts.p + parts.i + parts.d + parts.ff + 3.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_saturating_step_keeps_its_proportional_action_and_freezes_the_integral() {
+        // A step of 10 asks K_p·e = 5 of a PI bounded at 2: held at 2. As the error then
+        // falls, the output stays at the bound while K_p·e still exceeds it, and leaves it
+        // at the positional value K_p·e + I, with I frozen at 0 while held.
+        let mut pid = IncrementalPid::new(gains(0.5, 0.05, 0.0));
+        let b = Bounds::symmetric(2.0);
+        assert_eq!(pid.step(10.0, 0.0, b, 1.0), 2.0);
+        assert_eq!(pid.step(8.0, 0.0, b, 1.0), 2.0);
+        assert_eq!(pid.parts().i, 0.0);
+        // e = 2: K_p·e = 1, plus this step's integral 0.1 (no longer held).
+        let out = pid.step(2.0, 0.0, b, 1.0);
+        assert!((out - 1.1).abs() < 1e-6, "{out}");
+        // Storing the bounded output instead would have given 2 − 0.5·8 + 0.1 = −1.9.
+        // An integral that pulls back out of the bound is kept while held (here the
+        // feed-forward alone is beyond the bound).
+        let mut pid = IncrementalPid::new(gains(0.0, 0.05, 0.0));
+        assert_eq!(pid.step(-0.1, 5.0, b, 1.0), 2.0);
+        assert!(pid.clamped());
+        assert!((pid.parts().i + 0.005).abs() < 1e-7, "{:?}", pid.parts());
+        // And one that pushes into it is dropped.
+        assert_eq!(pid.step(0.1, 5.0, b, 1.0), 2.0);
+        assert!((pid.parts().i + 0.005).abs() < 1e-7, "{:?}", pid.parts());
     }
 
     #[test]

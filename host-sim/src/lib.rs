@@ -26,8 +26,14 @@
 //! - [`fault_suite`] — every kind of fault, one at a time, against its detector's limit.
 //! - [`pil`] — processor in the loop: the firmware itself, on an emulated Cortex-M4F
 //!   (QEMU), against this plant in lockstep, driven by a ground station over its link.
+//! - [`margins`] — the wheel loop's gain and phase margins, from its linearised model and
+//!   measured by a frequency sweep on the simulated robot.
 //! - [`plot`] — SVG figures in the style of the paper's Figs. 5–7.
 //! - [`sweep`] — Monte-Carlo over mismatch, noise and start pose, on every core.
+//! - [`robustness`] — the wheel loop with fixed gains against supplies from 4.8 to 12.6 V
+//!   and motors ±30 % off.
+//! - [`tune`] — the core's wheel-loop tune on the simulated robot, its identification
+//!   against the linearised plant and the tuned loop's step response.
 //! - [`serve`] — the virtual robot: robot-app's control and link sides against the
 //!   simulated hardware, speaking the runtime link over TCP, with ground truth.
 //!
@@ -48,6 +54,7 @@ pub mod encoder;
 pub mod fault_suite;
 pub mod faults;
 pub mod hardware;
+pub mod margins;
 pub mod metrics;
 pub mod output;
 pub mod pil;
@@ -55,10 +62,12 @@ pub mod plant;
 pub mod plot;
 pub mod rng;
 pub mod robot_file;
+pub mod robustness;
 pub mod run;
 pub mod scenario;
 pub mod serve;
 pub mod sweep;
+pub mod tune;
 
 pub use metrics::{ErrorReport, Summary};
 pub use run::{run_scenario, run_scenario_with, RunError, RunOptions, RunResult};

@@ -159,6 +159,30 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// The wheel loop's gain and phase margins in every load case (ground straight and
+    /// turning, lifted; motoring and braking), from the linearised loop; `--measure`
+    /// cross-checks them with a frequency sweep on the simulated robot.
+    Margins {
+        /// Built-in scenario name or a path to a .toml file (its robot and plant are used).
+        #[arg(default_value = "paper-circle")]
+        scenario: String,
+        /// Also measure the loop by injecting sines on the simulated robot.
+        #[arg(long)]
+        measure: bool,
+        /// Amplitude of the injected sine, V.
+        #[arg(long, default_value_t = 0.5)]
+        amplitude_v: f64,
+    },
+    /// The wheel loop with its gains fixed against supplies from 4.8 to 12.6 V and motors
+    /// with R_a, K_t, friction and inertia ±30 %: margins, a step, the scenario; a table.
+    ParamSweep {
+        /// Built-in scenario name or a path to a .toml file.
+        #[arg(default_value = "paper-circle")]
+        scenario: String,
+        /// Also every combination of the four parameters at ±30 % at 4.8 and 12.6 V.
+        #[arg(long)]
+        corners: bool,
+    },
     /// The virtual robot: the robot's own application logic (supervisor, controller, link
     /// service) against the simulated hardware, speaking the runtime link on a TCP port,
     /// with ground truth. Drive it with `station --connect ADDRESS …`.
@@ -172,6 +196,32 @@ enum Command {
         /// Simulated time per wall-clock time (1 = real time).
         #[arg(long, default_value_t = 1.0)]
         speed: f64,
+    },
+    /// The core's wheel-loop tune on the simulated robot (ground or lifted, the scenario's
+    /// `[plant] load`): the identified model against the linearised plant, the gains (as
+    /// robot-file sections), a 0 → 15 rad/s step at 6 V tuned vs the scenario's gains
+    /// (SVG) and the scenario's settle time with both.
+    Tune {
+        /// Built-in scenario name or a path to a .toml file.
+        #[arg(default_value = "paper-circle")]
+        scenario: String,
+        /// Output directory for the plot (default: out/<scenario>/tune).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Also the acceptance sweep: the identification on 36 robots (supply 5–12.6 V,
+        /// each motor parameter ±30 %) against their linearised truth.
+        #[arg(long)]
+        sweep: bool,
+        /// SIMC's τ_c over the loop's effective dead time (default: the core's).
+        #[arg(long)]
+        tau_c_per_dead_time: Option<f32>,
+        /// Length of the tune's hold and step, s (default: the core's).
+        #[arg(long)]
+        hold_s: Option<f32>,
+        /// Tune with the wheels lifted (the plant's load set to `lifted`): τ is corrected
+        /// for the chassis before the PI is set.
+        #[arg(long)]
+        lifted: bool,
     },
     /// List the built-in scenarios.
     List,
@@ -636,6 +686,278 @@ fn cmd_pil(
     Ok(())
 }
 
+/// The options of `host-sim tune`.
+struct TuneOptions {
+    out: Option<PathBuf>,
+    sweep: bool,
+    tau_c_per_dead_time: Option<f32>,
+    hold_s: Option<f32>,
+    lifted: bool,
+}
+
+fn cmd_tune(scenario: &str, options: TuneOptions) -> Result<()> {
+    use host_sim::tune;
+    let TuneOptions {
+        out,
+        sweep,
+        tau_c_per_dead_time,
+        hold_s,
+        lifted,
+    } = options;
+    let mut scenario = load(scenario)?;
+    if lifted {
+        scenario.plant.load = host_sim::plant::Load::Lifted;
+    }
+    let mut config = tune::config_for(&scenario);
+    if let Some(x) = tau_c_per_dead_time {
+        config.tau_c_per_dead_time = x;
+    }
+    if let Some(x) = hold_s {
+        config.hold_s = x;
+    }
+    config
+        .validate(&scenario.params()?)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let truth = tune::truth(&scenario)?;
+    say!(
+        "{}: tune on the {} load, {} V supply; u_hi {} V, holds {} s, τ_c = {} θ_e",
+        scenario.name,
+        scenario.plant.load.name(),
+        scenario.plant.driver.supply_v,
+        config.experiment_volts_v,
+        config.hold_s,
+        config.tau_c_per_dead_time
+    );
+    let run = tune::run_tune(&scenario, config)?;
+    say!(
+        "  ran {:.2} s, robot moved up to {:.3} m from its start, wheels up to {:.1} rad/s",
+        run.duration_s,
+        run.max_distance_m,
+        run.max_wheel_speed_rad_s
+    );
+    let result = match run.outcome {
+        Ok(r) => r,
+        Err(e) => anyhow::bail!("the tune stopped: {e}"),
+    };
+    say!(
+        "  linearised truth (motoring, straight): k_V {:.5} V/(rad/s), τ {:.1} ms (ground τ {:.1} ms)",
+        truth.kv_v_per_rad_s,
+        truth.time_constant_s * 1e3,
+        truth.ground_time_constant_s * 1e3
+    );
+    for (side, m) in ["left ", "right"].iter().zip(result.models) {
+        say!(
+            "  {side}: k_S {:.3} V, k_V {:.5} V/(rad/s) ({:+.1} %), K {:.3} rad/s/V, τ {:.1} ms \
+({:+.1} %), θ {:.1} ms, design τ {:.1} ms",
+            m.ks_v,
+            m.kv_v_per_rad_s,
+            tune::error_pct(f64::from(m.kv_v_per_rad_s), truth.kv_v_per_rad_s),
+            m.gain_rad_s_per_v,
+            m.time_constant_s * 1e3,
+            tune::error_pct(f64::from(m.time_constant_s), truth.time_constant_s),
+            m.dead_time_s * 1e3,
+            m.design_time_constant_s * 1e3
+        );
+    }
+    say!("\nthe tuned wheel loops (SIMC PI with feed-forward), for the robot file:\n");
+    say!("{}", tune::robot_file_sections(&result).trim_end());
+
+    // The tuned loop against the scenario's own, on the ground at 6 V.
+    let mut ground = scenario.clone();
+    ground.plant.load = host_sim::plant::Load::Ground;
+    ground.plant.driver.supply_v = 6.0;
+    let tuned = tune::with_tuned_loops(&ground, &result);
+    let hand_step = wheel_step_response(&ground, 15.0, 0.4)?;
+    let tuned_step = wheel_step_response(&tuned, 15.0, 0.4)?;
+    let opt = |v: Option<f64>| v.map_or("never".to_string(), |t| format!("{:.1} ms", t * 1e3));
+    say!(
+        "\n0 → 15 rad/s step from rest, on the ground at 6 V (aim: rise ≤ 60 ms, overshoot ≤ 5 %):"
+    );
+    for (label, r) in [("hand-tuned", &hand_step), ("tuned", &tuned_step)] {
+        say!(
+            "  {label:>10}: rise (10→90 %) {}, overshoot {:.1} %, settling (±5 %) {}",
+            opt(r.rise_time_s),
+            r.overshoot_pct,
+            opt(r.settling_time_s)
+        );
+    }
+    let mut on_scenario = scenario.clone();
+    on_scenario.plant.load = host_sim::plant::Load::Ground;
+    let hand_run = run_scenario(&on_scenario, LawKind::Tracking)?;
+    let tuned_run = run_scenario(
+        &tune::with_tuned_loops(&on_scenario, &result),
+        LawKind::Tracking,
+    )?;
+    let settle = |r: &RunResult| r.summary.headline_error().settle_time_s;
+    let (hand_settle, tuned_settle) = (settle(&hand_run), settle(&tuned_run));
+    say!(
+        "\n{} on the ground with the tracking law (aim: tuned settles within 10 % of hand-tuned):",
+        scenario.name
+    );
+    say!(
+        "  settle (1 cm, 1°): hand-tuned {}, tuned {}{}",
+        opt(hand_settle),
+        opt(tuned_settle),
+        match (hand_settle, tuned_settle) {
+            (Some(h), Some(t)) => format!(" ({:+.1} %)", tune::error_pct(t, h)),
+            _ => String::new(),
+        }
+    );
+    let dir = out.unwrap_or_else(|| default_dir(&scenario, "tune"));
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let file = dir.join("tune_step.svg");
+    plot::step_comparison(
+        &file,
+        &format!("{}, ground, 6 V: tuned vs hand-tuned", scenario.name),
+        &[("tuned", &tuned_step), ("hand-tuned", &hand_step)],
+    )?;
+    say!("  wrote {}", file.display());
+
+    if sweep {
+        let variations = tune::sweep_variations();
+        let cases = tune::identification_sweep(&scenario, config, &variations)?;
+        say!(
+            "\nidentification sweep, {} load: k_V and τ of the worse wheel against the linearised truth",
+            scenario.plant.load.name()
+        );
+        say!(
+            "  {:<24} {:>10} {:>8} {:>9} {:>8}",
+            "robot",
+            "k_V truth",
+            "k_V err",
+            "τ truth",
+            "τ err"
+        );
+        let (mut worst_kv, mut worst_tau, mut failed) = (0.0f64, 0.0f64, 0usize);
+        for c in &cases {
+            match c.errors_pct() {
+                Some((kv, tau)) => {
+                    worst_kv = worst_kv.max(kv.abs());
+                    worst_tau = worst_tau.max(tau.abs());
+                    say!(
+                        "  {:<24} {:>10.5} {:>+7.1}% {:>7.1}ms {:>+7.1}%",
+                        c.variation.label(),
+                        c.truth.kv_v_per_rad_s,
+                        kv,
+                        c.truth.time_constant_s * 1e3,
+                        tau
+                    );
+                }
+                None => {
+                    failed += 1;
+                    let why = c.run.outcome.err().map_or(String::new(), |e| e.to_string());
+                    say!("  {:<24} no model: {why}", c.variation.label());
+                }
+            }
+        }
+        say!(
+            "  {} robots, {} without a model; largest error: k_V {:.1} %, τ {:.1} % (aim ≤ 10 %)",
+            cases.len(),
+            failed,
+            worst_kv,
+            worst_tau
+        );
+    }
+    Ok(())
+}
+
+fn cmd_margins(scenario: &str, measure: bool, amplitude_v: f64) -> Result<()> {
+    use host_sim::margins;
+    let scenario = load(scenario)?;
+    if !(amplitude_v > 0.0 && amplitude_v <= 2.0) {
+        anyhow::bail!("--amplitude-v must be in (0, 2]");
+    }
+    let w = scenario.robot.left_wheel;
+    say!(
+        "{}: wheel loop K_p = {} V/(rad/s), T_i = {} s, T_d = {} s; speed window {} steps at {} Hz \
+(left wheel, linearised; aim GM ≥ {} ({:.0} dB), PM ≥ {}°)\n",
+        scenario.name,
+        w.kp_v_per_rad_s,
+        w.ti_s,
+        w.td_s,
+        scenario.robot.speed_window_steps,
+        scenario.robot.control_rate_hz,
+        margins::GAIN_MARGIN_AIM,
+        20.0 * margins::GAIN_MARGIN_AIM.log10(),
+        margins::PHASE_MARGIN_AIM_DEG
+    );
+    let cases = margins::model_cases(&scenario)?;
+    say!("{}", margins::table(&cases).trim_end());
+    let short: Vec<String> = cases
+        .iter()
+        .filter(|c| !(c.stable && margins::meets_aim(&c.margins)))
+        .map(|c| c.case.name())
+        .collect();
+    if short.is_empty() {
+        say!("\nevery case meets the aim");
+    } else {
+        say!("\nshort of the aim: {}", short.join("; "));
+    }
+    if measure {
+        let settings = margins::SweepSettings {
+            amplitude_v,
+            ..margins::SweepSettings::default_for(&scenario)
+        };
+        let measured = margins::measure_cases(&scenario, settings)?;
+        say!(
+            "\n{}",
+            margins::measured_table(&measured, settings).trim_end()
+        );
+    }
+    Ok(())
+}
+
+fn cmd_param_sweep(scenario: &str, corners: bool) -> Result<()> {
+    use host_sim::robustness::{self, OSCILLATION_RMS_RAD_S};
+    let scenario = load(scenario)?;
+    let w = scenario.robot.left_wheel;
+    say!(
+        "{}: the controller's wheel loop fixed (K_p = {} V/(rad/s), T_i = {} s, k_S = {} V, \
+k_V = {} V/(rad/s)), the simulated robot varied; tracking law, {} s\n",
+        scenario.name,
+        w.kp_v_per_rad_s,
+        w.ti_s,
+        w.ks_v,
+        w.kv_v_per_rad_s,
+        scenario.duration_s
+    );
+    let rows = robustness::one_at_a_time();
+    let results = robustness::run_all(&scenario, &rows)?;
+    let Some(nominal) = results.first() else {
+        anyhow::bail!("no nominal case");
+    };
+    say!("{}", robustness::table(&results, nominal).trim_end());
+    say!(
+        "\n(GM, PM: the linearised loop, the smaller of ground straight and turning; rise, over: \
+0 → 15 rad/s step from rest; settle: true error < 1 cm and 1° to the end; RMS: set-point − true \
+wheel speed, both wheels, every step; final10: the same over the last 10 s, above \
+{OSCILLATION_RMS_RAD_S} rad/s counts as oscillating; ok: no oscillation or fault, settled, RMS \
+≤ 2 × nominal)"
+    );
+    let failed = results
+        .iter()
+        .filter(|r| !robustness::passes(r, nominal))
+        .count();
+    if corners {
+        let corner_results = robustness::run_all(&scenario, &robustness::corners())?;
+        let passed = corner_results
+            .iter()
+            .filter(|r| robustness::passes(r, nominal))
+            .count();
+        say!(
+            "\ncorners: R_a (R), K_t (K), friction (f), inertia (J) each −30 % or +30 %, at 4.8 and \
+12.6 V: {passed} of {} pass (not part of the verdict: a motor 30 % off in several ways at once \
+can be too weak for the path)\n",
+            corner_results.len()
+        );
+        say!("{}", robustness::table(&corner_results, nominal).trim_end());
+    }
+    if failed > 0 {
+        anyhow::bail!("{failed} of {} robots did not pass", results.len());
+    }
+    Ok(())
+}
+
 fn cmd_serve(scenario: &str, listen: &str, speed: f64) -> Result<()> {
     use host_sim::serve::{serve, ServeOptions, VirtualRobot};
     if !(speed.is_finite() && speed > 0.0 && speed <= 1000.0) {
@@ -732,11 +1054,34 @@ fn main() -> ExitCode {
             duration_s,
             out,
         ),
+        Command::ParamSweep { scenario, corners } => cmd_param_sweep(&scenario, corners),
+        Command::Margins {
+            scenario,
+            measure,
+            amplitude_v,
+        } => cmd_margins(&scenario, measure, amplitude_v),
         Command::Serve {
             scenario,
             listen,
             speed,
         } => cmd_serve(&scenario, &listen, speed),
+        Command::Tune {
+            scenario,
+            out,
+            sweep,
+            tau_c_per_dead_time,
+            hold_s,
+            lifted,
+        } => cmd_tune(
+            &scenario,
+            TuneOptions {
+                out,
+                sweep,
+                tau_c_per_dead_time,
+                hold_s,
+                lifted,
+            },
+        ),
         Command::List => (|| {
             for (name, text) in BUILTIN {
                 let description = Scenario::from_toml(text, name)

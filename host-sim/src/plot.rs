@@ -551,3 +551,49 @@ pub fn step_response(
         .with_context(|| format!("writing {}", file.display()))?;
     Ok(())
 }
+
+/// Several wheel-speed step responses on one figure: each run's true left wheel speed
+/// against the set-point (top) and its duty (bottom). `runs` = (label, response); the
+/// time axis is the first run's.
+pub fn step_comparison(
+    file: &FsPath,
+    title: &str,
+    runs: &[(&str, &crate::run::StepResponse)],
+) -> Result<()> {
+    let root = svg_root(file, (900, 600))?;
+    let panels = root.split_evenly((2, 1));
+    let Some((_, first)) = runs.first() else {
+        anyhow::bail!("no step response to plot");
+    };
+    let n = runs.iter().map(|(_, r)| r.samples.len()).min().unwrap_or(0);
+    let t: Vec<f64> = first.samples.iter().take(n).map(|x| x.0).collect();
+    let mut speeds: Vec<Series<'_>> =
+        vec![("set-point", GREY, true, vec![first.setpoint_rad_s; n])];
+    let mut duties: Vec<Series<'_>> = Vec::new();
+    for ((label, r), colour) in runs.iter().zip(PALETTE.iter().cycle()) {
+        speeds.push((
+            label,
+            *colour,
+            false,
+            r.samples.iter().take(n).map(|x| x.1).collect(),
+        ));
+        duties.push((
+            label,
+            *colour,
+            false,
+            r.samples.iter().take(n).map(|x| x.3).collect(),
+        ));
+    }
+    draw_panel(
+        &panels[0],
+        &format!("wheel-speed step, {title}"),
+        "true ω_wheel (rad/s)",
+        &t,
+        &speeds,
+        None,
+    )?;
+    draw_panel(&panels[1], "", "left duty (−1…1)", &t, &duties, None)?;
+    root.present()
+        .with_context(|| format!("writing {}", file.display()))?;
+    Ok(())
+}

@@ -249,6 +249,7 @@ pub fn plant_params(scenario: &Scenario) -> PlantParams {
             track_width_m: l * (1.0 + m.track_width_pct / 100.0),
         },
         slip: scenario.plant.slip,
+        load: scenario.plant.load,
     }
 }
 
@@ -414,19 +415,11 @@ impl RobotLogic for LocalRobot {
     }
 
     fn step(&mut self, sensors: &Sensors) -> Result<Decision<'_>, RunError> {
-        self.heartbeat = self.heartbeat.wrapping_add(1);
-        let out = self.supervisor.step(
+        let out = supervise(
+            &mut self.supervisor,
             &mut self.controller,
-            Inputs {
-                ticks: sensors.ticks,
-                periods: core::num::NonZeroU32::new(sensors.periods)
-                    .unwrap_or(core::num::NonZeroU32::MIN),
-                supply_v: sensors.supply_v,
-                button_pressed: sensors.button_pressed,
-                overrun: false,
-                background_heartbeat: self.heartbeat,
-                command: None,
-            },
+            &mut self.heartbeat,
+            sensors,
         );
         let t = self.controller.telemetry();
         Ok(Decision {
@@ -438,6 +431,91 @@ impl RobotLogic for LocalRobot {
             },
             telemetry: Some(t),
         })
+    }
+}
+
+/// One step of `supervisor` around `controller` on what the firmware reads, `sensors`,
+/// with the background heartbeat advanced as the firmware's idle loop would.
+fn supervise(
+    supervisor: &mut Supervisor,
+    controller: &mut Controller,
+    heartbeat: &mut u32,
+    sensors: &Sensors,
+) -> Supervised {
+    *heartbeat = heartbeat.wrapping_add(1);
+    supervisor.step(
+        controller,
+        Inputs {
+            ticks: sensors.ticks,
+            periods: core::num::NonZeroU32::new(sensors.periods)
+                .unwrap_or(core::num::NonZeroU32::MIN),
+            supply_v: sensors.supply_v,
+            button_pressed: sensors.button_pressed,
+            overrun: false,
+            background_heartbeat: *heartbeat,
+            command: None,
+        },
+    )
+}
+
+/// The supervisor, controller and hardware of `scenario` running `law` with `faults`, for
+/// the wheel-loop studies that drive the robot step by step and may break the loop at
+/// the plant's input ([`crate::margins`], [`crate::tune`]).
+pub(crate) struct Robot {
+    pub(crate) controller: Controller,
+    pub(crate) supervisor: Supervisor,
+    pub(crate) hardware: SimHardware,
+    heartbeat: u32,
+}
+
+impl Robot {
+    pub(crate) fn new(
+        scenario: &Scenario,
+        law: LawKind,
+        faults: &[Fault],
+    ) -> Result<Self, RunError> {
+        let LocalRobot {
+            controller,
+            supervisor,
+            heartbeat,
+        } = LocalRobot::new(scenario, law)?;
+        Ok(Self {
+            controller,
+            supervisor,
+            hardware: SimHardware::new(scenario, faults)?,
+            heartbeat,
+        })
+    }
+
+    /// One control step (module doc); returns the supervisor's decision.
+    pub(crate) fn step(&mut self) -> Supervised {
+        self.step_with_added_volts([0.0; 2])
+    }
+
+    /// One control step with `added_v` (V, [left, right]) added to what the supervisor
+    /// drives, as a disturbance at the plant's input (while the bridge drives): the loop
+    /// is broken there to measure it ([`crate::margins`]).
+    pub(crate) fn step_with_added_volts(&mut self, added_v: [f64; 2]) -> Supervised {
+        let periods = self.hardware.periods_until_next_step();
+        let sensors = self.hardware.sense(periods);
+        let out = supervise(
+            &mut self.supervisor,
+            &mut self.controller,
+            &mut self.heartbeat,
+            &sensors,
+        );
+        let mut duty = out.duty;
+        if added_v != [0.0; 2] && out.bridge == Bridge::Drive {
+            let supply = self.hardware.plant().supply_v();
+            duty.left += (added_v[0] / supply) as f32;
+            duty.right += (added_v[1] / supply) as f32;
+        }
+        self.hardware.actuate(Actuation {
+            duty,
+            bridge: out.bridge,
+        });
+        self.hardware.advance();
+        out
     }
 }
 

@@ -48,6 +48,7 @@
 //! pwm_levels = 5000          # compare value of 100 % (TIM3: 100 MHz / 20 kHz)
 //! dead_band_duty = 0.02      # |duty| below this brakes (u = 0)
 //! encoder_noise_ticks_rms = 0.0
+//! load = "ground"            # or "lifted": on a stand, wheels in the air (no chassis)
 //! [plant.motor]              # resistance_ohm, torque_constant_nm_per_a, …
 //! [plant.body]               # mass_kg, yaw_inertia_kg_m2 (about the axle midpoint),
 //!                            # wheel_inertia_kg_m2, com_ahead_of_axle_m (default 0)
@@ -78,7 +79,7 @@ use controller_core::supervisor::SupervisorConfig;
 use serde::Deserialize;
 
 use crate::faults::{Fault, FaultEntry};
-use crate::plant::{BodyParams, DriverKind, DriverParams, MotorParams};
+use crate::plant::{BodyParams, DriverKind, DriverParams, Load, MotorParams};
 use crate::robot_file::{param_error, PathContext, RobotSection, SectionError, SupervisorSection};
 
 /// The built-in scenarios: (name, TOML text).
@@ -268,6 +269,13 @@ enum DriverName {
     Drv8833,
 }
 
+#[derive(Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum LoadName {
+    Ground,
+    Lifted,
+}
+
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct FilePlant {
@@ -276,6 +284,7 @@ struct FilePlant {
     pwm_levels: Option<u32>,
     dead_band_duty: Option<f64>,
     encoder_noise_ticks_rms: Option<f64>,
+    load: Option<LoadName>,
     #[serde(default)]
     motor: FileMotor,
     #[serde(default)]
@@ -483,6 +492,8 @@ pub struct PlantSpec {
     pub slip: [f64; 2],
     /// Encoder edge jitter, ticks RMS (0 = ideal).
     pub encoder_noise_ticks_rms: f64,
+    /// On the ground (default) or lifted on a stand.
+    pub load: Load,
 }
 
 impl Default for PlantSpec {
@@ -494,6 +505,7 @@ impl Default for PlantSpec {
             mismatch: Mismatch::default(),
             slip: [0.0; 2],
             encoder_noise_ticks_rms: 0.0,
+            load: Load::Ground,
         }
     }
 }
@@ -979,6 +991,10 @@ fn build_plant(p: &FilePlant) -> Result<PlantSpec, ScenarioError> {
         mismatch,
         slip,
         encoder_noise_ticks_rms,
+        load: match p.load {
+            None | Some(LoadName::Ground) => Load::Ground,
+            Some(LoadName::Lifted) => Load::Lifted,
+        },
     })
 }
 

@@ -429,3 +429,27 @@ fn driver_supply_and_centre_of_mass_are_checked_with_their_key() {
     );
     assert!(r.is_ok());
 }
+
+#[test]
+fn the_plant_can_be_lifted_and_only_by_name() {
+    use host_sim::plant::Load;
+    assert_eq!(with("").unwrap().plant.load, Load::Ground);
+    let lifted = with("[plant]\nload = \"lifted\"").unwrap();
+    assert_eq!(lifted.plant.load, Load::Lifted);
+    // Lifted, the robot does not move, whatever the wheels do.
+    let mut short = lifted.with_duration_s(0.5).unwrap();
+    short.faults.clear();
+    let run = run_scenario_with(
+        &short,
+        controller_core::law::LawKind::Tracking,
+        RunOptions {
+            trace_every_steps: 10,
+        },
+    )
+    .unwrap();
+    let first = run.trace.first().unwrap().true_pose;
+    let last = run.trace.last().unwrap();
+    assert_eq!(first, last.true_pose);
+    assert!(last.true_wheel[0].abs() > 1.0, "{:?}", last.true_wheel);
+    assert!(error("[plant]\nload = \"flying\"").contains("load"));
+}

@@ -154,6 +154,16 @@ fn main() {
             }),
         ),
         ("Stats (largest)", Uplink::Stats(stats)),
+        (
+            "TuneReport (a result)",
+            Uplink::TuneReport(TuneReport {
+                tunes_ended: u16::MAX,
+                outcome: Ok(controller_core::tune::TuneResult {
+                    models: [controller_core::tune::WheelModel::default(); 2],
+                    loops: [RobotConfig::REFERENCE_ROBOT.left_wheel; 2],
+                }),
+            }),
+        ),
     ];
     println!("| uplink | postcard body (B) | wire (B) |");
     for (name, message) in uplinks {

@@ -43,7 +43,8 @@
 //! [`Uplink::Reply`] echoes, carrying a [`Reply`] or a [`Refusal`] (the table of which
 //! reply answers which request is in [`message`]). The robot also sends
 //! [`Uplink::Telemetry`], [`Uplink::Event`], [`Uplink::Stats`], [`Uplink::RunReport`]
-//! (a run's metrics, computed on the robot at the control rate, when the run ends) and,
+//! (a run's metrics, computed on the robot at the control rate, when the run ends),
+//! [`Uplink::TuneReport`] (a wheel-loop tune's model and gains, when it ends) and,
 //! from the simulator only, [`Uplink::GroundTruth`] and [`Uplink::GroundTruthRun`]. Messages carry the core's own types (`RobotConfig`,
 //! `SupervisorConfig`, `Segment`, `Pose`, `Faults`, …), never copies of them.
 //!
@@ -60,6 +61,7 @@
 //! | `PathBegin` | 30 B | 41 B |
 //! | reply `Info` (every string full) | 105 B | 116 B |
 //! | `Stats` | 61 B | 72 B |
+//! | `TuneReport` (a result) | 101 B | 112 B |
 //! | `Ping` / `Heartbeat` / reply `Ack` | 9 / 4 / 6 B | 20 / 15 / 17 B |
 //!
 //! [`MAX_BODY_LEN`] leaves the configuration room for 40 more `f32` fields; a test fails

@@ -17,9 +17,9 @@ use controller_core::supervisor::{
     Bridge, Command, Event, Faults, Inputs, Refusal as SupervisorRefusal, RunMode, State,
     Supervised, Supervisor, SupervisorSetError,
 };
-use link::{PidParts, RunReport, TelemetryFrame};
+use link::{PidParts, RunReport, TelemetryFrame, TuneReport};
 
-use crate::channel::{ControlEnd, Op, Published, Refused, Staged, ToLink};
+use crate::channel::{ControlEnd, Op, Published, Refused, Report, Staged, ToLink};
 use crate::metrics::{ErrorSample, ErrorStats, ErrorSummary};
 
 /// What the board read for this control step.
@@ -151,6 +151,10 @@ pub struct ControlSide<'a> {
     run_periods: u32,
     /// A path-following run is in progress (its report is due when it ends).
     in_run: bool,
+    /// Armed in tune mode (a tune's end is reported once).
+    in_tune: bool,
+    /// Tunes ended since start.
+    tunes_ended: u16,
     /// Path-following runs ended since start.
     runs_ended: u16,
     /// Largest |measured wheel speed| (rad/s) and |duty| of the run so far.
@@ -173,6 +177,8 @@ impl<'a> ControlSide<'a> {
             step: 0,
             run_periods: 0,
             in_run: false,
+            in_tune: false,
+            tunes_ended: 0,
             runs_ended: 0,
             run_max_wheel_rad_s: 0.0,
             run_max_duty: 0.0,
@@ -266,7 +272,9 @@ impl<'a> ControlSide<'a> {
         }
 
         // 4. Run metrics (and the report of a run that ended) and telemetry.
-        if self.track_run(&out, sensors.periods) {
+        let run_ended = self.track_run(&out, sensors.periods);
+        let tune_ended = self.track_tune(&out);
+        if run_ended || tune_ended {
             link_has_work = true;
         }
         if self
@@ -357,8 +365,36 @@ impl<'a> ControlSide<'a> {
         self.in_run = false;
         self.runs_ended = self.runs_ended.wrapping_add(1);
         let report = self.run_report();
-        let _ = self.end.reports.push(report);
+        let _ = self.end.reports.push(Report::Run(report));
         true
+    }
+
+    /// Watches for a wheel-loop tune's end (armed in tune mode, then anything else: done,
+    /// a fault, the button or the link): its outcome goes to the link side (as a run's
+    /// report does). Returns true when it ended this step.
+    fn track_tune(&mut self, out: &Supervised) -> bool {
+        if out.event == Some(Event::Armed(RunMode::Tune)) {
+            self.in_tune = true;
+        }
+        if !self.in_tune || (out.state == State::Armed && out.run_mode == RunMode::Tune) {
+            return false;
+        }
+        self.in_tune = false;
+        self.tunes_ended = self.tunes_ended.wrapping_add(1);
+        let report = self.tune_report();
+        let _ = self.end.reports.push(Report::Tune(report));
+        true
+    }
+
+    /// The outcome of the last wheel-loop tune ([`TuneReport::NONE`] before any).
+    pub fn tune_report(&self) -> TuneReport {
+        match self.supervisor.tune_outcome() {
+            Some(outcome) if self.tunes_ended > 0 => TuneReport {
+                tunes_ended: self.tunes_ended,
+                outcome,
+            },
+            _ => TuneReport::NONE,
+        }
     }
 
     /// The report of the current or last path-following run (a square root: see
@@ -461,7 +497,7 @@ fn install(
 fn set_refusal(error: SupervisorSetError) -> Refused {
     match error {
         SupervisorSetError::NotDisarmed(state) => state_refusal(state),
-        SupervisorSetError::Invalid(_) => Refused::Invalid,
+        SupervisorSetError::Invalid(_) | SupervisorSetError::InvalidTune(_) => Refused::Invalid,
     }
 }
 

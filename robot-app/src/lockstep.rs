@@ -704,6 +704,7 @@ const fn run_mode_code(mode: RunMode) -> u8 {
     match mode {
         RunMode::FollowPath => 0,
         RunMode::HoldWheelSpeeds => 1,
+        RunMode::Tune => 2,
     }
 }
 
@@ -711,6 +712,7 @@ const fn run_mode_from(code: u8) -> Option<RunMode> {
     match code {
         0 => Some(RunMode::FollowPath),
         1 => Some(RunMode::HoldWheelSpeeds),
+        2 => Some(RunMode::Tune),
         _ => None,
     }
 }
@@ -721,6 +723,7 @@ const fn disarm_code(reason: DisarmReason) -> u8 {
         DisarmReason::Link => 1,
         DisarmReason::Timeout => 2,
         DisarmReason::LinkLost => 3,
+        DisarmReason::TuneFinished => 4,
     }
 }
 
@@ -730,6 +733,7 @@ const fn disarm_from(code: u8) -> Option<DisarmReason> {
         1 => Some(DisarmReason::Link),
         2 => Some(DisarmReason::Timeout),
         3 => Some(DisarmReason::LinkLost),
+        4 => Some(DisarmReason::TuneFinished),
         _ => None,
     }
 }
@@ -951,6 +955,8 @@ mod tests {
             Some(Event::Disarmed(DisarmReason::Link)),
             Some(Event::Disarmed(DisarmReason::Timeout)),
             Some(Event::Disarmed(DisarmReason::LinkLost)),
+            Some(Event::Disarmed(DisarmReason::TuneFinished)),
+            Some(Event::Armed(RunMode::Tune)),
             Some(Event::Faulted),
             Some(Event::FaultsCleared),
             Some(Event::ModeSelected(RunMode::FollowPath)),

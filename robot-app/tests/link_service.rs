@@ -6,8 +6,8 @@ mod support;
 
 use controller_core::supervisor::{Event, RunMode, State};
 use link::{
-    encode_raw, params_hash, ArmMode, FieldProblem, NotPermitted, ProtocolId, Refusal, Reply,
-    Request, Uplink, PROTOCOL_VERSION,
+    encode_raw, params_hash, ArmMode, FieldProblem, ProtocolId, Refusal, Reply, Request, Uplink,
+    PROTOCOL_VERSION,
 };
 use robot_app::{service::TX_CAPACITY, Channels};
 use support::{default_params, Rig, IDENTITY};
@@ -316,16 +316,46 @@ fn a_full_command_queue_answers_busy_but_keeps_room_for_an_emergency_stop() {
 }
 
 #[test]
-fn tuning_is_not_supported() {
+fn a_tune_runs_and_reports_how_it_ended() {
     let mut channels = Channels::new();
     let mut rig = Rig::new(&mut channels, BAUD, false);
+    rig.heartbeat_every = Some(100);
+    // Before any tune: the empty report.
     assert_eq!(
-        rig.ask(Request::Arm {
-            mode: ArmMode::Tune,
-            initial_motion: None
-        }),
-        Err(Refusal::NotPermitted(NotPermitted::Unsupported))
+        rig.ask(Request::GetTuneReport),
+        Ok(Reply::TuneReport(link::TuneReport::NONE))
     );
+    let tune = Request::Arm {
+        mode: ArmMode::Tune,
+        initial_motion: None,
+    };
+    assert_eq!(rig.ask(tune), Ok(Reply::Ack));
+    rig.run(200);
+    // Stopped by the link: the tune ends, and says so unasked.
+    assert_eq!(rig.ask(Request::Disarm), Ok(Reply::Ack));
+    rig.run(5);
+    let reports: Vec<_> = rig
+        .received
+        .iter()
+        .filter_map(|m| match m {
+            Uplink::TuneReport(r) => Some(*r),
+            _ => None,
+        })
+        .collect();
+    let expected = link::TuneReport {
+        tunes_ended: 1,
+        outcome: Err(controller_core::tune::TuneAbort::Stopped),
+    };
+    assert_eq!(reports, [expected]);
+    assert_eq!(
+        rig.ask(Request::GetTuneReport),
+        Ok(Reply::TuneReport(expected))
+    );
+    // A tune is no path run: no run report was sent.
+    assert!(!rig
+        .received
+        .iter()
+        .any(|m| matches!(m, Uplink::RunReport(_))));
 }
 
 #[test]

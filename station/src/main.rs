@@ -84,6 +84,14 @@ enum Command {
         #[arg(long, default_value_t = 10)]
         hz: u8,
     },
+    /// Tune the wheel loops: the robot, on the floor with about a metre free ahead and
+    /// behind, drives its wheels open loop forward and back, identifies them and computes
+    /// their PI; prints the model and the gains as robot-file sections (for `params set`).
+    Tune {
+        /// Give up (and disarm) after this long, s.
+        #[arg(long, default_value_t = 60.0)]
+        timeout_s: f64,
+    },
     /// Disarm.
     Disarm,
     /// Emergency stop (latches a fault; `clear-faults` to recover).
@@ -294,6 +302,28 @@ fn cmd_stats(link: &LinkArgs) -> Result<()> {
             s.link.telemetry_dropped
         );
     }
+    Ok(())
+}
+
+fn cmd_tune(link: &LinkArgs, timeout_s: f64) -> Result<()> {
+    if !(timeout_s.is_finite() && timeout_s > 0.0 && timeout_s <= 600.0) {
+        anyhow::bail!("--timeout-s must be in (0, 600], got {timeout_s}");
+    }
+    let mut client = open(link)?;
+    let timeout_steps = ops::get_params(&mut client)?
+        .supervisor
+        .heartbeat_timeout_steps;
+    eprintln!("tuning: the robot drives about a metre forward and back…");
+    let report = ops::tune(
+        &mut client,
+        timeout_steps,
+        Duration::from_secs_f64(timeout_s),
+    )?;
+    let text = ops::describe_tune(&report);
+    if report.outcome.is_err() || report.tunes_ended == 0 {
+        anyhow::bail!("{text}");
+    }
+    say!("{}", text.trim_end());
     Ok(())
 }
 
@@ -594,6 +624,7 @@ fn main() -> ExitCode {
         Command::Params(c) => cmd_params(link, c),
         Command::Path(PathCommand::Upload { scenario, law }) => cmd_upload(link, &scenario, law),
         Command::Arm { hz } => cmd_arm(link, hz),
+        Command::Tune { timeout_s } => cmd_tune(link, timeout_s),
         Command::Disarm => cmd_simple(link, Request::Disarm, "disarmed"),
         Command::Estop => cmd_simple(link, Request::EmergencyStop, "emergency stop latched"),
         Command::ClearFaults => cmd_simple(link, Request::ClearFaults, "faults cleared"),

@@ -4,11 +4,12 @@
 use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::law::LawKind;
 use controller_core::params::Params;
+use controller_core::supervisor::Event;
 use host_sim::robot_file::{DivergenceSetting, Keyword, NumberOr, RobotFile, SectionError};
 use host_sim::Scenario;
 use link::{
     path_checksum, upload, ArmMode, CommitSummary, ParamSet, PathBegin, PathCommit, Reply, Request,
-    RobotInfo,
+    RobotInfo, TuneReport, Uplink,
 };
 
 use crate::client::{Client, StationError};
@@ -174,4 +175,91 @@ pub fn fresh_upload_id() -> u16 {
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(1, |d| d.subsec_nanos());
     (nanos >> 10) as u16 | 1
+}
+
+/// The last tune's outcome as the robot holds it ([`Request::GetTuneReport`]).
+pub fn tune_report<T: Transport>(client: &mut Client<T>) -> Result<TuneReport, StationError> {
+    match client.request(Request::GetTuneReport)? {
+        Reply::TuneReport(report) => Ok(report),
+        other => Err(unexpected("GetTuneReport", other)),
+    }
+}
+
+/// Tunes the robot's wheel loops ([`ArmMode::Tune`]): arms it in tune mode, keeps it armed
+/// with heartbeats paced by its own step counter (from 10 Hz telemetry; a robot whose
+/// heartbeat timeout is `heartbeat_timeout_steps`) until the tune ends (the robot disarms
+/// by itself, or a fault, the button or a link loss stops it), and returns the new
+/// report. Gives up after `limit` of host time with the robot disarmed.
+pub fn tune<T: Transport>(
+    client: &mut Client<T>,
+    heartbeat_timeout_steps: u32,
+    limit: std::time::Duration,
+) -> Result<TuneReport, StationError> {
+    let before = tune_report(client)?.tunes_ended;
+    crate::record::set_telemetry_rate(client, 10)?;
+    client.command(Request::Arm {
+        mode: ArmMode::Tune,
+        initial_motion: None,
+    })?;
+    let mut pacer = crate::record::HeartbeatPacer::new(heartbeat_timeout_steps);
+    let mut robot_step = None;
+    let start = std::time::Instant::now();
+    let mut report = None;
+    while report.is_none() && start.elapsed() < limit {
+        if pacer.due(robot_step) {
+            client.send_only(Request::Heartbeat)?;
+        }
+        match client.next_message(std::time::Duration::from_millis(10))? {
+            Some(Uplink::Telemetry(frame)) => robot_step = Some(frame.step),
+            Some(Uplink::TuneReport(r)) if r.tunes_ended != before => report = Some(r),
+            Some(Uplink::Event {
+                event: Event::Disarmed(_) | Event::Faulted,
+                ..
+            }) => {
+                // The report follows the event; ask for it should it have been lost.
+                let r = tune_report(client)?;
+                if r.tunes_ended != before {
+                    report = Some(r);
+                }
+            }
+            _ => {}
+        }
+    }
+    let report = match report {
+        Some(r) => r,
+        None => {
+            client.command(Request::Disarm)?;
+            tune_report(client)?
+        }
+    };
+    client.request(Request::SetTelemetryRate { hz: 1 })?;
+    Ok(report)
+}
+
+/// A tune's report as text: per wheel the identified model, then the wheel loops as a
+/// robot file's sections (ready for `station params set`), or why the tune stopped.
+pub fn describe_tune(report: &TuneReport) -> String {
+    if report.tunes_ended == 0 {
+        return "no tune has ended on this robot since it started".to_string();
+    }
+    match report.outcome {
+        Err(why) => format!("the tune stopped: {why}"),
+        Ok(result) => {
+            let mut text = String::new();
+            for (side, m) in ["left ", "right"].iter().zip(result.models) {
+                text.push_str(&format!(
+                    "# {side}: k_S {:.3} V, k_V {:.5} V/(rad/s), K {:.3} rad/s/V, τ {:.1} ms, \
+θ {:.1} ms, design τ {:.1} ms\n",
+                    m.ks_v,
+                    m.kv_v_per_rad_s,
+                    m.gain_rad_s_per_v,
+                    m.time_constant_s * 1e3,
+                    m.dead_time_s * 1e3,
+                    m.design_time_constant_s * 1e3
+                ));
+            }
+            text.push_str(&host_sim::tune::robot_file_sections(&result));
+            text
+        }
+    }
 }

@@ -130,3 +130,38 @@ fn a_robot_file_error_names_the_key() {
     let back = station::ops::params_from_toml(&text, "f", &current).expect("round trip");
     assert_eq!(back, current);
 }
+
+#[test]
+fn a_tune_through_the_station_identifies_the_simulated_wheels() {
+    let scenario = Scenario::load("paper-circle").expect("built in");
+    let truth = host_sim::tune::truth(&scenario).expect("linearises");
+    let mut channels = Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+    let mut client = Client::new(InProcess::new(&mut robot));
+    let timeout = scenario.supervisor.heartbeat_timeout_steps;
+    let report = station::ops::tune(&mut client, timeout, std::time::Duration::from_secs(120))
+        .expect("the link works");
+    assert_eq!(report.tunes_ended, 1);
+    let result = report.outcome.expect("the tune finds a model");
+    for m in result.models {
+        let kv = f64::from(m.kv_v_per_rad_s);
+        let tau = f64::from(m.time_constant_s);
+        assert!(
+            (kv / truth.kv_v_per_rad_s - 1.0).abs() < 0.1,
+            "{m:?} {truth:?}"
+        );
+        assert!(
+            (tau / truth.time_constant_s - 1.0).abs() < 0.1,
+            "{m:?} {truth:?}"
+        );
+    }
+    // The text pastes into a robot file and applies.
+    let text = station::ops::describe_tune(&report);
+    assert!(text.contains("[robot.left_wheel]") && text.contains("kp_v_per_rad_s = "));
+    let file = host_sim::robot_file::RobotFile::from_toml(&text).expect("a robot file");
+    assert_eq!(
+        file.robot.left_wheel.kp_v_per_rad_s,
+        Some(result.loops[0].kp_v_per_rad_s)
+    );
+    assert_eq!(file.robot.right_wheel.ti_s, Some(result.loops[1].ti_s));
+}

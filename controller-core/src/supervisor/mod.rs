@@ -37,6 +37,11 @@
 //! - **Persisting**: motors off while the firmware erases and writes flash, which stalls
 //!   the CPU: missed ticks are expected and are not a fault.
 //!
+//! Armed, the robot runs one of three [`RunMode`]s: follow the path, hold wheel speeds,
+//! or tune the wheel loops ([`crate::tune`]: open-loop voltage experiments, every fault
+//! check in force; the tune disarms by itself when done, and a fault, the button or the
+//! link stops it like any run). A long press while disarmed selects the next mode.
+//!
 //! ## The bridge: brake, then coast
 //!
 //! Both supported bridges run slow decay, so duty 0 with the bridge enabled is a short
@@ -118,9 +123,11 @@ pub use config::{
 use core::num::NonZeroU32;
 
 use crate::controller::{Controller, FaultFlags, Mode, MotorCommand, StepInput, TickDeltas};
+use crate::drive::WheelVolts;
 use crate::kinematics::{BodyVelocity, WheelSpeeds};
 use crate::math;
 use crate::params::Params;
+use crate::tune::{TuneAbort, TuneConfig, TuneConfigError, TuneResult, TuneStep, Tuner};
 
 use button::{Debouncer, Press};
 use checks::{outside_geofence, Divergence, MissedTicks, Saturation, Stall, Supply};
@@ -137,14 +144,20 @@ pub enum RunMode {
     FollowPath,
     /// Hold [`SupervisorConfig::hold_speeds`] with the wheel loops only (bring-up).
     HoldWheelSpeeds,
+    /// Identify both wheels and compute their loops ([`crate::tune`]); disarms by itself
+    /// when done ([`DisarmReason::TuneFinished`]), the outcome in
+    /// [`Supervisor::tune_outcome`].
+    Tune,
 }
 
 impl RunMode {
-    /// The other mode (what a long press selects).
-    pub const fn other(self) -> RunMode {
+    /// The mode a long press selects after this one: follow the path, hold wheel speeds,
+    /// tune, and round again.
+    pub const fn next(self) -> RunMode {
         match self {
             RunMode::FollowPath => RunMode::HoldWheelSpeeds,
-            RunMode::HoldWheelSpeeds => RunMode::FollowPath,
+            RunMode::HoldWheelSpeeds => RunMode::Tune,
+            RunMode::Tune => RunMode::FollowPath,
         }
     }
 }
@@ -330,6 +343,9 @@ pub enum DisarmReason {
     /// The link armed the robot and then fell silent for
     /// [`SupervisorConfig::heartbeat_timeout_steps`].
     LinkLost,
+    /// A tune ended, with a result or the reason it stopped
+    /// ([`Supervisor::tune_outcome`]).
+    TuneFinished,
 }
 
 /// A state change, reported once in the step it happened (for the log).
@@ -536,6 +552,9 @@ pub struct Supervisor {
     saturation: Saturation,
     divergence: Divergence,
     supply: Supply,
+    /// The wheel-loop tune, and the voltages it asked for the next step.
+    tuner: Tuner,
+    tune_volts: WheelVolts,
 }
 
 impl Supervisor {
@@ -572,6 +591,8 @@ impl Supervisor {
             saturation: Saturation::default(),
             divergence: Divergence::default(),
             supply: Supply::default(),
+            tuner: Tuner::new(TuneConfig::for_robot(params.config()), params),
+            tune_volts: WheelVolts::default(),
         })
     }
 
@@ -594,7 +615,35 @@ impl Supervisor {
             .map_err(SupervisorSetError::Invalid)?;
         self.config = config;
         self.max_supply_v = params.config().drive.max_supply_v;
+        // The robot may have changed: the tune's timing follows.
+        self.tuner.set_config(*self.tuner.config(), params);
         Ok(())
+    }
+
+    /// Replaces the tune's settings (validated against `params`); refused unless Disarmed.
+    pub fn set_tune_config(
+        &mut self,
+        config: TuneConfig,
+        params: &Params,
+    ) -> Result<(), SupervisorSetError> {
+        if self.state != State::Disarmed {
+            return Err(SupervisorSetError::NotDisarmed(self.state));
+        }
+        config
+            .validate(params)
+            .map_err(SupervisorSetError::InvalidTune)?;
+        self.tuner.set_config(config, params);
+        Ok(())
+    }
+
+    /// The tune's settings.
+    pub const fn tune_config(&self) -> &TuneConfig {
+        self.tuner.config()
+    }
+
+    /// The last tune's result, or why it stopped (`None`: no tune has ended since start).
+    pub const fn tune_outcome(&self) -> Option<Result<TuneResult, TuneAbort>> {
+        self.tuner.outcome()
     }
 
     /// The current state.
@@ -636,6 +685,7 @@ impl Supervisor {
             (State::Armed, RunMode::HoldWheelSpeeds) => {
                 Mode::HoldWheelSpeeds(self.config.hold_speeds)
             }
+            (State::Armed, RunMode::Tune) => Mode::ApplyVolts(self.tune_volts),
             (State::Disarmed | State::Faulted | State::Persisting, _) => Mode::Idle,
         };
         controller.set_mode(mode);
@@ -654,7 +704,11 @@ impl Supervisor {
             self.state = State::Faulted;
             self.armed_by_link = false;
             self.auto_arm_pending = false;
+            self.tuner.abort(TuneAbort::Stopped);
             event = Some(Event::Faulted);
+        }
+        if self.state == State::Armed && self.run_mode == RunMode::Tune {
+            event = self.tune_step(controller, input.periods).or(event);
         }
         let battery_event = self.battery_event();
         event = event.or(battery_event);
@@ -686,6 +740,22 @@ impl Supervisor {
             event,
             command_result,
             controller_duty,
+        }
+    }
+
+    /// One step of the tune while armed in [`RunMode::Tune`]: the voltages for the next
+    /// step, or the end (brake and disarm).
+    fn tune_step(&mut self, controller: &mut Controller, periods: NonZeroU32) -> Option<Event> {
+        match self.tuner.step(controller.telemetry(), periods.get()) {
+            TuneStep::Drive(volts) => {
+                self.tune_volts = volts;
+                None
+            }
+            TuneStep::Finished(_) => {
+                self.tune_volts = WheelVolts::default();
+                self.disarm(controller);
+                Some(Event::Disarmed(DisarmReason::TuneFinished))
+            }
         }
     }
 
@@ -815,7 +885,7 @@ impl Supervisor {
             }
             (Press::Long, State::Disarmed) if !self.press_consumed => {
                 self.press_consumed = true;
-                self.run_mode = self.run_mode.other();
+                self.run_mode = self.run_mode.next();
                 Some(Event::ModeSelected(self.run_mode))
             }
             (Press::Long, _) => None,
@@ -934,13 +1004,18 @@ impl Supervisor {
             // while it was carried. Leaving Idle for FollowPath restarts the reference.
             controller.set_pose(self.config.start_pose);
         }
-        if let Some(motion) = request.initial_motion {
+        if request.mode == RunMode::Tune {
+            // From where the robot stands; the tune checks that it stands still.
+            self.tune_volts = WheelVolts::default();
+            self.tuner.start(controller.pose());
+        } else if let Some(motion) = request.initial_motion {
             controller.seed_motion(motion);
         }
         Event::Armed(self.run_mode)
     }
 
     fn disarm(&mut self, controller: &mut Controller) {
+        self.tuner.abort(TuneAbort::Stopped);
         self.state = State::Disarmed;
         self.armed_by_link = false;
         self.start_braking();
@@ -962,13 +1037,16 @@ impl Supervisor {
     }
 }
 
-/// Why [`Supervisor::set_config`] refused new settings.
+/// Why [`Supervisor::set_config`] or [`Supervisor::set_tune_config`] refused new
+/// settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SupervisorSetError {
     /// Only while Disarmed.
     NotDisarmed(State),
     /// The settings are invalid.
     Invalid(SupervisorConfigError),
+    /// The tune's settings are invalid.
+    InvalidTune(TuneConfigError),
 }
 
 #[cfg(test)]

@@ -16,7 +16,8 @@
 //! | encoder | 12 lines × 4 × 30 = 1440 ticks per wheel turn |
 //!
 //! Time constants (mechanical, at the wheel, with the motor's electrical damping while
-//! driven): forward motion 89 ms, turning on the spot 66 ms. A short brake from 30 rad/s
+//! driven): forward motion 89 ms, turning on the spot 66 ms, lifted wheels
+//! ([`Load::Lifted`], on a stand) 26 ms. A short brake from 30 rad/s
 //! decelerates the robot 12.7 × harder than coasting.
 
 pub mod driver;
@@ -27,4 +28,4 @@ pub mod robot;
 
 pub use driver::{BridgeOutput, DriverKind, DriverParams};
 pub use motor::{MotorParams, PowerFlow, WheelDrive};
-pub use robot::{BodyParams, Plant, PlantError, PlantParams, TrueGeometry, TruePose, Wheel};
+pub use robot::{BodyParams, Load, Plant, PlantError, PlantParams, TrueGeometry, TruePose, Wheel};

@@ -32,6 +32,13 @@
 //! wheel radii. Slip does not change the inertia seen by the motors (a wheel slipping on a
 //! slippery floor would see less of the chassis): a small, stated approximation.
 //!
+//! ## Lifted wheels
+//!
+//! [`Load::Lifted`] puts the robot on a stand: M = diag(J_w, J_w), no coupling, no
+//! centre-of-mass terms, and the true pose stays where it is. Wheel loops tuned this way
+//! see a third of the driving inertia (the default robot: τ 26 ms lifted, 89 ms driving
+//! straight), which is why a tune on a stand must be corrected before it drives.
+//!
 //! ## Static friction (Karnopp, with the coupling)
 //!
 //! A wheel at rest (ω_i = 0 exactly) stays at rest only if its static friction (τ_c, at
@@ -144,6 +151,34 @@ pub struct PlantParams {
     /// Longitudinal slip ratio of each wheel [left, right], in [0, 1): the contact point
     /// moves (1 − s)·R·Δφ for a wheel rotation Δφ.
     pub slip: [f64; 2],
+    /// What the wheels drive: the robot on the floor, or nothing (on a stand).
+    pub load: Load,
+}
+
+/// What the wheels drive, and so the inertia each motor sees.
+///
+/// On the ground the chassis' mass and yaw inertia are coupled to the wheels (the module
+/// doc's inertia matrix): the default robot's wheel sees 3.7e-4 kg·m² driving straight,
+/// τ ≈ 89 ms. Lifted (on a stand, wheels in the air, the way wheel loops are often tuned
+/// on a bench) each wheel sees only its own inertia and the reflected rotor's,
+/// 1.1e-4 kg·m², τ ≈ 26 ms, the wheels are not coupled and the robot does not move.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Load {
+    /// On the floor: the chassis is part of the load.
+    #[default]
+    Ground,
+    /// On a stand: each wheel turns freely against its own inertia and friction.
+    Lifted,
+}
+
+impl Load {
+    /// The name used in scenario files: `ground` or `lifted`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Load::Ground => "ground",
+            Load::Lifted => "lifted",
+        }
+    }
 }
 
 /// The true pose, world frame: position in m, heading in rad (counter-clockwise from x,
@@ -186,6 +221,23 @@ pub fn wrap_angle(a: f64) -> f64 {
         w + TAU
     } else {
         w
+    }
+}
+
+/// The inertia matrix [a, b] of `params` (see [`Plant::inertia_kg_m2`]), kg·m².
+fn inertia_matrix_kg_m2(params: &PlantParams) -> [f64; 2] {
+    let body = &params.body;
+    let g = &params.geometry;
+    let j_w =
+        body.wheel_inertia_kg_m2 + params.motor.rotor_inertia_kg_m2 * params.gear_ratio.powi(2);
+    match params.load {
+        Load::Ground => {
+            let r = 0.5 * (g.wheel_radius_left_m + g.wheel_radius_right_m);
+            let translational = body.mass_kg * r * r / 4.0;
+            let rotational = body.yaw_inertia_kg_m2 * r * r / (g.track_width_m * g.track_width_m);
+            [j_w + translational + rotational, translational - rotational]
+        }
+        Load::Lifted => [j_w, 0.0],
     }
 }
 
@@ -347,12 +399,8 @@ impl Plant {
         }
         let g = &params.geometry;
         let r = 0.5 * (g.wheel_radius_left_m + g.wheel_radius_right_m);
-        let j_w = body.wheel_inertia_kg_m2
-            + params.motor.rotor_inertia_kg_m2 * params.gear_ratio * params.gear_ratio;
-        let translational = body.mass_kg * r * r / 4.0;
-        let rotational = body.yaw_inertia_kg_m2 * r * r / (g.track_width_m * g.track_width_m);
-        let inertia = Inertia::new(j_w + translational + rotational, translational - rotational)
-            .ok_or(PlantError::SingularInertia)?;
+        let [a, b] = inertia_matrix_kg_m2(&params);
+        let inertia = Inertia::new(a, b).ok_or(PlantError::SingularInertia)?;
         let drive = WheelDrive::new(
             &params.motor,
             params.gear_ratio,
@@ -364,7 +412,11 @@ impl Plant {
                 inertia,
                 coulomb_nm: drive.coulomb_nm,
             },
-            mass_com: body.mass_kg * body.com_ahead_of_axle_m,
+            // Lifted, the chassis does not move: no centre-of-mass terms.
+            mass_com: match params.load {
+                Load::Ground => body.mass_kg * body.com_ahead_of_axle_m,
+                Load::Lifted => 0.0,
+            },
             radius_m: r,
             track_m: g.track_width_m,
             propagators: Self::propagators(&drive, &inertia, 0.0),
@@ -393,6 +445,13 @@ impl Plant {
         plant.update_ground_per_rad();
         plant.update_bridge();
         Ok(plant)
+    }
+
+    /// The inertia matrix on the wheel speeds (ω_l, ω_r), [a, b] for M = [[a, b], [b, a]],
+    /// kg·m² (module doc): a + b is what each wheel sees driving straight, a − b turning on
+    /// the spot; lifted, b = 0 and a is the wheel's own inertia.
+    pub fn inertia_kg_m2(&self) -> [f64; 2] {
+        [self.friction.inertia.a, self.friction.inertia.b]
     }
 
     /// The closed-form RK4 of every regime pair for step `h` (s).
@@ -436,11 +495,13 @@ impl Plant {
 
     /// Wheel speeds [left, right] that drive the *true* robot (true radii, track width
     /// and slip) at forward speed `v_m_s` (m/s) and yaw rate `omega_rad_s` (rad/s).
+    /// Lifted, the wheels turn as they would on the ground (the robot stays put).
     pub fn wheel_speeds_for(&self, v_m_s: f64, omega_rad_s: f64) -> [f64; 2] {
-        let half = 0.5 * omega_rad_s * self.params.geometry.track_width_m;
+        let g = &self.params.geometry;
+        let half = 0.5 * omega_rad_s * g.track_width_m;
         [
-            (v_m_s - half) / self.ground_per_rad[0],
-            (v_m_s + half) / self.ground_per_rad[1],
+            (v_m_s - half) / ((1.0 - self.slip[0]) * g.wheel_radius_left_m),
+            (v_m_s + half) / ((1.0 - self.slip[1]) * g.wheel_radius_right_m),
         ]
     }
 
@@ -546,10 +607,14 @@ impl Plant {
 
     fn update_ground_per_rad(&mut self) {
         let g = &self.params.geometry;
-        self.ground_per_rad = [
-            (1.0 - self.slip[0]) * g.wheel_radius_left_m,
-            (1.0 - self.slip[1]) * g.wheel_radius_right_m,
-        ];
+        self.ground_per_rad = match self.params.load {
+            Load::Ground => [
+                (1.0 - self.slip[0]) * g.wheel_radius_left_m,
+                (1.0 - self.slip[1]) * g.wheel_radius_right_m,
+            ],
+            // In the air a wheel moves nothing.
+            Load::Lifted => [0.0; 2],
+        };
     }
 
     /// Re-derives each wheel's bridge output and its constant terms from the duties,
@@ -846,6 +911,7 @@ mod tests {
                 track_width_m: 0.15,
             },
             slip: [0.0; 2],
+            load: Load::Ground,
         }
     }
 
@@ -903,6 +969,34 @@ mod tests {
             "{:?} {exact}",
             p.wheel_speeds()
         );
+    }
+
+    #[test]
+    fn lifted_wheels_see_only_their_own_inertia_and_the_robot_stays_put() {
+        let mut pp = params();
+        pp.load = Load::Lifted;
+        let mut p = Plant::new(pp).unwrap();
+        let j_w = pp.body.wheel_inertia_kg_m2 + pp.motor.rotor_inertia_kg_m2 * 900.0;
+        assert_eq!(p.inertia_kg_m2(), [j_w, 0.0]);
+        // Only the left wheel driven: the right one is not dragged along (no coupling).
+        p.set_duty(0.5, 0.0);
+        p.advance(H, 100); // 10 ms
+        let d = *p.drive();
+        let tau = j_w / d.damping_nm_s_per_rad(PowerFlow::Motoring);
+        assert!((tau - 0.0262).abs() < 1e-3, "{tau}");
+        let w_inf = d.steady_speed_rad_s(3.0);
+        let exact = w_inf * (1.0 - (-0.01 / tau).exp());
+        let w = p.wheel_speeds();
+        assert!((w[0] - exact).abs() < 1e-6, "{} vs {exact}", w[0]);
+        assert_eq!(w[1], 0.0);
+        assert_eq!(p.pose(), TruePose::default());
+        assert_eq!(p.body_velocity(), (0.0, 0.0));
+        // On the ground the same duty meets the chassis: slower, and the robot moves.
+        let mut ground = Plant::new(params()).unwrap();
+        ground.set_duty(0.5, 0.0);
+        ground.advance(H, 100);
+        assert!(ground.wheel_speeds()[0] < 0.7 * w[0]);
+        assert!(ground.pose().x_m != 0.0);
     }
 
     #[test]

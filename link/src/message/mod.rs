@@ -14,6 +14,7 @@
 //! | [`Request::PathCommit`] | [`Reply::PathCommitted`] |
 //! | [`Request::GetStats`] | [`Reply::Stats`] |
 //! | [`Request::GetRunReport`] | [`Reply::RunReport`] |
+//! | [`Request::GetTuneReport`] | [`Reply::TuneReport`] |
 //! | every other request | [`Reply::Ack`] |
 //!
 //! The other [`Uplink`] messages are sent by the robot on its own: [`Uplink::Telemetry`]
@@ -22,7 +23,8 @@
 //! whenever the robot chooses, [`Uplink::VersionMismatch`] in answer to a frame whose
 //! header names another protocol, [`Uplink::RunReport`] when a path-following run ends
 //! (its metrics computed on the robot at the control rate, see [`RunReport`]) and, from
-//! the simulator only, [`Uplink::GroundTruthRun`] with the true metrics of that run.
+//! the simulator only, [`Uplink::GroundTruthRun`] with the true metrics of that run, and
+//! [`Uplink::TuneReport`] when a wheel-loop tune ([`ArmMode::Tune`]) ends.
 //!
 //! **Compatibility:** the wire encoding of an enum is its variant's index. New variants
 //! and fields go at the end; any change of shape changes
@@ -44,7 +46,7 @@ use serde::{Deserialize, Serialize};
 
 pub use self::path::{CommitSummary, PathBegin, PathChunk, PathCommit, SEGMENTS_PER_CHUNK};
 pub use self::refusal::{FieldProblem, NotPermitted, PathProblem, Refusal, FIELD_CAP, PROBLEM_CAP};
-pub use self::run::{ErrorSummary, RunReport, TrueRunReport};
+pub use self::run::{ErrorSummary, RunReport, TrueRunReport, TuneReport};
 pub use self::telemetry::{GroundTruth, LinkStats, PidParts, Stats, TelemetryFrame};
 use crate::protocol::ProtocolId;
 
@@ -133,6 +135,9 @@ pub enum Request {
     /// The report of the last path-following run ([`Reply::RunReport`]); the robot also
     /// sends it unasked when a run ends ([`Uplink::RunReport`]).
     GetRunReport,
+    /// The outcome of the last wheel-loop tune ([`Reply::TuneReport`]); the robot also
+    /// sends it unasked when a tune ends ([`Uplink::TuneReport`]).
+    GetTuneReport,
 }
 
 impl Request {
@@ -155,6 +160,7 @@ impl Request {
             Request::SetTelemetryRate { .. } => "SetTelemetryRate",
             Request::GetStats => "GetStats",
             Request::GetRunReport => "GetRunReport",
+            Request::GetTuneReport => "GetTuneReport",
         }
     }
 }
@@ -166,7 +172,9 @@ pub enum ArmMode {
     FollowPath,
     /// Hold these wheel speeds (rad/s) with the wheel PIDs only (bring-up).
     HoldWheelSpeeds(WheelSpeeds),
-    /// The robot's tuning mode (wheel-PID experiments driven by the robot service).
+    /// Tune the wheel loops (the core's `tune`: open-loop voltage experiments on both
+    /// wheels, the robot driving about a metre straight forward and back); the robot
+    /// disarms by itself when done and sends [`Uplink::TuneReport`].
     Tune,
 }
 
@@ -216,6 +224,8 @@ pub enum Uplink {
     /// The simulated robot's true metrics of the run that just ended (the virtual robot
     /// only; never from hardware).
     GroundTruthRun(TrueRunReport),
+    /// A wheel-loop tune ended: the identified model and gains, or why it stopped.
+    TuneReport(TuneReport),
 }
 
 /// The payload of an accepted request's reply.
@@ -252,6 +262,8 @@ pub enum Reply {
     Stats(Stats),
     /// Answer to [`Request::GetRunReport`]: the last run's metrics.
     RunReport(RunReport),
+    /// Answer to [`Request::GetTuneReport`]: the last tune's outcome.
+    TuneReport(TuneReport),
 }
 
 /// Who the robot is: answer to [`Request::Info`].
@@ -316,6 +328,7 @@ mod tests {
             Request::SetTelemetryRate { hz: 1 }.name(),
             Request::GetStats.name(),
             Request::GetRunReport.name(),
+            Request::GetTuneReport.name(),
         ];
         for (i, a) in names.iter().enumerate() {
             for b in &names[i + 1..] {

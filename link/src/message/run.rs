@@ -71,3 +71,24 @@ pub struct TrueRunReport {
     /// Length of the true path driven, sampled every steering period, m.
     pub distance_m: f32,
 }
+
+/// The outcome of a wheel-loop tune ([`ArmMode::Tune`](crate::ArmMode::Tune)), sent
+/// unasked when it ends ([`Uplink::TuneReport`](crate::Uplink::TuneReport)) and in answer
+/// to [`Request::GetTuneReport`](crate::Request::GetTuneReport).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+pub struct TuneReport {
+    /// Tunes ended since boot (0: none yet, and `outcome` means nothing). A host tells a
+    /// new report from a repeated one by this count.
+    pub tunes_ended: u16,
+    /// Per wheel the identified model and the wheel loop to use (volts, seconds, rad/s),
+    /// or why the tune stopped.
+    pub outcome: Result<controller_core::tune::TuneResult, controller_core::tune::TuneAbort>,
+}
+
+impl TuneReport {
+    /// No tune has ended yet.
+    pub const NONE: TuneReport = TuneReport {
+        tunes_ended: 0,
+        outcome: Err(controller_core::tune::TuneAbort::Stopped),
+    };
+}

@@ -33,7 +33,7 @@ use controller_core::law::LawKind;
 use controller_core::params::Params;
 use controller_core::reference::Reference;
 use controller_core::supervisor::{Command, Event, State, SupervisorConfig};
-use link::{CommitSummary, RunReport, TelemetryFrame};
+use link::{CommitSummary, RunReport, TelemetryFrame, TuneReport};
 
 use self::mailbox::{Mailbox, Receiver, Sender};
 use self::ring::{Consumer, Producer, Ring};
@@ -45,9 +45,18 @@ pub const COMMAND_CAPACITY: usize = 4;
 pub const UPLINK_CAPACITY: usize = 8;
 /// Telemetry samples the control side may queue: one; the link side sends the latest.
 pub const TELEMETRY_CAPACITY: usize = 1;
-/// Run reports the control side may queue: one (a run ends at most once per step, and
-/// the link side takes it at its next poll).
+/// Run and tune reports the control side may queue: one (a run or a tune ends at most
+/// once per step, and the link side takes it at its next poll).
 pub const REPORT_CAPACITY: usize = 1;
+
+/// What ended: a path-following run or a wheel-loop tune.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Report {
+    /// A path-following run's metrics.
+    Run(RunReport),
+    /// A tune's model and gains, or why it stopped.
+    Tune(TuneReport),
+}
 
 /// A request the link side forwards to the control side: the `seq` to answer and what to
 /// do. Each gets exactly one [`ToLink::Reply`].
@@ -247,7 +256,7 @@ pub struct Channels {
     commands: Ring<ToControl, COMMAND_CAPACITY>,
     uplink: Ring<ToLink, UPLINK_CAPACITY>,
     telemetry: Ring<TelemetryFrame, TELEMETRY_CAPACITY>,
-    reports: Ring<RunReport, REPORT_CAPACITY>,
+    reports: Ring<Report, REPORT_CAPACITY>,
     staging: Mailbox<Staged>,
     status: Status,
 }
@@ -314,7 +323,7 @@ pub struct LinkEnd<'a> {
     pub(crate) commands: Producer<'a, ToControl, COMMAND_CAPACITY>,
     pub(crate) uplink: Consumer<'a, ToLink, UPLINK_CAPACITY>,
     pub(crate) telemetry: Consumer<'a, TelemetryFrame, TELEMETRY_CAPACITY>,
-    pub(crate) reports: Consumer<'a, RunReport, REPORT_CAPACITY>,
+    pub(crate) reports: Consumer<'a, Report, REPORT_CAPACITY>,
     pub(crate) staging: Sender<'a, Staged>,
     status: &'a Status,
 }
@@ -342,7 +351,7 @@ pub struct ControlEnd<'a> {
     pub(crate) commands: Consumer<'a, ToControl, COMMAND_CAPACITY>,
     pub(crate) uplink: Producer<'a, ToLink, UPLINK_CAPACITY>,
     pub(crate) telemetry: Producer<'a, TelemetryFrame, TELEMETRY_CAPACITY>,
-    pub(crate) reports: Producer<'a, RunReport, REPORT_CAPACITY>,
+    pub(crate) reports: Producer<'a, Report, REPORT_CAPACITY>,
     pub(crate) staging: Receiver<'a, Staged>,
     status: &'a Status,
 }

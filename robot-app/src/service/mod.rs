@@ -33,11 +33,12 @@ use controller_core::supervisor::{ArmRequest, Command, RunMode, State};
 use link::{
     bounded, check_telemetry_rate, params_hash, ArmMode, Commit, CommitSummary, Decoder, Downlink,
     FieldProblem, LinkStats, NotPermitted, ParamSet, PathAssembler, ProtocolId, Received, Refusal,
-    Reply, Request, RobotInfo, RunReport, Stats, Uplink, MAX_FRAME_LEN,
+    Reply, Request, RobotInfo, RunReport, Stats, TuneReport, Uplink, MAX_FRAME_LEN,
 };
 
 use crate::channel::{
-    ControlStatus, LinkEnd, Op, OpKind, Refused, Staged, ToControl, ToLink, COMMAND_CAPACITY,
+    ControlStatus, LinkEnd, Op, OpKind, Refused, Report, Staged, ToControl, ToLink,
+    COMMAND_CAPACITY,
 };
 
 pub use self::config::supervisor_problem;
@@ -141,6 +142,9 @@ pub struct LinkService<'a> {
     counters: ServiceCounters,
     /// The last run's report from the control side, and whether it still has to be sent.
     last_report: RunReport,
+    /// The last tune's outcome, and whether it still has to be sent.
+    last_tune: TuneReport,
+    tune_unsent: bool,
     report_unsent: bool,
 }
 
@@ -171,6 +175,8 @@ impl<'a> LinkService<'a> {
             persist: PersistPhase::Idle,
             counters: ServiceCounters::default(),
             last_report: RunReport::default(),
+            last_tune: TuneReport::NONE,
+            tune_unsent: false,
             report_unsent: false,
         }
     }
@@ -272,9 +278,16 @@ impl<'a> LinkService<'a> {
             }
         }
         self.resume_persist();
-        if let Some(report) = self.end.reports.pop() {
-            self.last_report = report;
-            self.report_unsent = true;
+        match self.end.reports.pop() {
+            Some(Report::Run(report)) => {
+                self.last_report = report;
+                self.report_unsent = true;
+            }
+            Some(Report::Tune(report)) => {
+                self.last_tune = report;
+                self.tune_unsent = true;
+            }
+            None => {}
         }
         // Sent like telemetry, without the room owed to replies, but never dropped: it
         // waits here for room (and a host may ask for it with `GetRunReport`).
@@ -284,6 +297,15 @@ impl<'a> LinkService<'a> {
                 .append(&Uplink::RunReport(self.last_report), self.reply_room_owed())
         {
             self.report_unsent = false;
+            self.counters.frames_sent = self.counters.frames_sent.wrapping_add(1);
+        }
+        // The same for a tune's outcome.
+        if self.tune_unsent
+            && self
+                .tx
+                .append(&Uplink::TuneReport(self.last_tune), self.reply_room_owed())
+        {
+            self.tune_unsent = false;
             self.counters.frames_sent = self.counters.frames_sent.wrapping_add(1);
         }
         if let Some(sample) = self.end.telemetry.pop() {
@@ -348,6 +370,7 @@ impl<'a> LinkService<'a> {
             Request::SetTelemetryRate { hz } => Some(self.set_telemetry_rate(hz)),
             Request::GetStats => Some(Ok(Reply::Stats(self.stats(board)))),
             Request::GetRunReport => Some(Ok(Reply::RunReport(self.last_report))),
+            Request::GetTuneReport => Some(Ok(Reply::TuneReport(self.last_tune))),
         };
         if let Some(result) = now {
             self.send_reply(&Uplink::Reply { seq, result });
@@ -541,7 +564,7 @@ fn arm_request(
     let (mode, hold_speeds) = match mode {
         ArmMode::FollowPath => (RunMode::FollowPath, None),
         ArmMode::HoldWheelSpeeds(speeds) => (RunMode::HoldWheelSpeeds, Some(speeds)),
-        ArmMode::Tune => return Err(Refusal::NotPermitted(NotPermitted::Unsupported)),
+        ArmMode::Tune => (RunMode::Tune, None),
     };
     Ok(ArmRequest {
         mode,
@@ -684,9 +707,10 @@ mod tests {
         );
         let follow = arm_request(ArmMode::FollowPath, None);
         assert_eq!(follow.map(|a| a.mode), Ok(RunMode::FollowPath));
+        let tune = arm_request(ArmMode::Tune, None);
         assert_eq!(
-            arm_request(ArmMode::Tune, None),
-            Err(Refusal::NotPermitted(NotPermitted::Unsupported))
+            tune.map(|a| (a.mode, a.hold_speeds)),
+            Ok((RunMode::Tune, None))
         );
     }
 }

@@ -121,6 +121,7 @@ impl TestRobot {
             })),
             // This test robot never runs the controller, so it has no run to report.
             Request::GetRunReport => Ok(Reply::RunReport(RunReport::default())),
+            Request::GetTuneReport => Ok(Reply::TuneReport(link::TuneReport::NONE)),
         }
     }
 

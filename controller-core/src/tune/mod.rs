@@ -1,0 +1,856 @@
+//! Self-tuning of the wheel loops: identify each wheel, then set its feed-forward and PI.
+//!
+//! The paper calls its PID "adaptive, self-tuning" and describes no method. This is one
+//! that runs on the robot, in the supervisor's tune mode ([`crate::supervisor::RunMode::Tune`]),
+//! one fixed step at a time, with the motors driven open loop in volts
+//! ([`crate::controller::Mode::ApplyVolts`]). Both wheels run the same experiment at once,
+//! so on the ground the robot drives straight and each wheel is identified with its half
+//! of the chassis (the "driving straight" load of the margins). In each direction, forward
+//! then backward:
+//!
+//! 1. **Breakaway**: the voltage rises slowly from 0 until both wheels turn; the larger
+//!    breakaway voltage u_b sets the low level u_lo = u_b + 0.3 (u_hi − u_b), so every
+//!    experiment stays well above static friction. u_hi is
+//!    [`TuneConfig::experiment_volts_v`].
+//! 2. **Hold** u_lo until steady (the pre-step speed ω₁).
+//! 3. **Step** to u_hi and hold: a first-order-plus-dead-time model (K, τ, θ) per wheel
+//!    from the response's Laplace transform ([`identify`]).
+//! 4. **Ramp** down from u_hi to u_lo over 12 τ: a straight line u = c + k_V ω̂ through
+//!    the samples after the first 4 τ gives k_V, and with τ and θ from the step, k_S.
+//! 5. **Brake** (0 V, a short brake) until both wheels are at rest.
+//!
+//! The voltage never leaves [0, u_hi] in the direction of the experiment and only goes to
+//! 0 to stop, so a wheel never crosses zero speed; the ramp down is slow enough to keep the
+//! gearbox motoring as long as the motor's static friction is worth more than 1/12 of
+//! u_hi − u_lo (the decelerating torque it asks for).
+//!
+//! The result, per wheel, averages the two directions ([`TuneResult`]); the PI comes from
+//! the SIMC rule with τ_c = [`TuneConfig::tau_c_per_dead_time`] × the loop's effective
+//! dead time (the plant's θ, the speed estimate's window W T/2 and the sampling T/2). The
+//! default 1.2 is a little looser than Skogestad's "tight" τ_c = θ_e: on the reference
+//! robot the tight setting gives K_p ≈ 0.60 V/(rad/s), T_i ≈ 88 ms, the hand-tuned loop,
+//! whose margins (`host-sim margins`) meet gain margin ≥ 2.5 and phase margin ≥ 45° on the
+//! ground driving straight and turning, motoring and braking (turning on the spot has a
+//! quarter less inertia, braking a gearbox multiplies its torque per volt by 1/η²); 1.2
+//! lowers K_p by a tenth for the identification's errors. A looser loop is not better
+//! for a large step: the saturated start leaves the integral a larger share and the 0 →
+//! 15 rad/s step overshoots more (`host-sim tune --tau-c-per-dead-time`, at 6 V: 1.0 →
+//! 4.9 %, 1.5 → 5.3 %, 2.0 → 6.3 %).
+//!
+//! ## Lifted wheels
+//!
+//! On a stand each wheel turns only its own inertia J_w (with the rotor's, reflected
+//! through the gearbox), and τ is that much shorter: gains identified there are about 3×
+//! too low for driving. [`TuneLoad::Lifted`] corrects the identified τ for the chassis
+//! the wheels will carry: driving straight each wheel sees J_w + m R²/2 (m the robot's
+//! mass, R the wheel radius), so τ_ground = τ_lifted (1 + m R² / (2 J_w)) while K, k_S and
+//! k_V do not change ([`TuneLoad::lifted`]).
+//!
+//! ## Safety
+//!
+//! The supervisor runs the tune like any armed mode: every fault check applies, the button
+//! and the link stop it, and then [`Tuner::abort`] ends it with [`TuneAbort::Stopped`]. The
+//! tune itself stops (and the supervisor disarms) when a wheel turns the wrong way (motor or
+//! encoder inverted), stops turning, exceeds [`TuneConfig::max_speed_rad_s`], when the
+//! robot's odometry leaves [`TuneConfig::max_distance_m`] of where it started (on the
+//! ground), when a step comes late (the data would be skewed), or when a fit fails.
+
+mod identify;
+
+use core::fmt;
+
+use crate::controller::Telemetry;
+use crate::drive::WheelVolts;
+use crate::kinematics::Pose;
+use crate::math;
+use crate::params::{Params, RobotConfig, WheelLoopConfig};
+
+use identify::{simc, Bank, Fopdt, LineFit, StepSums};
+
+/// Wheel speed that counts as turning (breakaway), rad/s: about five quanta of the
+/// reference robot's speed estimate.
+pub const MOVING_RAD_S: f32 = 1.0;
+/// Below this a wheel that should turn has stopped, rad/s.
+pub const STALLED_RAD_S: f32 = 0.3;
+/// Hold, step and ramp: u_lo lies this fraction of the way from the breakaway voltage to
+/// u_hi.
+const LOW_FRACTION: f32 = 0.3;
+/// The larger breakaway voltage may be at most this fraction of u_hi.
+const MAX_BREAKAWAY_FRACTION: f32 = 0.6;
+/// The ramp lasts this many (identified) time constants; the first
+/// [`RAMP_SKIP_TAUS`] are its transient and not fitted.
+const RAMP_TAUS: f32 = 12.0;
+const RAMP_SKIP_TAUS: f32 = 4.0;
+/// Samples averaged for the pre-step speed, and the step's settled fraction (its last
+/// fifth gives Δω).
+const BASELINE_FRACTION: u32 = 5;
+/// Steps both wheels must read 0 rad/s before the next direction.
+const REST_STEPS: u32 = 30;
+/// Longest the brake may take to stop the wheels, s.
+const BRAKE_TIMEOUT_S: f32 = 2.0;
+/// Longest the breakaway may sit at u_hi with a wheel still not turning, s.
+const BREAKAWAY_TIMEOUT_S: f32 = 0.5;
+/// Largest relative difference between the two directions, and between the step's gain
+/// and the ramp's 1/k_V, accepted as one motor.
+const MAX_MISMATCH: f32 = 0.3;
+
+/// One of the two wheels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum Side {
+    /// The left wheel.
+    Left,
+    /// The right wheel.
+    Right,
+}
+
+impl Side {
+    const BOTH: [Side; 2] = [Side::Left, Side::Right];
+}
+
+/// What the wheels turn during the tune.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum TuneLoad {
+    /// The robot on the floor: the identified plant is the driving plant. The tune drives
+    /// about 0.9 m forward and back (the reference robot).
+    Ground,
+    /// The robot on a stand: the identified τ is multiplied by `ground_inertia_factor`
+    /// (the driving inertia over the lifted one, ≥ 1) before the PI is set.
+    Lifted {
+        /// (J_w + m R²/2) / J_w, see [`TuneLoad::lifted`].
+        ground_inertia_factor: f32,
+    },
+}
+
+impl TuneLoad {
+    /// The lifted load of a robot of mass `chassis_mass_kg` (kg) on wheels of radius
+    /// `wheel_radius_m` (m) whose own inertia, rotor reflected through the gearbox
+    /// included, is `wheel_inertia_kg_m2` (kg·m²): factor 1 + m R² / (2 J_w). The
+    /// reference robot: 0.5 kg, 32.5 mm, 1.1e-4 kg·m², factor 3.4.
+    pub fn lifted(chassis_mass_kg: f32, wheel_radius_m: f32, wheel_inertia_kg_m2: f32) -> Self {
+        TuneLoad::Lifted {
+            ground_inertia_factor: 1.0
+                + chassis_mass_kg * wheel_radius_m * wheel_radius_m / (2.0 * wheel_inertia_kg_m2),
+        }
+    }
+}
+
+/// How the tune drives the wheels (see the module doc).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct TuneConfig {
+    /// u_hi, the largest voltage the experiments apply, V (≤ the motor's rated voltage).
+    pub experiment_volts_v: f32,
+    /// Rate of the breakaway ramp, V/s.
+    pub breakaway_ramp_v_per_s: f32,
+    /// Length of the hold before the step and of the step, s (at least 6 τ of the
+    /// slowest wheel for a clean fit).
+    pub hold_s: f32,
+    /// A wheel faster than this stops the tune, rad/s.
+    pub max_speed_rad_s: f32,
+    /// On the ground, the odometry farther than this from where the tune began stops it,
+    /// m.
+    pub max_distance_m: f32,
+    /// SIMC's closed-loop time constant over the loop's effective dead time (1 is
+    /// Skogestad's "tight" setting; larger is slower and more robust).
+    pub tau_c_per_dead_time: f32,
+    /// On the ground or lifted.
+    pub load: TuneLoad,
+}
+
+impl TuneConfig {
+    /// The defaults for `robot`: u_hi = 40 % of the rated voltage (2.4 V, about 13 rad/s on
+    /// the reference robot), breakaway ramp 1 V/s, 1 s holds (6 τ of a motor with
+    /// 30 % less torque constant than the reference), 75 % of the rated top
+    /// speed, 1.5 m, τ_c = 1.2 θ_e, on the ground.
+    pub fn for_robot(robot: &RobotConfig) -> Self {
+        let rated = robot.motor.rated_voltage_v;
+        let top = robot.left_wheel.speed_at_volts(rated);
+        Self {
+            experiment_volts_v: 0.4 * rated,
+            breakaway_ramp_v_per_s: 1.0,
+            hold_s: 1.0,
+            max_speed_rad_s: 0.75 * top,
+            max_distance_m: 1.5,
+            tau_c_per_dead_time: 1.2,
+            load: TuneLoad::Ground,
+        }
+    }
+
+    /// Checks every field against the robot `params`; the error names the first bad one.
+    pub fn validate(&self, params: &Params) -> Result<(), TuneConfigError> {
+        let bad = |field, value| Err(TuneConfigError { field, value });
+        let rated = params.config().motor.rated_voltage_v;
+        let steps = self.hold_s * params.control_rate().get() as f32;
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        if !(self.experiment_volts_v > 0.0 && self.experiment_volts_v <= rated) {
+            bad("experiment_volts_v", self.experiment_volts_v)
+        } else if !(self.breakaway_ramp_v_per_s > 0.0 && self.breakaway_ramp_v_per_s < 1e3) {
+            bad("breakaway_ramp_v_per_s", self.breakaway_ramp_v_per_s)
+        } else if !(self.hold_s >= 0.1 && self.hold_s <= 10.0 && steps >= 50.0) {
+            bad("hold_s", self.hold_s)
+        } else if !(self.max_speed_rad_s > 0.0 && self.max_speed_rad_s < 1e4) {
+            bad("max_speed_rad_s", self.max_speed_rad_s)
+        } else if !(self.max_distance_m > 0.0 && self.max_distance_m < 1e3) {
+            bad("max_distance_m", self.max_distance_m)
+        } else if !(self.tau_c_per_dead_time > 0.0 && self.tau_c_per_dead_time < 100.0) {
+            bad("tau_c_per_dead_time", self.tau_c_per_dead_time)
+        } else {
+            match self.load {
+                TuneLoad::Lifted {
+                    ground_inertia_factor: f,
+                } if !(1.0..1e3).contains(&f) => bad("load.ground_inertia_factor", f),
+                _ => Ok(()),
+            }
+        }
+    }
+}
+
+/// A [`TuneConfig`] field out of range.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TuneConfigError {
+    /// The field, e.g. `hold_s`.
+    pub field: &'static str,
+    /// Its value.
+    pub value: f32,
+}
+
+impl fmt::Display for TuneConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "tune.{} is out of range, got {}", self.field, self.value)
+    }
+}
+
+/// Why a tune ended without a result.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum TuneAbort {
+    /// The supervisor stopped it: a fault, the button, the link or a time limit.
+    Stopped,
+    /// A wheel was turning when the tune began.
+    NotAtRest,
+    /// This wheel did not turn at u_hi: blocked, disconnected, or u_hi too low.
+    NoBreakaway(Side),
+    /// This wheel needed more than 60 % of u_hi to break away: raise
+    /// [`TuneConfig::experiment_volts_v`].
+    BreakawayTooHigh(Side),
+    /// This wheel turned against its voltage: motor or encoder wired the wrong way round.
+    WrongDirection(Side),
+    /// This wheel stopped while driven.
+    Stalled(Side),
+    /// This wheel exceeded [`TuneConfig::max_speed_rad_s`].
+    TooFast(Side),
+    /// The robot left [`TuneConfig::max_distance_m`] of where the tune began.
+    TooFar,
+    /// A control step came late: the data would be skewed.
+    LateStep,
+    /// The wheels did not come to rest under the brake.
+    NotStopped,
+    /// This wheel's step response or ramp did not fit a first-order model.
+    NoFit(Side),
+    /// This wheel's two directions, or its step and ramp, disagree by more than 30 %.
+    Inconsistent(Side),
+}
+
+impl fmt::Display for TuneAbort {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TuneAbort::Stopped => f.write_str("stopped by the supervisor (fault, button, link)"),
+            TuneAbort::NotAtRest => f.write_str("a wheel was turning at the start"),
+            TuneAbort::NoBreakaway(w) => write!(f, "{w:?} wheel did not turn at u_hi"),
+            TuneAbort::BreakawayTooHigh(w) => {
+                write!(f, "{w:?} wheel needs over 60 % of u_hi to break away")
+            }
+            TuneAbort::WrongDirection(w) => {
+                write!(f, "{w:?} wheel turned against its voltage (wiring)")
+            }
+            TuneAbort::Stalled(w) => write!(f, "{w:?} wheel stopped while driven"),
+            TuneAbort::TooFast(w) => write!(f, "{w:?} wheel exceeded the speed limit"),
+            TuneAbort::TooFar => f.write_str("the robot left the allowed distance"),
+            TuneAbort::LateStep => f.write_str("a control step came late"),
+            TuneAbort::NotStopped => f.write_str("the wheels did not stop under the brake"),
+            TuneAbort::NoFit(w) => write!(f, "{w:?} wheel's response did not fit"),
+            TuneAbort::Inconsistent(w) => {
+                write!(f, "{w:?} wheel's measurements disagree by over 30 %")
+            }
+        }
+    }
+}
+
+/// One wheel's identified model (both directions averaged).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct WheelModel {
+    /// Static-friction feed-forward k_S, V.
+    pub ks_v: f32,
+    /// Speed feed-forward k_V, V per rad/s (the ramp's slope).
+    pub kv_v_per_rad_s: f32,
+    /// Step gain K, rad/s per V.
+    pub gain_rad_s_per_v: f32,
+    /// Time constant τ as identified (lifted: on the stand), s.
+    pub time_constant_s: f32,
+    /// Dead time θ, s (the plant's own, the speed estimate's window removed).
+    pub dead_time_s: f32,
+    /// The τ the PI was designed for (lifted: corrected for the chassis), s.
+    pub design_time_constant_s: f32,
+}
+
+/// What a tune found: per wheel [left, right], the model and the loop to use, ready for
+/// [`RobotConfig::left_wheel`] and [`RobotConfig::right_wheel`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct TuneResult {
+    /// The identified models.
+    pub models: [WheelModel; 2],
+    /// Feed-forward k_S, k_V from the models; K_p, T_i by SIMC; no D.
+    pub loops: [WheelLoopConfig; 2],
+}
+
+impl TuneResult {
+    /// `robot` with the tuned wheel loops.
+    pub fn apply_to(&self, robot: &RobotConfig) -> RobotConfig {
+        let [left, right] = self.loops;
+        RobotConfig {
+            left_wheel: left,
+            right_wheel: right,
+            ..*robot
+        }
+    }
+}
+
+/// What the tune asks for the next step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TuneStep {
+    /// Apply these voltages (V) in the next step.
+    Drive(WheelVolts),
+    /// The tune is over: its result or why not. Brake and disarm.
+    Finished(Result<TuneResult, TuneAbort>),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    Idle,
+    Breakaway,
+    Hold,
+    Step,
+    Ramp,
+    Brake,
+    Finished,
+}
+
+/// One direction's fit of one wheel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct DirectionFit {
+    model: Fopdt,
+    ks_v: f32,
+    kv_v_per_rad_s: f32,
+}
+
+/// The tune's state machine (module doc). Call [`Tuner::start`], then [`Tuner::step`] once
+/// per control step with the controller's telemetry of that step, and apply what it asks.
+#[derive(Clone, Debug)]
+pub struct Tuner {
+    config: TuneConfig,
+    period_s: f32,
+    window_steps: u32,
+    phase: Phase,
+    /// 0 forward, 1 backward.
+    direction: usize,
+    /// Steps observed in the present phase.
+    steps: u32,
+    start: Pose,
+    /// The voltage magnitude asked for the next step.
+    command: f32,
+    breakaway: [Option<f32>; 2],
+    low_v: f32,
+    /// Hold: Σ speed and Σ applied volts over its last fifth, per wheel, and the count.
+    hold_speed: [f32; 2],
+    hold_volts: [f32; 2],
+    hold_n: u32,
+    /// Step: the response sums, Σ applied volts over the settled fifth.
+    bank: Bank,
+    step_sums: [StepSums; 2],
+    step_volts: [f32; 2],
+    /// Ramp: rate (V/s), transient to skip (steps), the fits.
+    ramp_rate: f32,
+    ramp_skip: u32,
+    ramp: [LineFit; 2],
+    /// Per direction, per wheel.
+    fits: [[DirectionFit; 2]; 2],
+    outcome: Option<Result<TuneResult, TuneAbort>>,
+}
+
+impl Tuner {
+    /// An idle tuner with `config` for a robot with `params` (control period and speed
+    /// window).
+    pub fn new(config: TuneConfig, params: &Params) -> Self {
+        Self::with_timing(
+            config,
+            params.period_s(),
+            params.config().speed_window_steps,
+        )
+    }
+
+    /// An idle tuner for control period `period_s` (s) and a speed window of
+    /// `window_steps`.
+    fn with_timing(config: TuneConfig, period_s: f32, window_steps: u32) -> Self {
+        Self {
+            config,
+            period_s,
+            window_steps,
+            phase: Phase::Idle,
+            direction: 0,
+            steps: 0,
+            start: Pose::default(),
+            command: 0.0,
+            breakaway: [None; 2],
+            low_v: 0.0,
+            hold_speed: [0.0; 2],
+            hold_volts: [0.0; 2],
+            hold_n: 0,
+            bank: Bank::new(period_s),
+            step_sums: [StepSums::default(); 2],
+            step_volts: [0.0; 2],
+            ramp_rate: 0.0,
+            ramp_skip: 0,
+            ramp: [LineFit::default(); 2],
+            fits: [[DirectionFit::default(); 2]; 2],
+            outcome: None,
+        }
+    }
+
+    /// The settings.
+    pub const fn config(&self) -> &TuneConfig {
+        &self.config
+    }
+
+    /// The result of the last tune, or why it ended (`None`: none finished yet).
+    pub const fn outcome(&self) -> Option<Result<TuneResult, TuneAbort>> {
+        self.outcome
+    }
+
+    /// True while a tune is running.
+    pub fn running(&self) -> bool {
+        !matches!(self.phase, Phase::Idle | Phase::Finished)
+    }
+
+    /// Starts a tune from `pose` (the odometry's, world frame), forgetting the last
+    /// outcome. The first [`Tuner::step`] applies 0 V.
+    pub fn start(&mut self, pose: Pose) {
+        *self = Self {
+            start: pose,
+            phase: Phase::Breakaway,
+            ..Self::with_timing(self.config, self.period_s, self.window_steps)
+        };
+    }
+
+    /// Replaces the settings (takes effect at the next [`Tuner::start`]) and the robot's
+    /// timing from `params`; a running tune is stopped.
+    pub fn set_config(&mut self, config: TuneConfig, params: &Params) {
+        self.abort(TuneAbort::Stopped);
+        let outcome = self.outcome;
+        *self = Self::new(config, params);
+        self.outcome = outcome;
+    }
+
+    /// Ends a running tune with `reason` (the supervisor stopped it).
+    pub fn abort(&mut self, reason: TuneAbort) {
+        if self.running() {
+            self.finish(Err(reason));
+        }
+    }
+
+    /// One control step: `telemetry` is the controller's for this step (its speeds, the
+    /// voltages it applied, its pose), covering `periods` control periods. Returns what to
+    /// apply next.
+    pub fn step(&mut self, telemetry: &Telemetry, periods: u32) -> TuneStep {
+        if !self.running() {
+            return TuneStep::Finished(self.outcome.unwrap_or(Err(TuneAbort::Stopped)));
+        }
+        match self.observe(telemetry, periods) {
+            Ok(()) => {
+                self.steps = self.steps.saturating_add(1);
+                let sign = if self.direction == 0 { 1.0 } else { -1.0 };
+                let v = sign * self.command;
+                TuneStep::Drive(WheelVolts {
+                    left_v: v,
+                    right_v: v,
+                })
+            }
+            Err(reason) => {
+                self.finish(Err(reason));
+                TuneStep::Finished(Err(reason))
+            }
+        }
+    }
+
+    /// Records the outcome and goes idle with 0 V.
+    fn finish(&mut self, outcome: Result<TuneResult, TuneAbort>) {
+        self.outcome = Some(outcome);
+        self.phase = Phase::Finished;
+        self.command = 0.0;
+    }
+
+    fn sign(&self) -> f32 {
+        if self.direction == 0 {
+            1.0
+        } else {
+            -1.0
+        }
+    }
+
+    /// Steps of `seconds` at the control period.
+    fn steps_of(&self, seconds: f32) -> u32 {
+        let n = seconds / self.period_s;
+        if (1.0..4e9).contains(&n) {
+            n as u32
+        } else {
+            1
+        }
+    }
+
+    /// The checks and the phase logic of one step (module doc).
+    fn observe(&mut self, t: &Telemetry, periods: u32) -> Result<(), TuneAbort> {
+        if periods != 1 {
+            return Err(TuneAbort::LateStep);
+        }
+        let sign = self.sign();
+        // Speeds and applied volts in the experiment's direction.
+        let speed = [
+            sign * t.wheel_speed.left_rad_s,
+            sign * t.wheel_speed.right_rad_s,
+        ];
+        let volts = [
+            sign * t.wheel_loop.volts.left_v,
+            sign * t.wheel_loop.volts.right_v,
+        ];
+        for (side, w) in Side::BOTH.iter().zip(speed) {
+            if math::abs(w) > self.config.max_speed_rad_s {
+                return Err(TuneAbort::TooFast(*side));
+            }
+            if self.phase != Phase::Brake && w < -MOVING_RAD_S {
+                return Err(TuneAbort::WrongDirection(*side));
+            }
+        }
+        if self.config.load == TuneLoad::Ground {
+            let d = math::hypot(t.pose.x_m - self.start.x_m, t.pose.y_m - self.start.y_m);
+            // Written so that a NaN distance stops the tune too.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            if !(d <= self.config.max_distance_m) {
+                return Err(TuneAbort::TooFar);
+            }
+        }
+        match self.phase {
+            Phase::Breakaway => self.breakaway(speed, volts),
+            Phase::Hold => self.hold(speed, volts),
+            Phase::Step => self.step_response(speed, volts),
+            Phase::Ramp => self.ramp(speed, volts),
+            Phase::Brake => self.brake(speed),
+            Phase::Idle | Phase::Finished => Ok(()),
+        }
+    }
+
+    fn breakaway(&mut self, speed: [f32; 2], volts: [f32; 2]) -> Result<(), TuneAbort> {
+        let high = self.config.experiment_volts_v;
+        if self.steps == 0 && speed.iter().any(|w| math::abs(*w) >= STALLED_RAD_S) {
+            return Err(TuneAbort::NotAtRest);
+        }
+        for ((u_b, w), u) in self.breakaway.iter_mut().zip(speed).zip(volts) {
+            if u_b.is_none() && w >= MOVING_RAD_S {
+                *u_b = Some(u);
+            }
+        }
+        match self.breakaway {
+            [Some(l), Some(r)] => {
+                let (u_b, side) = if l >= r {
+                    (l, Side::Left)
+                } else {
+                    (r, Side::Right)
+                };
+                if u_b > MAX_BREAKAWAY_FRACTION * high {
+                    return Err(TuneAbort::BreakawayTooHigh(side));
+                }
+                self.low_v = u_b + LOW_FRACTION * (high - u_b);
+                self.enter(Phase::Hold, self.low_v);
+            }
+            [left, _] => {
+                let ramp = self.config.breakaway_ramp_v_per_s * self.period_s * self.steps as f32;
+                if ramp >= high + self.config.breakaway_ramp_v_per_s * BREAKAWAY_TIMEOUT_S {
+                    let side = if left.is_none() {
+                        Side::Left
+                    } else {
+                        Side::Right
+                    };
+                    return Err(TuneAbort::NoBreakaway(side));
+                }
+                self.command = if ramp < high { ramp } else { high };
+            }
+        }
+        Ok(())
+    }
+
+    fn hold(&mut self, speed: [f32; 2], volts: [f32; 2]) -> Result<(), TuneAbort> {
+        let hold = self.steps_of(self.config.hold_s);
+        self.check_turning(speed, hold / BASELINE_FRACTION)?;
+        if self.steps >= hold - hold / BASELINE_FRACTION {
+            add(&mut self.hold_speed, speed);
+            add(&mut self.hold_volts, volts);
+            self.hold_n += 1;
+        }
+        if self.steps + 1 >= hold {
+            let per = 1.0 / self.hold_n.max(1) as f32;
+            self.hold_speed = self.hold_speed.map(|x| x * per);
+            self.hold_volts = self.hold_volts.map(|x| x * per);
+            self.bank.restart();
+            self.enter(Phase::Step, self.config.experiment_volts_v);
+        }
+        Ok(())
+    }
+
+    fn step_response(&mut self, speed: [f32; 2], volts: [f32; 2]) -> Result<(), TuneAbort> {
+        let hold = self.steps_of(self.config.hold_s);
+        self.check_turning(speed, 0)?;
+        if self.steps > 0 {
+            self.bank.advance();
+        }
+        let tail = self.steps >= hold - hold / BASELINE_FRACTION;
+        let weights = self.bank.weights();
+        for ((sums, w), base) in self.step_sums.iter_mut().zip(speed).zip(self.hold_speed) {
+            sums.push(w - base, weights, tail);
+        }
+        if tail {
+            add(&mut self.step_volts, volts);
+        }
+        if self.steps + 1 < hold {
+            return Ok(());
+        }
+        let tail_n = (hold / BASELINE_FRACTION).max(1) as f32;
+        let mut slowest = 0.0f32;
+        let fits = self
+            .fits
+            .get_mut(self.direction)
+            .ok_or(TuneAbort::Stopped)?;
+        let wheels = Side::BOTH
+            .iter()
+            .zip(fits.iter_mut())
+            .zip(self.step_sums.iter().zip(self.step_volts))
+            .zip(self.hold_volts);
+        for (((side, fit), (sums, step_volts)), hold_volts) in wheels {
+            let delta_u = step_volts / tail_n - hold_volts;
+            let model = sums
+                .fit(delta_u, self.period_s, self.window_steps, weights)
+                .filter(|m| m.gain > 0.0 && m.tau > 0.0)
+                .ok_or(TuneAbort::NoFit(*side))?;
+            fit.model = model;
+            slowest = if model.tau > slowest {
+                model.tau
+            } else {
+                slowest
+            };
+        }
+        let span = self.config.experiment_volts_v - self.low_v;
+        self.ramp_rate = span / (RAMP_TAUS * slowest);
+        self.ramp_skip = self.steps_of(RAMP_SKIP_TAUS * slowest);
+        self.enter(Phase::Ramp, self.config.experiment_volts_v);
+        Ok(())
+    }
+
+    fn ramp(&mut self, speed: [f32; 2], volts: [f32; 2]) -> Result<(), TuneAbort> {
+        self.check_turning(speed, 0)?;
+        if self.steps >= self.ramp_skip {
+            for ((fit, w), u) in self.ramp.iter_mut().zip(speed).zip(volts) {
+                fit.push(w, u);
+            }
+        }
+        let next = self.config.experiment_volts_v
+            - self.ramp_rate * self.period_s * (self.steps + 1) as f32;
+        if next > self.low_v {
+            self.command = next;
+            return Ok(());
+        }
+        // The ramp is done: k_V from its slope, k_S from its intercept and the step's lag.
+        let window_lag = 0.5 * (self.window_steps + 1) as f32 * self.period_s;
+        let fits = self
+            .fits
+            .get_mut(self.direction)
+            .ok_or(TuneAbort::Stopped)?;
+        for ((side, fit), line) in Side::BOTH.iter().zip(fits.iter_mut()).zip(&self.ramp) {
+            let (intercept, slope) = line
+                .line()
+                .filter(|(_, k)| *k > 0.0)
+                .ok_or(TuneAbort::NoFit(*side))?;
+            let lag = fit.model.tau + fit.model.theta + window_lag;
+            fit.kv_v_per_rad_s = slope;
+            fit.ks_v = intercept + self.ramp_rate * lag;
+        }
+        self.enter(Phase::Brake, 0.0);
+        Ok(())
+    }
+
+    fn brake(&mut self, speed: [f32; 2]) -> Result<(), TuneAbort> {
+        if speed.iter().any(|w| math::abs(*w) >= STALLED_RAD_S) {
+            // Counted as steps at rest in `hold_n` (reused: the hold is over).
+            self.hold_n = 0;
+        } else {
+            self.hold_n += 1;
+        }
+        if self.hold_n >= REST_STEPS {
+            if self.direction == 0 {
+                self.direction = 1;
+                self.breakaway = [None; 2];
+                self.enter(Phase::Breakaway, 0.0);
+            } else {
+                let result = self.result()?;
+                self.finish(Ok(result));
+            }
+        } else if self.steps >= self.steps_of(BRAKE_TIMEOUT_S) {
+            return Err(TuneAbort::NotStopped);
+        }
+        Ok(())
+    }
+
+    /// A wheel that should turn stopped, after `grace` steps of the phase.
+    fn check_turning(&self, speed: [f32; 2], grace: u32) -> Result<(), TuneAbort> {
+        if self.steps < grace {
+            return Ok(());
+        }
+        match speed {
+            [l, _] if l < STALLED_RAD_S => Err(TuneAbort::Stalled(Side::Left)),
+            [_, r] if r < STALLED_RAD_S => Err(TuneAbort::Stalled(Side::Right)),
+            _ => Ok(()),
+        }
+    }
+
+    /// Into `phase`, asking `volts` (magnitude) next; the phase's accumulators restart.
+    fn enter(&mut self, phase: Phase, volts: f32) {
+        self.phase = phase;
+        self.steps = 0;
+        self.command = volts;
+        match phase {
+            Phase::Hold => {
+                self.hold_speed = [0.0; 2];
+                self.hold_volts = [0.0; 2];
+                self.hold_n = 0;
+            }
+            Phase::Step => {
+                self.step_sums = [StepSums::default(); 2];
+                self.step_volts = [0.0; 2];
+            }
+            Phase::Ramp => self.ramp = [LineFit::default(); 2],
+            Phase::Brake => self.hold_n = 0,
+            Phase::Idle | Phase::Breakaway | Phase::Finished => {}
+        }
+    }
+
+    /// Both directions averaged, checked, and the PI by SIMC (module doc).
+    fn result(&self) -> Result<TuneResult, TuneAbort> {
+        let [forward, backward] = self.fits;
+        let [f_left, f_right] = forward;
+        let [b_left, b_right] = backward;
+        let (left_model, left_loop) = self.wheel_result(f_left, b_left, Side::Left)?;
+        let (right_model, right_loop) = self.wheel_result(f_right, b_right, Side::Right)?;
+        Ok(TuneResult {
+            models: [left_model, right_model],
+            loops: [left_loop, right_loop],
+        })
+    }
+
+    /// One wheel's model and loop from its forward fit `f` and backward fit `b`.
+    fn wheel_result(
+        &self,
+        f: DirectionFit,
+        b: DirectionFit,
+        side: Side,
+    ) -> Result<(WheelModel, WheelLoopConfig), TuneAbort> {
+        let mean = |x: f32, y: f32| 0.5 * (x + y);
+        let agree = |x: f32, y: f32| math::abs(x - y) <= MAX_MISMATCH * mean(x, y);
+        let kv = mean(f.kv_v_per_rad_s, b.kv_v_per_rad_s);
+        let gain = mean(f.model.gain, b.model.gain);
+        let tau = mean(f.model.tau, b.model.tau);
+        let consistent = agree(f.kv_v_per_rad_s, b.kv_v_per_rad_s)
+            && agree(f.model.gain, b.model.gain)
+            && agree(f.model.tau, b.model.tau)
+            && agree(gain * kv, 1.0);
+        if !consistent {
+            return Err(TuneAbort::Inconsistent(side));
+        }
+        let factor = match self.config.load {
+            TuneLoad::Ground => 1.0,
+            TuneLoad::Lifted {
+                ground_inertia_factor,
+            } => ground_inertia_factor,
+        };
+        let model = Fopdt {
+            gain,
+            tau: tau * factor,
+            theta: mean(f.model.theta, b.model.theta),
+        };
+        // The loop's dead time: the plant's (never below 0) and the controller's own.
+        let window_lag = 0.5 * (self.window_steps + 1) as f32 * self.period_s;
+        let dead_time = if model.theta > 0.0 { model.theta } else { 0.0 } + window_lag;
+        let (kp, ti) = simc(
+            &model,
+            dead_time,
+            self.config.tau_c_per_dead_time * dead_time,
+        );
+        let ks = mean(f.ks_v, b.ks_v);
+        let ks = if ks > 0.0 { ks } else { 0.0 };
+        if ![ks, kv, kp, ti].iter().all(|x| x.is_finite()) {
+            return Err(TuneAbort::NoFit(side));
+        }
+        Ok((
+            WheelModel {
+                ks_v: ks,
+                kv_v_per_rad_s: kv,
+                gain_rad_s_per_v: gain,
+                time_constant_s: tau,
+                dead_time_s: model.theta,
+                design_time_constant_s: model.tau,
+            },
+            WheelLoopConfig {
+                ks_v: ks,
+                kv_v_per_rad_s: kv,
+                kp_v_per_rad_s: kp,
+                ti_s: ti,
+                td_s: 0.0,
+                d_filter_tau_s: 0.0,
+            },
+        ))
+    }
+}
+
+/// `into[i] += x[i]` for both wheels.
+fn add(into: &mut [f32; 2], x: [f32; 2]) {
+    for (a, b) in into.iter_mut().zip(x) {
+        *a += b;
+    }
+}
+
+#[cfg(test)]
+mod tests;

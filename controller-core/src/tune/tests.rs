@@ -1,0 +1,381 @@
+//! The tune against a synthetic robot: two first-order wheels with static and Coulomb
+//! friction behind the real controller (open-loop volts, encoder ticks, speed estimate).
+
+use super::*;
+use crate::controller::{Controller, Mode, StepInput, TickDeltas};
+use crate::params::RobotConfig;
+
+/// One synthetic wheel: τ ω̇ = K (u − k_S sgn ω) − ω while turning; held at rest while
+/// |u| ≤ k_S.
+#[derive(Clone, Copy, Debug)]
+struct SyntheticWheel {
+    gain: f32,
+    tau: f32,
+    ks: f32,
+    speed: f32,
+    angle: f32,
+}
+
+impl SyntheticWheel {
+    fn new(gain: f32, tau: f32, ks: f32) -> Self {
+        Self {
+            gain,
+            tau,
+            ks,
+            speed: 0.0,
+            angle: 0.0,
+        }
+    }
+
+    /// Advances `dt` (s) with `volts` held, in 20 Euler substeps.
+    fn advance(&mut self, volts: f32, dt: f32) {
+        let h = dt / 20.0;
+        for _ in 0..20 {
+            if self.speed == 0.0 && math::abs(volts) <= self.ks {
+                continue;
+            }
+            let direction = if self.speed != 0.0 {
+                self.speed.signum()
+            } else {
+                volts.signum()
+            };
+            let next = self.speed
+                + h * (self.gain * (volts - self.ks * direction) - self.speed) / self.tau;
+            // Friction stops a wheel; it does not reverse it.
+            self.speed = if next * direction < 0.0 { 0.0 } else { next };
+            self.angle += h * self.speed;
+        }
+    }
+}
+
+/// The synthetic robot and what happened during a tune.
+struct Bench {
+    controller: Controller,
+    wheels: [SyntheticWheel; 2],
+    /// Encoder: +1 or −1 (an encoder wired the wrong way round).
+    encoder_sign: [f32; 2],
+    ticks_seen: [i32; 2],
+    /// From this step on, the left wheel is held (a blocked wheel): (step, static friction).
+    block_left_at: Option<(usize, f32)>,
+    /// Every voltage the tune asked for, and the true speeds after each step.
+    asked: Vec<WheelVolts>,
+    speeds: Vec<[f32; 2]>,
+}
+
+impl Bench {
+    fn new(wheel: SyntheticWheel) -> Self {
+        Self {
+            controller: crate::controller::tests::on_a_line(5.0),
+            wheels: [wheel; 2],
+            encoder_sign: [1.0; 2],
+            ticks_seen: [0; 2],
+            block_left_at: None,
+            asked: Vec::new(),
+            speeds: Vec::new(),
+        }
+    }
+
+    fn params(&self) -> Params {
+        *self.controller.params()
+    }
+
+    /// Runs `tuner` to its end (at most 60 s), `late_at` making one step late.
+    fn run(&mut self, tuner: &mut Tuner, late_at: Option<usize>) -> Result<TuneResult, TuneAbort> {
+        let rad_per_tick = self.params().rad_per_tick();
+        tuner.start(self.controller.pose());
+        let mut volts = WheelVolts::default();
+        for k in 0..60_000 {
+            let mut ticks = [0i32; 2];
+            for (i, t) in ticks.iter_mut().enumerate() {
+                let total = (self.encoder_sign[i] * self.wheels[i].angle / rad_per_tick) as i32;
+                *t = total - self.ticks_seen[i];
+                self.ticks_seen[i] = total;
+            }
+            self.controller.set_mode(Mode::ApplyVolts(volts));
+            self.controller.step(StepInput::on_time(
+                TickDeltas {
+                    left: ticks[0],
+                    right: ticks[1],
+                },
+                6.0,
+            ));
+            if let Some((at, ks)) = self.block_left_at {
+                if k == at {
+                    self.wheels[0].ks = ks;
+                }
+            }
+            let applied = self.controller.telemetry().wheel_loop.volts;
+            self.wheels[0].advance(applied.left_v, 0.001);
+            self.wheels[1].advance(applied.right_v, 0.001);
+            self.speeds
+                .push([self.wheels[0].speed, self.wheels[1].speed]);
+            let periods = if Some(k) == late_at { 2 } else { 1 };
+            match tuner.step(self.controller.telemetry(), periods) {
+                TuneStep::Drive(v) => {
+                    self.asked.push(v);
+                    volts = v;
+                }
+                TuneStep::Finished(outcome) => return outcome,
+            }
+        }
+        panic!("the tune did not end");
+    }
+}
+
+/// The reference wheel on the ground: K = 6.35 rad/s per V, τ = 89 ms, k_S = 0.375 V.
+fn ground_wheel() -> SyntheticWheel {
+    SyntheticWheel::new(6.35, 0.089, 0.375)
+}
+
+fn config(bench: &Bench) -> TuneConfig {
+    TuneConfig::for_robot(bench.params().config())
+}
+
+fn close(x: f32, truth: f32, tolerance: f32) -> bool {
+    math::abs(x - truth) <= tolerance * math::abs(truth)
+}
+
+#[test]
+fn the_tune_recovers_the_model_of_a_synthetic_wheel() {
+    let mut bench = Bench::new(ground_wheel());
+    let mut tuner = Tuner::new(config(&bench), &bench.params());
+    let result = bench.run(&mut tuner, None).unwrap();
+    assert_eq!(tuner.outcome(), Some(Ok(result)));
+    for m in result.models {
+        assert!(close(m.gain_rad_s_per_v, 6.35, 0.03), "{m:?}");
+        assert!(close(m.kv_v_per_rad_s, 1.0 / 6.35, 0.03), "{m:?}");
+        assert!(close(m.time_constant_s, 0.089, 0.05), "{m:?}");
+        assert!(math::abs(m.dead_time_s) < 0.003, "{m:?}");
+        assert!(close(m.ks_v, 0.375, 0.1), "{m:?}");
+        assert_eq!(m.design_time_constant_s, m.time_constant_s);
+    }
+    // SIMC with τ_c = 1.2 θ_e, θ_e = the identified θ (up to a millisecond of the encoder's
+    // quantisation) + 10.5 ms (the speed window and the sampling):
+    // K_c = τ/(K · 2.2 θ_e), T_i = min(τ, 8.8 θ_e), from the identified model exactly…
+    let (l, m) = (result.loops[0], result.models[0]);
+    let theta_e = m.dead_time_s.max(0.0) + 0.0105;
+    let kc = m.time_constant_s / (m.gain_rad_s_per_v * 2.2 * theta_e);
+    assert!(close(l.kp_v_per_rad_s, kc, 1e-4), "{l:?} vs {kc}");
+    assert_eq!(l.ti_s, m.time_constant_s.min(8.8 * theta_e));
+    // … and near the truth's (θ = 0).
+    assert!(
+        close(l.kp_v_per_rad_s, 0.089 / (6.35 * 2.2 * 0.0105), 0.12),
+        "{l:?}"
+    );
+    assert!(close(l.ti_s, 0.089, 0.05), "{l:?}");
+    assert_eq!((l.td_s, l.d_filter_tau_s), (0.0, 0.0));
+    // The tuned loops make a valid robot.
+    assert!(Params::new(result.apply_to(bench.params().config())).is_ok());
+}
+
+#[test]
+fn lifted_wheels_are_corrected_for_the_chassis() {
+    // Lifted, the reference wheel turns 1.1e-4 kg·m² only: τ = 26 ms. The chassis' 0.5 kg
+    // on 32.5 mm wheels makes it 89 ms on the ground.
+    let mut bench = Bench::new(SyntheticWheel::new(6.35, 0.0262, 0.375));
+    let mut c = config(&bench);
+    c.load = TuneLoad::lifted(0.5, 0.0325, 1.1e-4);
+    let mut tuner = Tuner::new(c, &bench.params());
+    let result = bench.run(&mut tuner, None).unwrap();
+    for m in result.models {
+        assert!(close(m.time_constant_s, 0.0262, 0.06), "{m:?}");
+        assert!(close(m.design_time_constant_s, 0.089, 0.06), "{m:?}");
+    }
+    // The PI is the ground one, not the stand's (about 3× higher).
+    let kc = 0.089 / (6.35 * 2.2 * 0.0105);
+    assert!(
+        close(result.loops[1].kp_v_per_rad_s, kc, 0.12),
+        "{:?}",
+        result.loops
+    );
+}
+
+#[test]
+fn volts_stay_bounded_and_no_wheel_crosses_zero_speed() {
+    let mut bench = Bench::new(ground_wheel());
+    let c = config(&bench);
+    let mut tuner = Tuner::new(c, &bench.params());
+    bench.run(&mut tuner, None).unwrap();
+    let limit = c.experiment_volts_v;
+    assert!((limit - 2.4).abs() < 1e-6);
+    // Both directions ran; every voltage within ±u_hi, both wheels alike.
+    assert!(bench.asked.iter().any(|v| v.left_v > 2.0));
+    assert!(bench.asked.iter().any(|v| v.left_v < -2.0));
+    assert!(bench
+        .asked
+        .iter()
+        .all(|v| math::abs(v.left_v) <= limit && v.left_v == v.right_v));
+    // Forward (until the first negative voltage) the wheels never turn backwards, and
+    // backwards never forwards: the brake stops them at rest.
+    let split = bench.asked.iter().position(|v| v.left_v < 0.0).unwrap();
+    let (forward, backward) = bench.speeds.split_at(split);
+    assert!(forward.iter().flatten().all(|w| *w >= 0.0));
+    assert!(backward.iter().flatten().all(|w| *w <= 0.0));
+    // And the voltage never goes from one sign to the other without 0 V between.
+    for pair in bench.asked.windows(2) {
+        assert!(pair[0].left_v * pair[1].left_v >= 0.0, "{pair:?}");
+    }
+}
+
+#[test]
+fn an_inverted_encoder_stops_the_tune_at_once() {
+    let mut bench = Bench::new(ground_wheel());
+    bench.encoder_sign[1] = -1.0;
+    let mut tuner = Tuner::new(config(&bench), &bench.params());
+    assert_eq!(
+        bench.run(&mut tuner, None),
+        Err(TuneAbort::WrongDirection(Side::Right))
+    );
+    // Within the breakaway: the wheel barely moved.
+    assert!(bench.asked.len() < 800, "{}", bench.asked.len());
+    assert!(bench.asked.iter().all(|v| math::abs(v.left_v) < 1.0));
+}
+
+#[test]
+fn a_wheel_that_does_not_turn_is_reported_and_the_voltage_stays_bounded() {
+    // Static friction beyond u_hi: a blocked wheel.
+    let mut bench = Bench::new(SyntheticWheel::new(6.35, 0.089, 5.0));
+    let c = config(&bench);
+    let mut tuner = Tuner::new(c, &bench.params());
+    assert_eq!(
+        bench.run(&mut tuner, None),
+        Err(TuneAbort::NoBreakaway(Side::Left))
+    );
+    assert!(bench
+        .asked
+        .iter()
+        .all(|v| math::abs(v.left_v) <= c.experiment_volts_v));
+}
+
+#[test]
+fn a_late_step_a_speed_limit_or_a_short_leash_stops_the_tune() {
+    let mut bench = Bench::new(ground_wheel());
+    let mut tuner = Tuner::new(config(&bench), &bench.params());
+    assert_eq!(bench.run(&mut tuner, Some(1500)), Err(TuneAbort::LateStep));
+
+    let mut bench = Bench::new(ground_wheel());
+    let mut c = config(&bench);
+    c.max_speed_rad_s = 8.0;
+    let mut tuner = Tuner::new(c, &bench.params());
+    assert!(matches!(
+        bench.run(&mut tuner, None),
+        Err(TuneAbort::TooFast(_))
+    ));
+    assert!(bench.speeds.iter().flatten().all(|w| *w < 9.0));
+
+    let mut bench = Bench::new(ground_wheel());
+    let mut c = config(&bench);
+    c.max_distance_m = 0.2;
+    let mut tuner = Tuner::new(c, &bench.params());
+    assert_eq!(bench.run(&mut tuner, None), Err(TuneAbort::TooFar));
+    // Lifted, the odometry's distance means nothing and is not checked.
+    let mut bench = Bench::new(ground_wheel());
+    c.load = TuneLoad::Lifted {
+        ground_inertia_factor: 1.0,
+    };
+    let mut tuner = Tuner::new(c, &bench.params());
+    assert!(bench.run(&mut tuner, None).is_ok());
+}
+
+#[test]
+fn an_aborted_tune_reports_why_and_asks_for_nothing_more() {
+    let bench = Bench::new(ground_wheel());
+    let mut tuner = Tuner::new(config(&bench), &bench.params());
+    assert!(!tuner.running());
+    tuner.start(Pose::default());
+    assert!(tuner.running());
+    tuner.abort(TuneAbort::Stopped);
+    assert!(!tuner.running());
+    assert_eq!(tuner.outcome(), Some(Err(TuneAbort::Stopped)));
+    assert_eq!(
+        tuner.step(bench.controller.telemetry(), 1),
+        TuneStep::Finished(Err(TuneAbort::Stopped))
+    );
+}
+
+#[test]
+fn config_errors_name_the_field() {
+    let params = Params::new(RobotConfig::REFERENCE_ROBOT).unwrap();
+    let good = TuneConfig::for_robot(params.config());
+    assert_eq!(good.validate(&params), Ok(()));
+    let bad = |f: fn(&mut TuneConfig)| {
+        let mut c = good;
+        f(&mut c);
+        c.validate(&params).unwrap_err()
+    };
+    assert_eq!(
+        bad(|c| c.experiment_volts_v = 7.0).field,
+        "experiment_volts_v"
+    );
+    assert_eq!(bad(|c| c.hold_s = f32::NAN).field, "hold_s");
+    assert_eq!(bad(|c| c.max_distance_m = 0.0).field, "max_distance_m");
+    let e = bad(|c| {
+        c.load = TuneLoad::Lifted {
+            ground_inertia_factor: 0.5,
+        }
+    });
+    assert_eq!(e.field, "load.ground_inertia_factor");
+    assert_eq!(
+        format!("{e}"),
+        "tune.load.ground_inertia_factor is out of range, got 0.5"
+    );
+    // The reference robot's lifted factor.
+    let TuneLoad::Lifted {
+        ground_inertia_factor,
+    } = TuneLoad::lifted(0.5, 0.0325, 1.1e-4)
+    else {
+        panic!()
+    };
+    assert!((ground_inertia_factor - 3.4006).abs() < 1e-3);
+}
+
+#[test]
+fn once_turning_the_voltage_stays_well_above_breakaway_until_the_brake() {
+    let mut bench = Bench::new(ground_wheel());
+    let c = config(&bench);
+    let mut tuner = Tuner::new(c, &bench.params());
+    bench.run(&mut tuner, None).unwrap();
+    // The forward half: after the breakaway ramp's peak, every voltage is 0 (the brake)
+    // or at least u_lo = k_S + 0.3 (u_hi − k_S), far above the static friction k_S.
+    let split = bench.asked.iter().position(|v| v.left_v < 0.0).unwrap();
+    let forward = &bench.asked[..split];
+    let moved = bench
+        .speeds
+        .iter()
+        .position(|w| w[0] >= MOVING_RAD_S)
+        .unwrap();
+    let ks = ground_wheel().ks;
+    let floor = ks + 0.3 * (c.experiment_volts_v - ks);
+    let after = &forward[moved + 1..];
+    let experiment: Vec<f32> = after
+        .iter()
+        .map(|v| v.left_v)
+        .take_while(|v| *v != 0.0)
+        .collect();
+    assert!(experiment.len() > 2000, "{}", experiment.len());
+    assert!(
+        experiment.iter().all(|v| *v >= 0.97 * floor),
+        "min {:?} floor {floor}",
+        experiment.iter().copied().reduce(f32::min)
+    );
+    // And the wheels kept turning all along (the speed never fell to rest before the
+    // brake).
+    let stopped_at = moved + 1 + experiment.len();
+    assert!(bench.speeds[moved + 50..stopped_at]
+        .iter()
+        .all(|w| w[0] > 1.0 && w[1] > 1.0));
+}
+
+#[test]
+fn a_wheel_that_stops_while_driven_stops_the_tune() {
+    let mut bench = Bench::new(ground_wheel());
+    // Blocked in the middle of the forward experiment (the hold or the step).
+    bench.block_left_at = Some((2000, 10.0));
+    let mut tuner = Tuner::new(config(&bench), &bench.params());
+    assert_eq!(
+        bench.run(&mut tuner, None),
+        Err(TuneAbort::Stalled(Side::Left))
+    );
+    // Within the speed window and its grace of the block, not at the end of the phase.
+    assert!(bench.asked.len() < 2000 + 300, "{}", bench.asked.len());
+}

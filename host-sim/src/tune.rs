@@ -1,0 +1,326 @@
+//! The core's wheel-loop tune ([`controller_core::tune`]) on the simulated robot, and the
+//! checks that it works: the identified model against the linearised plant, the tuned
+//! loop's step response and the scenario with the tuned gains.
+//!
+//! The tune runs exactly as on the robot: the supervisor, armed in
+//! [`RunMode::Tune`], drives the wheels open loop in volts through the simulated bridge
+//! and encoders until the tune disarms it.
+//!
+//! ## Load cases
+//!
+//! - **On the ground** (`[plant] load = "ground"`, the default): the robot drives about
+//!   0.6 m forward and back; the identified plant is the driving-straight plant.
+//! - **Lifted** (`load = "lifted"`): the wheels turn their own inertia only; the tune is
+//!   told the factor (J_w + m R²/2) / J_w from the plant's own mass and inertia (what a
+//!   user states from a scale and the wheel's data), and corrects τ by it.
+//!
+//! The truth each identification is compared with is the linearised plant of
+//! [`crate::margins::WheelPlant`] in the same load case, motoring, driving straight:
+//! k_V = 1/K (V per rad/s), τ.
+
+use controller_core::law::LawKind;
+use controller_core::supervisor::{ArmRequest, RunMode, State};
+use controller_core::tune::{TuneAbort, TuneConfig, TuneLoad, TuneResult};
+
+use rayon::prelude::*;
+
+use crate::margins::{Motion, WheelPlant};
+use crate::plant::{Load, Plant, PowerFlow};
+use crate::robustness::Variation;
+use crate::run::{plant_params, Robot, RunError};
+use crate::scenario::Scenario;
+
+/// Longest a tune may run on the simulated robot, s.
+pub const MAX_TUNE_S: f64 = 60.0;
+
+/// What a tune did on the simulated robot.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TuneRun {
+    /// The tune's result, or why it stopped.
+    pub outcome: Result<TuneResult, TuneAbort>,
+    /// Simulated time from arming to the disarm, s.
+    pub duration_s: f64,
+    /// Largest true distance of the robot from where it started, m.
+    pub max_distance_m: f64,
+    /// Largest |true wheel speed| during the tune, rad/s.
+    pub max_wheel_speed_rad_s: f64,
+}
+
+/// The linearised truth of one wheel in the scenario's load case (motoring, straight).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Truth {
+    /// 1/K, V per rad/s.
+    pub kv_v_per_rad_s: f64,
+    /// τ in the scenario's load case, s.
+    pub time_constant_s: f64,
+    /// τ on the ground driving straight (what the PI is designed for), s.
+    pub ground_time_constant_s: f64,
+}
+
+/// The tune's settings for `scenario`: the robot's defaults, and lifted with the
+/// chassis correction when the scenario's plant is lifted.
+pub fn config_for(scenario: &Scenario) -> TuneConfig {
+    let mut config = TuneConfig::for_robot(&scenario.robot);
+    if scenario.plant.load == Load::Lifted {
+        let body = scenario.plant.body;
+        // The wheel's own inertia with the rotor reflected through the gearbox.
+        let n = f64::from(scenario.robot.gear_ratio);
+        let wheel = body.wheel_inertia_kg_m2 + n * n * scenario.plant.motor.rotor_inertia_kg_m2;
+        config.load = TuneLoad::lifted(
+            body.mass_kg as f32,
+            scenario.robot.wheel_radius_left_m,
+            wheel as f32,
+        );
+    }
+    config
+}
+
+/// The linearised truth of `scenario`'s left wheel ([`Truth`]).
+pub fn truth(scenario: &Scenario) -> Result<Truth, RunError> {
+    let mut params = plant_params(scenario);
+    let here = WheelPlant::linearise(&params, Motion::Straight, PowerFlow::Motoring)?;
+    params.load = Load::Ground;
+    let ground = WheelPlant::linearise(&params, Motion::Straight, PowerFlow::Motoring)?;
+    Ok(Truth {
+        kv_v_per_rad_s: 1.0 / here.gain_rad_s_per_v,
+        time_constant_s: here.time_constant_s,
+        ground_time_constant_s: ground.time_constant_s,
+    })
+}
+
+/// Runs the core's tune with `config` on `scenario`'s simulated robot, from rest.
+pub fn run_tune(scenario: &Scenario, config: TuneConfig) -> Result<TuneRun, RunError> {
+    let params = scenario.params()?;
+    let mut robot = Robot::new(scenario, LawKind::Tracking, &[])?;
+    robot
+        .supervisor
+        .set_tune_config(config, &params)
+        .map_err(|_| RunError::Argument {
+            name: "tune config",
+            rule: "must be valid for the robot",
+            value: 0.0,
+        })?;
+    // Warm the supply filter up first, as on a robot that has been on for a while.
+    for _ in 0..50 {
+        robot.step();
+    }
+    let request = ArmRequest {
+        mode: RunMode::Tune,
+        hold_speeds: None,
+        initial_motion: None,
+    };
+    robot
+        .supervisor
+        .arm_locally(&mut robot.controller, request)
+        .map_err(|_| RunError::Argument {
+            name: "scenario",
+            rule: "must let the robot arm",
+            value: 0.0,
+        })?;
+    let rate = f64::from(scenario.robot.control_rate_hz);
+    let start = robot.hardware.period();
+    let origin = robot.hardware.plant().pose();
+    let limit = (MAX_TUNE_S * rate) as u64;
+    let (mut max_distance, mut max_speed) = (0.0f64, 0.0f64);
+    loop {
+        let out = robot.step();
+        let plant: &Plant = robot.hardware.plant();
+        let pose = plant.pose();
+        max_distance = max_distance.max((pose.x_m - origin.x_m).hypot(pose.y_m - origin.y_m));
+        for w in plant.wheel_speeds() {
+            max_speed = max_speed.max(w.abs());
+        }
+        let elapsed = robot.hardware.period() - start;
+        if out.state != State::Armed || elapsed >= limit {
+            let outcome = robot
+                .supervisor
+                .tune_outcome()
+                .unwrap_or(Err(TuneAbort::Stopped));
+            return Ok(TuneRun {
+                outcome,
+                duration_s: elapsed as f64 / rate,
+                max_distance_m: max_distance,
+                max_wheel_speed_rad_s: max_speed,
+            });
+        }
+    }
+}
+
+/// `scenario` with the wheel loops of `result` (and its own plant).
+pub fn with_tuned_loops(scenario: &Scenario, result: &TuneResult) -> Scenario {
+    let mut s = scenario.clone();
+    s.robot = result.apply_to(&scenario.robot);
+    s
+}
+
+/// Relative error of `x` against `truth`, %.
+pub fn error_pct(x: f64, truth: f64) -> f64 {
+    (x - truth) / truth * 100.0
+}
+
+/// The tuned wheel loops as robot-file sections (`[robot.left_wheel]`,
+/// `[robot.right_wheel]`), ready to paste into a robot file's `[robot]` part.
+pub fn robot_file_sections(result: &TuneResult) -> String {
+    let mut out = String::new();
+    for (name, w) in ["left_wheel", "right_wheel"].iter().zip(result.loops) {
+        out.push_str(&format!(
+            "[robot.{name}]\nks_v = {}\nkv_v_per_rad_s = {}\nkp_v_per_rad_s = {}\nti_s = {}\n\
+td_s = {}\nd_filter_tau_s = {}\n",
+            w.ks_v, w.kv_v_per_rad_s, w.kp_v_per_rad_s, w.ti_s, w.td_s, w.d_filter_tau_s
+        ));
+    }
+    out
+}
+
+/// The supplies of the identification sweep, V: from a weak 4×AA pack to a full 3S.
+pub const SWEEP_SUPPLIES_V: [f64; 4] = [5.0, 6.0, 8.4, 12.6];
+
+/// The robots of the identification sweep: at each of [`SWEEP_SUPPLIES_V`], the nominal
+/// motor and each of R_a, K_t, friction and inertia at −30 % and +30 % (36 robots).
+pub fn sweep_variations() -> Vec<Variation> {
+    let mut rows = Vec::new();
+    for supply in SWEEP_SUPPLIES_V {
+        let at = Variation {
+            supply_v: Some(supply),
+            ..Variation::default()
+        };
+        rows.push(at);
+        for p in [-30.0, 30.0] {
+            rows.push(Variation {
+                resistance_pct: p,
+                ..at
+            });
+            rows.push(Variation {
+                torque_constant_pct: p,
+                ..at
+            });
+            rows.push(Variation {
+                friction_pct: p,
+                ..at
+            });
+            rows.push(Variation {
+                inertia_pct: p,
+                ..at
+            });
+        }
+    }
+    rows
+}
+
+/// One robot of the identification sweep.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SweepCase {
+    /// The robot.
+    pub variation: Variation,
+    /// Its linearised truth.
+    pub truth: Truth,
+    /// The tune on it.
+    pub run: TuneRun,
+}
+
+impl SweepCase {
+    /// The larger wheel's relative error of k_V and of τ against the truth, %, (k_V, τ);
+    /// `None` if the tune found no model.
+    pub fn errors_pct(&self) -> Option<(f64, f64)> {
+        let result = self.run.outcome.ok()?;
+        let worst = |f: &dyn Fn(&controller_core::tune::WheelModel) -> f64, truth: f64| {
+            result
+                .models
+                .iter()
+                .map(|m| error_pct(f(m), truth))
+                .fold(0.0f64, |a, e| if e.abs() > a.abs() { e } else { a })
+        };
+        Some((
+            worst(&|m| f64::from(m.kv_v_per_rad_s), self.truth.kv_v_per_rad_s),
+            worst(
+                &|m| f64::from(m.time_constant_s),
+                self.truth.time_constant_s,
+            ),
+        ))
+    }
+}
+
+/// The tune on every robot of `variations` (applied to `scenario`), in parallel, with
+/// `config`'s settings (its load replaced by each robot's, [`config_for`]).
+pub fn identification_sweep(
+    scenario: &Scenario,
+    config: TuneConfig,
+    variations: &[Variation],
+) -> Result<Vec<SweepCase>, RunError> {
+    variations
+        .par_iter()
+        .map(|v| {
+            let s = v.apply(scenario);
+            Ok(SweepCase {
+                variation: *v,
+                truth: truth(&s)?,
+                run: run_tune(
+                    &s,
+                    TuneConfig {
+                        load: config_for(&s).load,
+                        ..config
+                    },
+                )?,
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scenario() -> Scenario {
+        Scenario::load("paper-circle").unwrap()
+    }
+
+    #[test]
+    fn the_tune_identifies_the_reference_wheel_on_the_ground() {
+        let s = scenario();
+        let truth = truth(&s).unwrap();
+        let run = run_tune(&s, config_for(&s)).unwrap();
+        let result = run.outcome.unwrap();
+        for m in result.models {
+            let kv = f64::from(m.kv_v_per_rad_s);
+            let tau = f64::from(m.time_constant_s);
+            assert!(
+                error_pct(kv, truth.kv_v_per_rad_s).abs() < 10.0,
+                "{m:?} {truth:?}"
+            );
+            assert!(
+                error_pct(tau, truth.time_constant_s).abs() < 10.0,
+                "{m:?} {truth:?}"
+            );
+        }
+        // On the ground the robot moved, within the tune's leash.
+        assert!(
+            run.max_distance_m > 0.1 && run.max_distance_m < 1.5,
+            "{run:?}"
+        );
+        assert!(run.max_wheel_speed_rad_s < f64::from(config_for(&s).max_speed_rad_s));
+    }
+
+    #[test]
+    fn lifted_the_tune_designs_for_the_ground() {
+        let mut s = scenario();
+        s.plant.load = Load::Lifted;
+        let truth = truth(&s).unwrap();
+        assert!(truth.ground_time_constant_s > 2.5 * truth.time_constant_s);
+        let run = run_tune(&s, config_for(&s)).unwrap();
+        let result = run.outcome.unwrap();
+        for m in result.models {
+            let tau = f64::from(m.time_constant_s);
+            let design = f64::from(m.design_time_constant_s);
+            assert!(
+                error_pct(tau, truth.time_constant_s).abs() < 10.0,
+                "{m:?} {truth:?}"
+            );
+            assert!(
+                error_pct(design, truth.ground_time_constant_s).abs() < 10.0,
+                "{m:?} {truth:?}"
+            );
+        }
+        // The robot stayed put.
+        assert!(run.max_distance_m < 1e-9, "{run:?}");
+    }
+}

@@ -251,6 +251,47 @@ impl Controller {
         }
     }
 
+    /// Rebuilds the controller in place as [`Controller::new`] would with `params`, `law`
+    /// and `start` (world frame), keeping its reference as it is. Unlike assigning a new
+    /// controller, it moves no whole controller through the stack: it is meant for small
+    /// stacks (an interrupt installing a new configuration).
+    pub fn rebuild(&mut self, params: &Params, law: LawKind, start: Pose) {
+        self.params = *params;
+        self.restart_from_params(law, start);
+    }
+
+    /// Rebuilds the controller in place as [`Controller::new`] would with its parameters,
+    /// a copy of `reference`, `law` and `start` (world frame); see [`Controller::rebuild`].
+    pub fn follow(&mut self, reference: &Reference, law: LawKind, start: Pose) {
+        self.reference.clone_from(reference);
+        self.restart_from_params(law, start);
+    }
+
+    /// Everything but the parameters and the reference as [`Controller::new`] builds it.
+    fn restart_from_params(&mut self, law: LawKind, start: Pose) {
+        let params = &self.params;
+        let steps_per_s = params.control_rate().get() as f32;
+        let window = params.config().speed_window_steps as usize;
+        for speed in &mut self.speed {
+            *speed = SpeedEstimator::new(window, params.rad_per_tick(), steps_per_s);
+        }
+        self.odometry = Odometry::new(params.geometry(), params.ticks_per_wheel_rev(), start);
+        self.drive = WheelDrive::new(params);
+        self.supply =
+            SupplyFilter::new(params.config().drive.supply_filter_tau_s, params.period_s());
+        self.limiter = CommandLimiter::new(params.config().limits);
+        self.telemetry = Telemetry {
+            pose: start,
+            rim_speed_cap_m_s: params.config().limits.max_rim_speed_m_s,
+            ..Telemetry::default()
+        };
+        self.ramp = SetpointRamp::default();
+        self.law = law;
+        self.mode = Mode::Idle;
+        self.steps = 0;
+        self.schedule = Schedule::default();
+    }
+
     /// The parameters in use.
     pub const fn params(&self) -> &Params {
         &self.params
@@ -614,6 +655,50 @@ pub(crate) mod tests {
 
     fn ticks(left: i32, right: i32) -> TickDeltas {
         TickDeltas { left, right }
+    }
+
+    /// A controller that has driven for a while, then is rebuilt in place, is the one
+    /// `Controller::new` builds (every field, as `Debug` shows them).
+    #[test]
+    fn rebuilding_in_place_equals_building_anew() {
+        let mut params_config = RobotConfig::REFERENCE_ROBOT;
+        params_config.wheel_radius_left_m *= 1.01;
+        params_config.speed_window_steps = 12;
+        let other_params = Params::new(params_config).unwrap();
+        let other_path = Path::line(Point::new(1.0, 2.0), 0.5, 3.0).unwrap();
+        let mut other_reference = Reference::new(
+            other_path,
+            0.3,
+            ReferenceMode::PathFollowing { lookahead_m: 0.1 },
+        )
+        .unwrap();
+        let start = Pose::new(0.5, -0.25, 1.0);
+        let _ = other_reference.sample(0, NonZeroU32::MIN, &start);
+        let driven = || {
+            let mut c = controller();
+            c.set_mode(Mode::FollowPath);
+            for k in 0..40 {
+                step(&mut c, ticks(k % 3, 2));
+            }
+            c
+        };
+
+        let mut rebuilt = driven();
+        let reference = rebuilt.reference().clone();
+        rebuilt.rebuild(&other_params, LawKind::Kanayama, start);
+        let fresh = Controller::new(other_params, reference, LawKind::Kanayama, start);
+        assert_eq!(format!("{rebuilt:?}"), format!("{fresh:?}"));
+
+        let mut followed = driven();
+        followed.follow(&other_reference, LawKind::Kanayama, start);
+        let fresh = Controller::new(
+            *controller().params(),
+            other_reference.clone(),
+            LawKind::Kanayama,
+            start,
+        );
+        assert_eq!(format!("{followed:?}"), format!("{fresh:?}"));
+        assert_ne!(format!("{followed:?}"), format!("{:?}", driven()));
     }
 
     #[test]

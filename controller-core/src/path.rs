@@ -270,13 +270,37 @@ impl core::fmt::Display for PathError {
 }
 
 /// A path: a chain of [`Segment`]s parameterised by arc length, open or closed.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct Path {
     segments: Vec<Segment, MAX_SEGMENTS>,
     /// Arc length at which each segment starts, m.
     starts_m: Vec<f32, MAX_SEGMENTS>,
     length_m: f32,
     closed: bool,
+}
+
+impl Clone for Path {
+    fn clone(&self) -> Self {
+        Self {
+            segments: self.segments.clone(),
+            starts_m: self.starts_m.clone(),
+            length_m: self.length_m,
+            closed: self.closed,
+        }
+    }
+
+    /// In place, element by element: no temporary path on the stack.
+    fn clone_from(&mut self, source: &Self) {
+        self.segments.clear();
+        self.starts_m.clear();
+        // Both vectors have the capacity of the source's: every push succeeds.
+        for (segment, start_m) in source.segments.iter().zip(&source.starts_m) {
+            let _ = self.segments.push(*segment);
+            let _ = self.starts_m.push(*start_m);
+        }
+        self.length_m = source.length_m;
+        self.closed = source.closed;
+    }
 }
 
 /// How the end of one segment meets the start of the next.

@@ -107,7 +107,7 @@ impl ReferenceState {
 }
 
 /// A reference moving along a path at a set speed (see the module doc).
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 #[repr(C)]
 pub struct Reference {
     // The per-step state first, the large path last (short load offsets on the M4F).
@@ -122,6 +122,31 @@ pub struct Reference {
     /// Path-following only: the robot's last projection, m (None before the first sample).
     projection_m: Option<f32>,
     path: Path,
+}
+
+impl Clone for Reference {
+    fn clone(&self) -> Self {
+        Self {
+            progress: self.progress,
+            per_period: self.per_period,
+            per_period_rate_hz: self.per_period_rate_hz,
+            speed_m_s: self.speed_m_s,
+            mode: self.mode,
+            projection_m: self.projection_m,
+            path: self.path.clone(),
+        }
+    }
+
+    /// In place, field by field: no temporary reference on the stack.
+    fn clone_from(&mut self, source: &Self) {
+        self.progress = source.progress;
+        self.per_period = source.per_period;
+        self.per_period_rate_hz = source.per_period_rate_hz;
+        self.speed_m_s = source.speed_m_s;
+        self.mode = source.mode;
+        self.projection_m = source.projection_m;
+        self.path.clone_from(&source.path);
+    }
 }
 
 impl Reference {

@@ -7,7 +7,7 @@
 //! run metrics and publishes its state and counters. It never waits, allocates, logs or
 //! panics, and its work per step is bounded: one request, one reply, one event, one
 //! telemetry sample; installing a staged configuration or path (only while disarmed)
-//! rebuilds the controller, the largest step (about 3.7 KiB moved, see the crate doc).
+//! rebuilds the controller in place.
 
 use core::num::NonZeroU32;
 
@@ -456,7 +456,9 @@ pub fn pid_parts(parts: CorePidParts) -> PidParts {
 }
 
 /// Installs `staged` into `controller` and `supervisor`: both change or neither. The
-/// supervisor refuses unless disarmed; the controller is rebuilt only after it accepted.
+/// supervisor refuses unless disarmed; the controller is rebuilt (in place) only after it
+/// accepted. Kept out of the control step, so its frame is paid only when installing.
+#[inline(never)]
 fn install(
     staged: &Staged,
     controller: &mut Controller,
@@ -471,24 +473,14 @@ fn install(
                 .set_config(*config, params)
                 .map_err(set_refusal)?;
             // Same path, law and pose; new geometry, gains and limits.
-            *controller = Controller::new(
-                *params,
-                controller.reference().clone(),
-                controller.law(),
-                controller.pose(),
-            );
+            let (law, pose) = (controller.law(), controller.pose());
+            controller.rebuild(params, law, pose);
         }
         Staged::Path(path) => {
-            let params = *controller.params();
             supervisor
-                .set_config(path.supervisor, &params)
+                .set_config(path.supervisor, controller.params())
                 .map_err(set_refusal)?;
-            *controller = Controller::new(
-                params,
-                path.reference.clone(),
-                path.law,
-                path.supervisor.start_pose,
-            );
+            controller.follow(&path.reference, path.law, path.supervisor.start_pose);
         }
     }
     Ok(())

@@ -35,8 +35,9 @@
 //!   The step never waits, allocates, logs or panics. Its work is bounded: at most one
 //!   request from the link, one reply, one event, one telemetry sample per step; the
 //!   largest step installs a staged configuration or path (only while disarmed), which
-//!   rebuilds the controller in place of the old one (it moves about 3.7 KiB through the
-//!   interrupt's stack: the new controller, 2.7 KiB, and the path, 0.95 KiB).
+//!   rebuilds the controller in place, field by field, copying the path straight from
+//!   the staging area (no whole controller or path passes through the interrupt's
+//!   stack).
 //! - **USART RX interrupt**: pushes each received byte into a byte ring the board owns
 //!   ([`channel::ring::Ring`]`<u8, N>`, split: producer in the interrupt, consumer in
 //!   the link task; lock-free) and pends the link task. A full ring drops the byte: the

@@ -461,6 +461,9 @@ impl<'a> LinkService<'a> {
         self.forward(seq, Op::Install)
     }
 
+    // Cold and large (a path or a configuration by value): kept out of the link task's
+    // frame, which a control step preempting it adds to.
+    #[inline(never)]
     fn path_commit(
         &mut self,
         seq: u16,
@@ -490,6 +493,9 @@ impl<'a> LinkService<'a> {
         }
     }
 
+    // Cold and large (a path or a configuration by value): kept out of the link task's
+    // frame, which a control step preempting it adds to.
+    #[inline(never)]
     fn set_params(&mut self, seq: u16, set: &ParamSet) -> Option<Result<Reply, Refusal>> {
         if let Err(refusal) = self.ready_to_install() {
             return Some(Err(refusal));
@@ -521,6 +527,9 @@ impl<'a> LinkService<'a> {
 
     /// The control side installed (or refused) what was staged: update the active
     /// configuration, empty the staging area, and say what is now active.
+    // Cold and large (a path or a configuration by value): kept out of the link task's
+    // frame, which a control step preempting it adds to.
+    #[inline(never)]
     fn installed(&mut self, result: Result<(), Refused>) -> Result<Reply, Refusal> {
         let reply = match (result, self.end.staging.done()) {
             (Err(refused), _) => Err(refusal(refused)),

@@ -14,7 +14,7 @@
 //!    [`TuneConfig::experiment_volts_v`].
 //! 2. **Hold** u_lo until steady (the pre-step speed ω₁).
 //! 3. **Step** to u_hi and hold: a first-order-plus-dead-time model (K, τ, θ) per wheel
-//!    from the response's Laplace transform ([`identify`]).
+//!    from the response's Laplace transform (the `identify` submodule).
 //! 4. **Ramp** down from u_hi to u_lo over 12 τ: a straight line u = c + k_V ω̂ through
 //!    the samples after the first 4 τ gives k_V, and with τ and θ from the step, k_S.
 //! 5. **Brake** (0 V, a short brake) until both wheels are at rest.

@@ -8,7 +8,7 @@
 //! The encoder writes straight into the caller's buffer and reports, never panics, when
 //! the buffer or the protocol's limit is too small: the payload goes in a few bytes from
 //! the buffer's start (as many as COBS can add), the CRC after it, and COBS then runs in
-//! place towards the start ([`cobs_in_place`]).
+//! place towards the start.
 //!
 //! Every value the link serializes — messages, a configuration for its hash or a
 //! flash record, path segments for their checksum — goes through one postcard output,

@@ -2,12 +2,13 @@
 //!
 //! | command | what it does |
 //! |---|---|
-//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, the station end to end, firmware build and size budget, the panic check, the core and the link on an emulated Cortex-M4F, the firmware in the loop (`pil`). Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
+//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, the station end to end, firmware build and size budget, the panic check, the core and the link on an emulated Cortex-M4F, the firmware in the loop (`pil`), the docs. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
 //! | `e2e` | the station against the virtual robot: in process, and the binary over TCP (same result as `host-sim run`, link loss, corruption, refusals) |
 //! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` |
 //! | `size` | builds the firmware and checks it against the flash and RAM budget |
 //! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
 //! | `link-qemu` | runs the link crate under QEMU and talks to it over its USART: replies, corrupted frames, counters |
+//! | `docs` | `cargo doc --no-deps` with warnings denied, for the host crates and the firmware |
 //! | `pil` | processor in the loop: the firmware (emulated `qemu` board) under QEMU against host-sim's plant, driven over its link: `paper-circle` identical to `host-sim run`, the control interrupt's instructions and the stack, an encoder disconnect and a link loss stopping the motors in time |
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
 //! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt reaches no panic and no indirect call |
@@ -44,6 +45,7 @@ commands:
   qemu    run the core on an emulated Cortex-M4F and compare with the host
   link-qemu
           run the link on an emulated Cortex-M4F and talk to it over its USART
+  docs    cargo doc --no-deps with warnings denied (host crates, firmware)
   pil     the firmware on an emulated Cortex-M4F against host-sim's plant (processor in
           the loop): paper-circle vs host-sim, instructions, stack, a fault, a link loss
   size-of ELF
@@ -86,6 +88,7 @@ fn run() -> Result<bool> {
         ["e2e"] => vec![steps::end_to_end()],
         ["link-qemu"] => vec![steps::setup(), steps::link_qemu()],
         ["pil"] => vec![steps::setup(), steps::pil()],
+        ["docs"] => vec![steps::setup(), steps::docs()],
         ["size-of", elf] => {
             let elf = PathBuf::from(elf);
             vec![Step::new("size of an ELF", move |_| {

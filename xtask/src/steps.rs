@@ -233,7 +233,34 @@ pub fn ci() -> Vec<Step> {
         qemu(),
         link_qemu(),
         pil(),
+        docs(),
     ]
+}
+
+/// `cargo doc --no-deps` with warnings denied: the host crates, then the firmware for its
+/// target (a broken intra-doc link or a missing doc fails it).
+pub fn docs() -> Step {
+    Step::new(
+        "docs: cargo doc --no-deps, warnings denied (host and firmware)",
+        |ctx| {
+            let mut args = vec!["doc", "--no-deps", "--workspace"];
+            for package in TARGET_ONLY_PACKAGES {
+                args.extend(["--exclude", package]);
+            }
+            run_command(ctx.cargo(&args).env("RUSTDOCFLAGS", "-D warnings"))?;
+            run_command(
+                ctx.cargo(&[
+                    "doc",
+                    "--no-deps",
+                    "--package",
+                    "firmware",
+                    "--target",
+                    TARGET,
+                ])
+                .env("RUSTDOCFLAGS", "-D warnings"),
+            )
+        },
+    )
 }
 
 /// The station against the virtual robot (`station/tests`): in this process in lockstep

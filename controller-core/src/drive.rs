@@ -590,6 +590,77 @@ mod tests {
         assert_eq!(d.top_speed_rad_s(0.0), 0.0);
     }
 
+    /// Steps `d` `n` times towards `setpoint` at `measured` (rad/s, both wheels) on 6 V and
+    /// returns the last report.
+    fn run(d: &mut WheelDrive, setpoint: f32, measured: f32, n: usize) -> WheelLoopReport {
+        let mut r = WheelLoopReport::default();
+        for _ in 0..n {
+            d.step(
+                WheelSpeeds::new(setpoint, setpoint),
+                WheelSpeeds::new(measured, measured),
+                6.0,
+                1.0,
+                &mut r,
+            );
+        }
+        r
+    }
+
+    #[test]
+    fn driving_backwards_from_rest_starts_at_once() {
+        // From 0 V there is no direction to pass through zero from.
+        let r = run(&mut drive(), -10.0, 0.0, 1);
+        assert!(r.volts.left_v < -1.0 && r.volts.right_v < -1.0, "{r:?}");
+    }
+
+    #[test]
+    fn stop_forgets_the_applied_voltage() {
+        let mut d = drive();
+        let before = run(&mut d, 20.0, 10.0, 50);
+        assert!(before.volts.left_v > 2.0, "{before:?}");
+        d.stop();
+        assert_eq!(d.volts(), WheelVolts::default());
+        // The next step slews from 0 V: 1.2 V at 1 200 V/s and 1 kHz.
+        let after = run(&mut d, 20.0, 10.0, 1);
+        assert!((after.volts.left_v - 1.2).abs() < 1e-5, "{after:?}");
+    }
+
+    #[test]
+    fn a_restart_while_driving_continues_from_the_applied_voltage() {
+        let mut d = drive();
+        let steady = run(&mut d, 10.0, 10.0, 300).volts.left_v;
+        d.restart(
+            WheelSpeeds::new(10.0, 10.0),
+            WheelSpeeds::new(10.0, 10.0),
+            true,
+        );
+        let next = run(&mut d, 10.0, 10.0, 1).volts.left_v;
+        assert!((next - steady).abs() < 0.05, "{steady} V then {next} V");
+    }
+
+    #[test]
+    fn new_gains_bring_the_new_motor_model() {
+        // A motor model with twice the back-EMF constant halves the reachable speed; the
+        // retuned drive must plan with it exactly as a drive built with it would.
+        let mut config = RobotConfig::REFERENCE_ROBOT;
+        config.left_wheel.kv_v_per_rad_s *= 2.0;
+        config.right_wheel.kv_v_per_rad_s *= 2.0;
+        config.left_wheel.ks_v *= 1.5;
+        config.right_wheel.ks_v *= 1.5;
+        let slower = Params::new(config).unwrap();
+        let mut d = drive();
+        let before = d.top_speed_rad_s(6.0);
+        d.set_gains(&slower);
+        let expected = WheelDrive::new(&slower).top_speed_rad_s(6.0);
+        assert!(d.top_speed_rad_s(6.0) < 0.6 * before);
+        assert!((d.top_speed_rad_s(6.0) - expected).abs() < 1e-5);
+        // And the feed-forward with it: holding 10 rad/s asks for more volts.
+        let mut reference = drive();
+        let old = run(&mut reference, 10.0, 10.0, 300).volts.left_v;
+        let new = run(&mut d, 10.0, 10.0, 300).volts.left_v;
+        assert!(new > 1.5 * old, "{old} V, {new} V");
+    }
+
     #[test]
     fn supply_filter_smooths_and_ignores_garbage() {
         let mut f = SupplyFilter::new(0.02, 0.001);
@@ -603,6 +674,7 @@ mod tests {
         assert!((v - (7.4 - 0.632)).abs() < 0.02, "{v}");
         assert_eq!(f.update(f32::NAN), v);
         assert_eq!(f.update(-1.0), v);
+        assert_eq!(f.value_v(), v);
         assert_eq!(SupplyFilter::new(0.0, 0.001).update(5.0), 5.0);
     }
 

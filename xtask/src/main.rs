@@ -51,8 +51,9 @@ commands:
   size-of ELF
           flash and static RAM of an ARM ELF against the firmware budget (no build)
   panic-check
-          build the firmware and prove that its control interrupt (TIM5) cannot reach a
-          panic or an indirect call; the `panic-canary` build must fail the same check
+          build the firmware and prove that its control (TIM5) and link USART (USART2)
+          interrupts cannot reach a panic or an indirect call; the `panic-canary` build
+          must fail the same check
   panic-check ELF [--root NAME:IRQ]...
           the same proof on an ELF (no build), from the given interrupts (default TIM5:50)
   mutants [ARGS...]

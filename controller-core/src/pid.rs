@@ -198,7 +198,9 @@ impl IncrementalPid {
     /// A non-finite error or feed-forward leaves the state untouched and returns 0
     /// clamped into `bounds`.
     pub fn step(&mut self, error: f32, feed_forward: f32, bounds: Bounds, periods: f32) -> f32 {
-        // One check covers both: NaN + x is NaN, and ±∞ + finite is not finite.
+        // One check covers both: NaN + x is NaN, and ±∞ + finite is not finite. (`-` or `*`
+        // in place of `+` would decide alike short of an overflow at 1e38: equivalent
+        // mutants, listed in .cargo/mutants.toml.)
         if !(error + feed_forward).is_finite() {
             return bounds.clamp(0.0);
         }
@@ -218,7 +220,10 @@ impl IncrementalPid {
         let output = bounds.clamp(wanted);
         self.clamped = output != wanted;
         // Anti-windup by conditional integration: an integral increment that pushes the
-        // output further into the bound it is held at is dropped.
+        // output further into the bound it is held at is dropped. Only the sign of the
+        // product matters and `wanted − output` is never 0 while clamped, so `/` for `*`,
+        // and `>=` for `>` (which differs only for a zero increment, dropped or added
+        // alike), are equivalent mutants (.cargo/mutants.toml).
         self.feedback = if self.clamped && integral * (wanted - output) > 0.0 {
             held
         } else {
@@ -387,6 +392,25 @@ mod tests {
             steps += 1;
         }
         assert!(steps <= 11, "left saturation in {steps} steps");
+    }
+
+    #[test]
+    fn no_windup_against_a_bound_that_excludes_zero() {
+        // The drive's current limit is a window around the back-EMF, so a bound need not
+        // contain 0: here [0.5, 2]. Held at its lower bound by a negative error for
+        // 1000 steps, the integral must not wind down, so the output leaves the bound as
+        // soon as the error turns positive.
+        let mut pid = IncrementalPid::new(gains(0.0, 0.01, 0.0));
+        let b = Bounds { min: 0.5, max: 2.0 };
+        for _ in 0..1000 {
+            assert_eq!(pid.step(-1.0, 0.0, b, 1.0), 0.5);
+        }
+        let mut steps = 1;
+        while pid.step(1.0, 0.0, b, 1.0) <= 0.5 {
+            steps += 1;
+            assert!(steps < 100, "still held after {steps} steps: wound up");
+        }
+        assert!(steps <= 51, "left the bound after {steps} steps");
     }
 
     #[test]

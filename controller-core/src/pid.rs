@@ -466,6 +466,11 @@ mod tests {
         assert!((pid.step(1.0, 0.0, wide(), 1.0) - 0.3).abs() < 1e-6);
         pid.apply_output(f32::NAN);
         assert!((pid.step(1.0, 0.0, wide(), 1.0) - 0.4).abs() < 1e-6);
+        // With a feed-forward the applied output includes it: 0.9 applied with 0.5 of
+        // feed-forward leaves 0.4 of feedback, and the next step adds its 0.1.
+        pid.step(1.0, 0.5, wide(), 1.0);
+        pid.apply_output(0.9);
+        assert!((pid.step(1.0, 0.5, wide(), 1.0) - 1.0).abs() < 1e-6);
     }
 
     #[test]

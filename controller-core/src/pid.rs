@@ -455,6 +455,29 @@ mod tests {
     }
 
     #[test]
+    fn new_gains_rescale_the_derivative_without_a_bump() {
+        // A PD with a filtered derivative (α = 0.5) holding a decaying D term: doubling
+        // K_d doubles the stored term, so the next increment does not jump.
+        let mut pid = IncrementalPid::new(PidGains {
+            d_filter_alpha: 0.5,
+            ..gains(0.1, 0.0, 0.2)
+        });
+        pid.step(0.0, 0.0, wide(), 1.0);
+        pid.step(1.0, 0.0, wide(), 1.0);
+        let before = pid.parts().d;
+        assert!(before > 0.0);
+        pid.set_gains(PidGains {
+            d_filter_alpha: 0.5,
+            ..gains(0.1, 0.0, 0.4)
+        });
+        assert!(
+            (pid.parts().d - 2.0 * before).abs() < 1e-6,
+            "{before} → {}",
+            pid.parts().d
+        );
+    }
+
+    #[test]
     fn a_downstream_limit_is_fed_back() {
         // The PID asks for 0.6, a slew limit downstream applies 0.2: the next step must
         // continue from 0.2 (plus its increment), not from 0.6.

@@ -946,6 +946,56 @@ fn leaving_the_geofence_faults() {
 }
 
 #[test]
+fn new_tune_settings_only_while_disarmed_and_only_valid_ones() {
+    let mut r = rig();
+    let mut slower = *r.sup.tune_config();
+    slower.hold_s = 2.0;
+    assert_eq!(r.sup.set_tune_config(slower, &params()), Ok(()));
+    assert_eq!(r.sup.tune_config().hold_s, 2.0);
+    let mut bad = slower;
+    bad.experiment_volts_v = -1.0;
+    assert!(matches!(
+        r.sup.set_tune_config(bad, &params()),
+        Err(SupervisorSetError::InvalidTune(_))
+    ));
+    assert_eq!(
+        r.sup.tune_config().hold_s,
+        2.0,
+        "a refused setting changes nothing"
+    );
+    r.press(30);
+    let mut other = slower;
+    other.hold_s = 3.0;
+    assert_eq!(
+        r.sup.set_tune_config(other, &params()),
+        Err(SupervisorSetError::NotDisarmed(State::Armed))
+    );
+    assert_eq!(r.sup.tune_config().hold_s, 2.0);
+}
+
+#[test]
+fn any_single_fault_counts() {
+    let one = |set: fn(&mut Faults)| {
+        let mut f = Faults::default();
+        set(&mut f);
+        f.any()
+    };
+    assert!(!Faults::default().any());
+    assert!(one(|f| f.core.encoder_jump = true));
+    assert!(one(|f| f.core.non_finite = true));
+    assert!(one(|f| f.overrun = true));
+    assert!(one(|f| f.missed_ticks = true));
+    assert!(one(|f| f.stall_left = true));
+    assert!(one(|f| f.stall_right = true));
+    assert!(one(|f| f.saturated = true));
+    assert!(one(|f| f.divergence = true));
+    assert!(one(|f| f.geofence = true));
+    assert!(one(|f| f.supply_low = true));
+    assert!(one(|f| f.supply_high = true));
+    assert!(one(|f| f.emergency_stop = true));
+}
+
+#[test]
 fn new_settings_only_while_disarmed() {
     let mut r = rig();
     let mut c = config();

@@ -1038,6 +1038,23 @@ fn a_local_arm_needs_no_heartbeat_and_only_from_disarmed() {
 }
 
 #[test]
+fn hold_speeds_with_the_request_are_taken_only_when_both_are_numbers() {
+    let hold = |left: f32, right: f32| ArmRequest {
+        mode: RunMode::HoldWheelSpeeds,
+        hold_speeds: Some(WheelSpeeds::new(left, right)),
+        initial_motion: None,
+    };
+    for (left, right) in [(f32::NAN, 3.0), (3.0, f32::INFINITY)] {
+        let mut r = rig();
+        assert!(r.sup.arm_locally(&mut r.ctl, hold(left, right)).is_ok());
+        assert_eq!(r.sup.config().hold_speeds, HOLD, "{left} {right}");
+    }
+    let mut r = rig();
+    assert!(r.sup.arm_locally(&mut r.ctl, hold(4.0, 3.0)).is_ok());
+    assert_eq!(r.sup.config().hold_speeds, WheelSpeeds::new(4.0, 3.0));
+}
+
+#[test]
 fn a_loop_stuck_at_its_limits_faults() {
     // The wheels do not turn while the line-following loops push: saturated within the
     // first tens of steps (as soon as the integral has pushed the voltage to the current

@@ -345,6 +345,9 @@ impl Controller {
             self.mode = mode;
             return;
         }
+        // The schedule and the reference only move in path following, so restarting them
+        // on entering every other mode instead (`!=`) would restart them before each use
+        // all the same: an equivalent mutant (.cargo/mutants.toml).
         if mode == Mode::FollowPath {
             self.schedule = Schedule::default();
             self.reference.restart();
@@ -399,6 +402,10 @@ impl Controller {
             Mode::FollowPath => measured,
             Mode::Idle | Mode::ApplyVolts(_) => WheelSpeeds::default(),
         };
+        // The ramp's target is read only between steering steps: path following steers
+        // on its first step, and after `clear_faults` the set-point is 0, the default. So
+        // leaving `target` out is an equivalent mutant (.cargo/mutants.toml); it is set
+        // for the reader.
         self.ramp = SetpointRamp {
             target: self.telemetry.wheel_setpoint,
             ..SetpointRamp::default()
@@ -417,6 +424,7 @@ impl Controller {
         }
         let reachable = self.params.geometry().min_wheel_radius_m()
             * self.drive.top_speed_rad_s(self.telemetry.supply_v);
+        // Equal values give the same cap either way (`<=` is an equivalent mutant).
         if reachable < configured {
             reachable
         } else {
@@ -495,7 +503,9 @@ impl Controller {
                 }
             }
             // One check for all: NaN and ±∞ propagate through a sum (∞ − ∞ is NaN), and a
-            // sum that overflows comes from values no robot has.
+            // sum that overflows comes from values no robot has. `-` or `*` for any `+`
+            // keeps that (∞ − ∞ and ∞ · 0 are NaN too) and differs only when finite values
+            // overflow: equivalent mutants (.cargo/mutants.toml).
             let sum = t.pose.x_m
                 + t.pose.y_m
                 + t.pose.theta_rad

@@ -124,7 +124,8 @@ impl SupplyFilter {
     pub fn update(&mut self, supply_v: f32) -> f32 {
         // NaN fails both comparisons; no battery reads a kilovolt. (Written as two float
         // compares: a test against infinity compiles to a 20-instruction bit
-        // classification on the Cortex-M4F.)
+        // classification on the Cortex-M4F.) Whether exactly 1 kV is garbage is no
+        // battery's concern: `<=` is an equivalent mutant (.cargo/mutants.toml).
         #[allow(clippy::manual_range_contains)]
         let valid = supply_v >= 0.0 && supply_v < MAX_SUPPLY_READING_V;
         if valid {
@@ -218,6 +219,7 @@ impl WheelDrive {
             .wheels
             .map(|w| w.speed_per_volt * volts - w.speed_offset_rad_s);
         let top = min(left, right);
+        // At exactly 0 both branches return 0 (`>=` is an equivalent mutant).
         if top > 0.0 {
             top
         } else {
@@ -380,6 +382,7 @@ fn duty_for(volts: WheelVolts, supply_v: f32) -> MotorCommand {
 /// The smaller of `a` and `b`; a NaN `a` passes through (like [`math::clamp`]), so a
 /// fault stays visible.
 fn min(a: f32, b: f32) -> f32 {
+    // Equal values return the same number either way (`<=` is an equivalent mutant).
     if b < a {
         b
     } else {

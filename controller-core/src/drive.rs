@@ -346,7 +346,9 @@ impl WheelDrive {
             (false, true) => (1, 0),
             _ => return sp,
         };
-        // The fraction of its set-point the saturated wheel achieves, in [0, 1].
+        // The fraction of its set-point the saturated wheel achieves, in [0, 1]. (Which side
+        // a set-point of exactly the ramp's half-width falls on is no caller's concern:
+        // `>=` is an equivalent mutant.)
         let achieved = if math::abs(sp[sat]) > FF_SIGN_RAMP_RAD_S {
             math::clamp(measured[sat] / sp[sat], 0.0, 1.0)
         } else {
@@ -392,6 +394,7 @@ fn min(a: f32, b: f32) -> f32 {
 
 /// The larger of `a` and `b`; a NaN `a` passes through.
 fn max_of(a: f32, b: f32) -> f32 {
+    // Equal values return the same number either way (`>=` is an equivalent mutant).
     if b > a {
         b
     } else {
@@ -607,6 +610,15 @@ mod tests {
             );
         }
         r
+    }
+
+    #[test]
+    fn backwards_too_the_motor_never_sees_more_than_its_rating() {
+        // Turning backwards at 20 rad/s (back-EMF −3.1 V) and asked for −35 rad/s: the
+        // current window would allow −3.1 − 4.8 = −7.9 V, the 6 V rating caps it at −6 V.
+        let r = run(&mut drive(), -35.0, -20.0, 200);
+        assert!(r.volts.left_v >= -6.0 - 1e-5, "{r:?}");
+        assert!(r.volts.left_v < -5.9, "{r:?}");
     }
 
     #[test]

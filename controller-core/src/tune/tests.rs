@@ -294,6 +294,42 @@ fn an_aborted_tune_reports_why_and_asks_for_nothing_more() {
 }
 
 #[test]
+fn config_bounds_are_where_the_doc_says() {
+    let params = Params::new(RobotConfig::REFERENCE_ROBOT).unwrap();
+    let good = TuneConfig::for_robot(params.config());
+    let check = |f: fn(&mut TuneConfig), params: &Params| {
+        let mut c = good;
+        f(&mut c);
+        c.validate(params).map_err(|e| e.field)
+    };
+    // Up to the rated 6 V, but something.
+    assert_eq!(check(|c| c.experiment_volts_v = 6.0, &params), Ok(()));
+    assert_eq!(
+        check(|c| c.experiment_volts_v = 0.0, &params),
+        Err("experiment_volts_v")
+    );
+    assert_eq!(
+        check(|c| c.breakaway_ramp_v_per_s = 0.0, &params),
+        Err("breakaway_ramp_v_per_s")
+    );
+    assert_eq!(
+        check(|c| c.max_speed_rad_s = 0.0, &params),
+        Err("max_speed_rad_s")
+    );
+    assert_eq!(
+        check(|c| c.tau_c_per_dead_time = 0.0, &params),
+        Err("tau_c_per_dead_time")
+    );
+    // A hold of 0.1 s is 100 steps at 1 kHz, enough; at 400 Hz it is 40, too few.
+    assert_eq!(check(|c| c.hold_s = 0.1, &params), Ok(()));
+    let mut slow = RobotConfig::REFERENCE_ROBOT;
+    slow.control_rate_hz = 400;
+    let slow = Params::new(slow).unwrap();
+    assert_eq!(check(|c| c.hold_s = 0.1, &slow), Err("hold_s"));
+    assert_eq!(check(|c| c.hold_s = 0.2, &slow), Ok(()));
+}
+
+#[test]
 fn config_errors_name_the_field() {
     let params = Params::new(RobotConfig::REFERENCE_ROBOT).unwrap();
     let good = TuneConfig::for_robot(params.config());

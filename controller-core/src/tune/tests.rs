@@ -164,8 +164,22 @@ fn the_tune_recovers_the_model_of_a_synthetic_wheel() {
     );
     assert!(close(l.ti_s, 0.089, 0.05), "{l:?}");
     assert_eq!((l.td_s, l.d_filter_tau_s), (0.0, 0.0));
-    // The tuned loops make a valid robot.
-    assert!(Params::new(result.apply_to(bench.params().config())).is_ok());
+    // The tuned loops make a valid robot, with the tuned loops and nothing else changed.
+    let robot = *bench.params().config();
+    let tuned = result.apply_to(&robot);
+    assert!(Params::new(tuned).is_ok());
+    assert_eq!(
+        (tuned.left_wheel, tuned.right_wheel),
+        (result.loops[0], result.loops[1])
+    );
+    assert_eq!(
+        RobotConfig {
+            left_wheel: robot.left_wheel,
+            right_wheel: robot.right_wheel,
+            ..tuned
+        },
+        robot
+    );
 }
 
 #[test]

@@ -601,15 +601,22 @@ impl Supervisor {
         &self.config
     }
 
+    /// New settings are taken only while Disarmed.
+    fn require_disarmed(&self) -> Result<(), SupervisorSetError> {
+        if self.state == State::Disarmed {
+            Ok(())
+        } else {
+            Err(SupervisorSetError::NotDisarmed(self.state))
+        }
+    }
+
     /// Replaces the settings (validated against `params`); refused unless Disarmed.
     pub fn set_config(
         &mut self,
         config: SupervisorConfig,
         params: &Params,
     ) -> Result<(), SupervisorSetError> {
-        if self.state != State::Disarmed {
-            return Err(SupervisorSetError::NotDisarmed(self.state));
-        }
+        self.require_disarmed()?;
         config
             .validate(params)
             .map_err(SupervisorSetError::Invalid)?;
@@ -626,9 +633,7 @@ impl Supervisor {
         config: TuneConfig,
         params: &Params,
     ) -> Result<(), SupervisorSetError> {
-        if self.state != State::Disarmed {
-            return Err(SupervisorSetError::NotDisarmed(self.state));
-        }
+        self.require_disarmed()?;
         config
             .validate(params)
             .map_err(SupervisorSetError::InvalidTune)?;

@@ -34,6 +34,7 @@
 //!   and motors ±30 % off.
 //! - [`tune`] — the core's wheel-loop tune on the simulated robot, its identification
 //!   against the linearised plant and the tuned loop's step response.
+//! - [`cli`] — command-line values shared with the ground station.
 //! - [`serve`] — the virtual robot: robot-app's control and link sides against the
 //!   simulated hardware, speaking the runtime link over TCP, with ground truth.
 //!
@@ -50,6 +51,7 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod cli;
 pub mod encoder;
 pub mod fault_suite;
 pub mod faults;

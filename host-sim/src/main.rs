@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use controller_core::law::LawKind;
+use host_sim::cli::Law;
 use host_sim::output::{self, settle_text};
 use host_sim::run::{run_scenario, wheel_step_response, RunResult};
 use host_sim::scenario::BUILTIN;
@@ -19,27 +20,6 @@ use indicatif::{ProgressBar, ProgressStyle};
 struct Cli {
     #[command(subcommand)]
     command: Command,
-}
-
-/// Steering law (see controller_core::law).
-#[derive(Clone, Copy, Debug, ValueEnum)]
-enum Law {
-    /// The paper's polar law (33)–(34), as published: trails a moving reference by ≈ v_r/γ.
-    Paper,
-    /// The paper's Lyapunov design redone for a moving reference: zero steady error.
-    Tracking,
-    /// Kanayama et al. (1990), the classic baseline.
-    Kanayama,
-}
-
-impl From<Law> for LawKind {
-    fn from(law: Law) -> Self {
-        match law {
-            Law::Paper => LawKind::Paper,
-            Law::Tracking => LawKind::Tracking,
-            Law::Kanayama => LawKind::Kanayama,
-        }
-    }
 }
 
 #[derive(Subcommand)]

@@ -9,8 +9,8 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
-use clap::{Args, Parser, Subcommand, ValueEnum};
-use controller_core::law::LawKind;
+use clap::{Args, Parser, Subcommand};
+use host_sim::cli::Law;
 use host_sim::output::{self, settle_text};
 use host_sim::Scenario;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -41,27 +41,6 @@ struct LinkArgs {
     /// TCP address of a virtual robot (`host-sim serve --listen 127.0.0.1:5760`).
     #[arg(long, global = true)]
     connect: Option<String>,
-}
-
-/// Steering law (see controller_core::law).
-#[derive(Clone, Copy, Debug, ValueEnum)]
-enum Law {
-    /// The paper's polar law (33)–(34), as published.
-    Paper,
-    /// The paper's Lyapunov design redone for a moving reference.
-    Tracking,
-    /// Kanayama et al. (1990).
-    Kanayama,
-}
-
-impl From<Law> for LawKind {
-    fn from(law: Law) -> Self {
-        match law {
-            Law::Paper => LawKind::Paper,
-            Law::Tracking => LawKind::Tracking,
-            Law::Kanayama => LawKind::Kanayama,
-        }
-    }
 }
 
 #[derive(Subcommand)]

@@ -622,8 +622,15 @@ impl Supervisor {
             .map_err(SupervisorSetError::Invalid)?;
         self.config = config;
         self.max_supply_v = params.config().drive.max_supply_v;
-        // The robot may have changed: the tune's timing follows.
-        self.tuner.set_config(*self.tuner.config(), params);
+        // The robot may have changed: the tune's timing follows, and settings the new robot
+        // refuses (e.g. experiment volts above a lower motor rating) give way to its
+        // defaults.
+        let tune = *self.tuner.config();
+        let tune = match tune.validate(params) {
+            Ok(()) => tune,
+            Err(_) => TuneConfig::for_robot(params.config()),
+        };
+        self.tuner.set_config(tune, params);
         Ok(())
     }
 

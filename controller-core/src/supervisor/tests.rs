@@ -974,6 +974,26 @@ fn new_tune_settings_only_while_disarmed_and_only_valid_ones() {
 }
 
 #[test]
+fn tune_settings_the_new_robot_refuses_give_way_to_its_defaults() {
+    // The tune is set to ask 5 V of the 6 V motor; a 4 V motor refuses that.
+    let mut r = rig();
+    let mut strong = *r.sup.tune_config();
+    strong.experiment_volts_v = 5.0;
+    assert_eq!(r.sup.set_tune_config(strong, &params()), Ok(()));
+    let mut robot = *params().config();
+    robot.motor.rated_voltage_v = 4.0;
+    let weaker = Params::new(robot).unwrap();
+    assert!(r.sup.tune_config().validate(&weaker).is_err());
+    assert_eq!(r.sup.set_config(config(), &weaker), Ok(()));
+    assert_eq!(r.sup.tune_config().validate(&weaker), Ok(()));
+    assert_eq!(*r.sup.tune_config(), TuneConfig::for_robot(weaker.config()));
+    // Settings the new robot accepts are kept.
+    assert_eq!(r.sup.set_tune_config(strong, &params()), Ok(()));
+    assert_eq!(r.sup.set_config(config(), &params()), Ok(()));
+    assert_eq!(r.sup.tune_config().experiment_volts_v, 5.0);
+}
+
+#[test]
 fn any_single_fault_counts() {
     let one = |set: fn(&mut Faults)| {
         let mut f = Faults::default();

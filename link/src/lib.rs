@@ -184,7 +184,9 @@ pub mod message;
 pub mod protocol;
 pub mod upload;
 
-pub use crate::bandwidth::{check_telemetry_rate, max_telemetry_rate_hz, TELEMETRY_RATE_HZ};
+pub use crate::bandwidth::{
+    check_telemetry_rate, max_telemetry_rate_hz, LINK_BAUD, TELEMETRY_RATE_HZ,
+};
 pub use crate::checksum::{crc32, params_hash, path_checksum};
 pub use crate::decoder::{Decoder, Dropped, Outcome, Received, RxCounters};
 pub use crate::frame::{

@@ -36,7 +36,7 @@ struct LinkArgs {
     #[arg(long, global = true, conflicts_with = "connect")]
     port: Option<String>,
     /// Baud rate of the serial port (8N1).
-    #[arg(long, global = true, default_value_t = 115_200)]
+    #[arg(long, global = true, default_value_t = link::LINK_BAUD)]
     baud: u32,
     /// TCP address of a virtual robot (`host-sim serve --listen 127.0.0.1:5760`).
     #[arg(long, global = true)]

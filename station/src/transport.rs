@@ -13,7 +13,7 @@ pub trait Transport {
     fn send(&mut self, bytes: &[u8]) -> io::Result<()>;
     /// Reads what arrives within about `timeout` into `buf` (0 bytes when nothing did).
     fn receive(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize>;
-    /// What the pipe is, for messages (`/dev/ttyACM0 at 115200 baud`, `127.0.0.1:5760`).
+    /// What the pipe is, for messages (`/dev/ttyACM0 at 230400 baud`, `127.0.0.1:5760`).
     fn describe(&self) -> String;
 }
 

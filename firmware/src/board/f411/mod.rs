@@ -123,13 +123,11 @@ const TICK_PERIOD: NonZeroU32 = match NonZeroU32::new(TICK_TIMER_HZ / robot::ROB
     None => panic!("control rate above the tick timer's rate"),
 };
 
-/// The link's baud rate (8N1), bit/s: 230 400, the lowest standard rate that carries
-/// the link's whole telemetry range (100 Hz of 128-byte frames with 30 % of the line
-/// kept for replies, `link::max_telemetry_rate_hz`: 126 Hz), where 115 200 stops at
-/// 63 Hz. A character then takes 43.4 µs, longer than the longest control step, so the
-/// receive interrupt (below the control task) never misses a byte. Both the ST-LINK's
-/// virtual COM port and common USB-serial adapters (CP2102, CH340, FT232) run it.
-pub const LINK_BAUD: u32 = 230_400;
+/// The link's baud rate (8N1), bit/s: the protocol's [`link::LINK_BAUD`] (230 400). A
+/// character then takes 43.4 µs, longer than the longest control step, so the receive
+/// interrupt (below the control task) never misses a byte. Both the ST-LINK's virtual COM
+/// port and common USB-serial adapters (CP2102, CH340, FT232) run it.
+pub const LINK_BAUD: u32 = link::LINK_BAUD;
 
 /// USART2_BRR for [`LINK_BAUD`] on APB1 (50 MHz on the F411: 217, 0.006 % fast).
 pub const LINK_BRR: BaudSetting = match BaudSetting::for_baud(CLOCK_PLAN.tree.pclk1_hz, LINK_BAUD) {

@@ -50,9 +50,9 @@ pub use self::plant_port::PlantPort;
 /// What `Info` reports as the chip.
 pub const NAME: &str = "STM32F405 (QEMU netduinoplus2)";
 
-/// The link's baud rate as configured on the F411; QEMU ignores it (BRR is not
-/// modelled), and the link's telemetry cap is computed from it as on the robot.
-pub const LINK_BAUD: u32 = 230_400;
+/// The link's baud rate as on the F411 ([`link::LINK_BAUD`]); QEMU ignores it (BRR is
+/// not modelled), and the link's telemetry cap is computed from it as on the robot.
+pub const LINK_BAUD: u32 = link::LINK_BAUD;
 
 /// The F411's run-time watchdog setting, for the shared code (nothing runs it here).
 pub const WATCHDOG_RUN: IwdgConfig = IwdgConfig {

@@ -224,15 +224,20 @@ impl<'a> ControlSide<'a> {
         if self.end.uplink.free() >= 2 {
             if let Some(request) = self.end.commands.pop() {
                 let kind = request.op.kind();
-                match request.op {
-                    Op::Command(c) => command = Some(c),
-                    Op::BeginPersist => command = Some(Command::BeginPersist),
-                    Op::EndPersist => command = Some(Command::EndPersist),
-                    Op::Install => {}
-                }
                 let result = match request.op {
+                    Op::Command(c) => {
+                        command = Some(c);
+                        None
+                    }
+                    Op::BeginPersist => {
+                        command = Some(Command::BeginPersist);
+                        None
+                    }
+                    Op::EndPersist => {
+                        command = Some(Command::EndPersist);
+                        None
+                    }
                     Op::Install => Some(self.install()),
-                    _ => None,
                 };
                 answered = Some((request.seq, kind, result));
             }

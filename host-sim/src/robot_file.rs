@@ -504,12 +504,18 @@ fn law_section(l: &LawGains) -> LawSection {
 /// The core's [`ParamError`] as an error naming the TOML key under `prefix`: the core
 /// names the field by its path in `RobotConfig`, which is the key under `[robot]`.
 pub fn param_error(e: ParamError, prefix: &str) -> SectionError {
+    keyed_error(&e, e.field(), prefix)
+}
+
+/// An error whose message starts with its `field`, as an error naming the TOML key
+/// `prefix.field` and the rest of the message as the problem.
+fn keyed_error(e: &impl std::fmt::Display, field: &str, prefix: &str) -> SectionError {
     let full = e.to_string();
     let problem = full
-        .strip_prefix(e.field())
+        .strip_prefix(field)
         .map_or(full.as_str(), str::trim_start)
         .to_string();
-    SectionError::new(format!("{prefix}.{}", e.field()), problem)
+    SectionError::new(format!("{prefix}.{field}"), problem)
 }
 
 /// `[supervisor.missed_ticks]`.
@@ -832,12 +838,7 @@ fn stall_section(s: &StallCheck, rate_hz: u32) -> StallSection {
 
 /// The core's [`SupervisorConfigError`] as an error naming the TOML key under `prefix`.
 pub fn supervisor_error(e: SupervisorConfigError, prefix: &str) -> SectionError {
-    let full = e.to_string();
-    let problem = full
-        .strip_prefix(e.field())
-        .map_or(full.as_str(), str::trim_start)
-        .to_string();
-    SectionError::new(format!("{prefix}.{}", e.field()), problem)
+    keyed_error(&e, e.field(), prefix)
 }
 
 /// A robot file: `[robot]` and `[supervisor]`, what `station params get` writes and

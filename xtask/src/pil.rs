@@ -13,7 +13,8 @@
 //!    (shortened from the scenario's 30 s: the fault is detected within 0.6 s): the
 //!    motors must reach duty 0 within the fault suite's limit for that fault.
 //! 3. `paper-circle` with the link cut 1 s after arming, [`FAULT_RUN_S`] long: the motors
-//!    must reach duty 0 within the heartbeat timeout.
+//!    must reach duty 0 within the heartbeat timeout (plus 20 ms for link bytes still in
+//!    the emulator at the cut; `host_sim::pil::verdict`).
 //!
 //! `host-sim pil` judges each run itself and exits non-zero on a failed line; this step
 //! reprints the lines CI is read by and applies the limits.

@@ -404,8 +404,8 @@ impl Controller {
         };
         // The ramp's target is read only between steering steps: path following steers
         // on its first step, and after `clear_faults` the set-point is 0, the default. So
-        // leaving `target` out is an equivalent mutant (.cargo/mutants.toml); it is set
-        // for the reader.
+        // leaving `target` out is an equivalent mutant (.cargo/mutants.toml says why it
+        // still shows as missed); it is set so the ramp stays right if that changes.
         self.ramp = SetpointRamp {
             target: self.telemetry.wheel_setpoint,
             ..SetpointRamp::default()

@@ -788,6 +788,21 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn the_set_point_ramp_is_linear_per_wheel_and_stops_at_its_target() {
+        let mut ramp = SetpointRamp::default();
+        let mut sp = WheelSpeeds::new(2.0, -4.0);
+        ramp.start(sp, WheelSpeeds::new(4.0, 6.0), NonZeroU32::new(10).unwrap());
+        ramp.advance(5, &mut sp);
+        assert!((sp.left_rad_s - 3.0).abs() < 1e-5, "{sp:?}");
+        assert!((sp.right_rad_s - 1.0).abs() < 1e-5, "{sp:?}");
+        ramp.advance(5, &mut sp);
+        assert_eq!(sp, WheelSpeeds::new(4.0, 6.0));
+        // It stays there until the next start.
+        ramp.advance(1, &mut sp);
+        assert_eq!(sp, WheelSpeeds::new(4.0, 6.0));
+    }
+
+    #[test]
     fn a_delta_of_exactly_the_plausible_maximum_is_no_encoder_jump() {
         // The limit is inclusive, on each wheel.
         let limit = Params::new(RobotConfig::REFERENCE_ROBOT)

@@ -800,6 +800,13 @@ pub(crate) mod tests {
         // It stays there until the next start.
         ramp.advance(1, &mut sp);
         assert_eq!(sp, WheelSpeeds::new(4.0, 6.0));
+        // Steps of 2 periods count down 10 periods: after three, 6/10 of the way.
+        let mut sp = WheelSpeeds::new(2.0, -4.0);
+        ramp.start(sp, WheelSpeeds::new(4.0, 6.0), NonZeroU32::new(10).unwrap());
+        for _ in 0..3 {
+            ramp.advance(2, &mut sp);
+        }
+        assert!((sp.left_rad_s - 3.2).abs() < 1e-5, "{sp:?}");
     }
 
     #[test]

@@ -651,6 +651,17 @@ mod tests {
         );
         let next = run(&mut d, 10.0, 10.0, 1).volts.left_v;
         assert!((next - steady).abs() < 0.05, "{steady} V then {next} V");
+        // Leaving a standstill instead: the loops start from 0 V and slew up.
+        d.restart(
+            WheelSpeeds::new(10.0, 10.0),
+            WheelSpeeds::new(10.0, 10.0),
+            false,
+        );
+        let from_rest = run(&mut d, 10.0, 10.0, 1).volts.left_v;
+        assert!(
+            (from_rest - 1.2).abs() < 1e-5,
+            "{steady} V, then {from_rest} V"
+        );
     }
 
     #[test]

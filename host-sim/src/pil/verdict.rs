@@ -21,6 +21,7 @@ use serde_json::Value;
 /// firmware, s (a 15-byte frame, one byte per guest main-loop turn; see the module doc).
 pub const LINK_IN_FLIGHT_S: f64 = 0.020;
 
+use super::firmware::LinkLoss;
 use super::PilOutcome;
 use crate::fault_suite::{cases, Expectation};
 use crate::metrics::Summary;
@@ -110,23 +111,12 @@ pub fn judge(scenario: &Scenario, outcome: &PilOutcome, host: Option<&RunResult>
         });
     }
     if let Some(loss) = &outcome.link_loss {
-        let rate = f64::from(scenario.robot.control_rate_hz);
-        let limit_steps = u64::from(scenario.supervisor.heartbeat_timeout_steps)
-            + (LINK_IN_FLIGHT_S * rate).round() as u64;
-        let after = loss
-            .motors_zero_step
-            .map(|s| s.saturating_sub(loss.at_step));
-        lines.push(Line {
-            text: format!(
-                "PIL {name}: link lost at {:.3} s: stopped by {}, motors at 0 after {} (limit {}: the heartbeat timeout and {:.0} ms for bytes in flight)",
-                loss.at_step as f64 / rate,
-                loss.stopped_by.as_deref().unwrap_or("nothing"),
-                seconds(after.map(|s| s as f64 / rate)),
-                seconds(Some(limit_steps as f64 / rate)),
-                LINK_IN_FLIGHT_S * 1e3,
-            ),
-            passed: after.is_some_and(|a| a <= limit_steps),
-        });
+        lines.push(link_loss_line(
+            name,
+            scenario.robot.control_rate_hz,
+            scenario.supervisor.heartbeat_timeout_steps,
+            loss,
+        ));
     }
     let board = &outcome.board;
     for text in [
@@ -155,6 +145,33 @@ pub fn judge(scenario: &Scenario, outcome: &PilOutcome, host: Option<&RunResult>
         lines.push(Line { text, passed: true });
     }
     lines
+}
+
+/// The verdict on a link loss: the motors must be at 0 within the heartbeat timeout
+/// (`heartbeat_timeout_steps` control periods) plus [`LINK_IN_FLIGHT_S`], counted from the
+/// cut; never reaching 0 fails.
+fn link_loss_line(
+    name: &str,
+    control_rate_hz: u32,
+    heartbeat_timeout_steps: u32,
+    loss: &LinkLoss,
+) -> Line {
+    let rate = f64::from(control_rate_hz);
+    let limit_steps = u64::from(heartbeat_timeout_steps) + (LINK_IN_FLIGHT_S * rate).round() as u64;
+    let after = loss
+        .motors_zero_step
+        .map(|s| s.saturating_sub(loss.at_step));
+    Line {
+        text: format!(
+            "PIL {name}: link lost at {:.3} s: stopped by {}, motors at 0 after {} (limit {}: the heartbeat timeout and {:.0} ms for bytes in flight)",
+            loss.at_step as f64 / rate,
+            loss.stopped_by.as_deref().unwrap_or("nothing"),
+            seconds(after.map(|s| s as f64 / rate)),
+            seconds(Some(limit_steps as f64 / rate)),
+            LINK_IN_FLIGHT_S * 1e3,
+        ),
+        passed: after.is_some_and(|a| a <= limit_steps),
+    }
 }
 
 /// `x.xxx s`, or `never`.
@@ -282,5 +299,43 @@ mod tests {
         );
         let d = largest_position_difference_m(&a, &b);
         assert!((d - 0.0005).abs() < 1e-12, "{d}");
+    }
+
+    fn loss(at_step: u64, motors_zero_step: Option<u64>) -> LinkLoss {
+        LinkLoss {
+            at_step,
+            motors_zero_step,
+            stopped_by: Some("Disarmed(LinkLost)".into()),
+        }
+    }
+
+    #[test]
+    fn a_link_loss_passes_up_to_the_timeout_and_the_bytes_in_flight() {
+        // 1 kHz, 500-step timeout: the limit is 500 + 20 steps after the cut at step 1000.
+        let judged = |zero| link_loss_line("s", 1000, 500, &loss(1000, zero));
+        let at_limit = judged(Some(1520));
+        assert!(at_limit.passed, "{}", at_limit.text);
+        assert_eq!(
+            at_limit.text,
+            "PIL s: link lost at 1.000 s: stopped by Disarmed(LinkLost), motors at 0 after \
+             0.520 s (limit 0.520 s: the heartbeat timeout and 20 ms for bytes in flight)"
+        );
+        assert!(judged(Some(1200)).passed);
+        let late = judged(Some(1521));
+        assert!(!late.passed, "{}", late.text);
+        let never = judged(None);
+        assert!(!never.passed);
+        assert!(
+            never.text.contains("motors at 0 after never"),
+            "{}",
+            never.text
+        );
+    }
+
+    #[test]
+    fn the_bytes_in_flight_scale_with_the_control_rate() {
+        // 200 Hz: 20 ms is 4 periods; 100 steps of timeout.
+        assert!(link_loss_line("s", 200, 100, &loss(0, Some(104))).passed);
+        assert!(!link_loss_line("s", 200, 100, &loss(0, Some(105))).passed);
     }
 }

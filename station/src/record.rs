@@ -423,7 +423,7 @@ impl<'a> Recorder<'a> {
             ),
             max_duty: f64::from(report.max_duty),
             supervisor: SupervisorReport::new(
-                self.state,
+                final_state(self.state, self.ended_by),
                 &self.faults,
                 stats.missed_ticks,
                 stats.overruns,
@@ -488,4 +488,35 @@ pub fn estimate_as_truth(trace: &[TraceRow]) -> Vec<TraceRow> {
             }
         })
         .collect()
+}
+
+/// The supervisor's state at the end of a recording: the one the ending event led to (a
+/// disarm or a fault reaches the station as an event before, or instead of, a telemetry
+/// frame in the new state), else the last state telemetry showed.
+fn final_state(last_sampled: State, ended_by: Option<Event>) -> State {
+    match ended_by {
+        Some(Event::Disarmed(_)) => State::Disarmed,
+        Some(Event::Faulted) => State::Faulted,
+        _ => last_sampled,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use controller_core::supervisor::DisarmReason;
+
+    #[test]
+    fn the_final_state_is_the_one_the_ending_event_led_to() {
+        assert_eq!(
+            final_state(State::Armed, Some(Event::Disarmed(DisarmReason::Timeout))),
+            State::Disarmed
+        );
+        assert_eq!(
+            final_state(State::Armed, Some(Event::Faulted)),
+            State::Faulted
+        );
+        assert_eq!(final_state(State::Armed, None), State::Armed);
+        assert_eq!(final_state(State::Disarmed, None), State::Disarmed);
+    }
 }

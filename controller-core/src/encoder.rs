@@ -59,8 +59,10 @@ impl WrappingCounter {
 pub struct SpeedEstimator {
     /// Tick deltas of the last `window` steps (a ring; only `window` entries are used).
     ticks: [i32; MAX_SPEED_WINDOW_STEPS],
-    /// Control periods of the same steps.
-    periods: [u32; MAX_SPEED_WINDOW_STEPS],
+    /// Control periods of the same steps, saturated at 65 535 (65 s at 1 kHz; only a
+    /// flash erase or a debugger halt covers more). Two bytes, not four: 256 B of RAM
+    /// less for the robot's two wheels.
+    periods: [u16; MAX_SPEED_WINDOW_STEPS],
     window: usize,
     head: usize,
     /// Σ ticks. Exact in i32: |ticks| per step is bounded by the encoder-jump fault
@@ -96,10 +98,10 @@ impl SpeedEstimator {
         estimator
     }
 
-    /// Adds one step's tick delta `ticks`, counted over `periods` control periods (≥ 1),
-    /// and returns the wheel speed estimate, rad/s.
+    /// Adds one step's tick delta `ticks`, counted over `periods` control periods (≥ 1;
+    /// more than 65 535 count as 65 535), and returns the wheel speed estimate, rad/s.
     pub fn update(&mut self, ticks: i32, periods: core::num::NonZeroU32) -> f32 {
-        let periods = periods.get();
+        let periods = u16::try_from(periods.get()).unwrap_or(u16::MAX);
         // The ring is MAX_SPEED_WINDOW_STEPS (a power of two) long: masking keeps every
         // index in range whatever `head` holds, with no bounds check to fail.
         let slot = self.head & (MAX_SPEED_WINDOW_STEPS - 1);
@@ -112,7 +114,10 @@ impl SpeedEstimator {
         let leaving = self.periods[slot];
         if periods != leaving {
             self.periods[slot] = periods;
-            self.period_sum = self.period_sum.wrapping_add(periods).wrapping_sub(leaving);
+            self.period_sum = self
+                .period_sum
+                .wrapping_add(u32::from(periods))
+                .wrapping_sub(u32::from(leaving));
             self.scale = self.rad_per_tick_per_s / self.period_sum as f32;
         }
         self.head = if slot + 1 >= self.window { 0 } else { slot + 1 };
@@ -218,6 +223,21 @@ mod tests {
         }
         assert!((est.speed_rad_s() - 50.0).abs() < 1e-4);
         // Counting the late step as one period would have read 60 rad/s.
+    }
+
+    #[test]
+    fn a_step_over_a_long_stall_saturates_and_leaves_the_window_cleanly() {
+        // 100 000 periods (a 100 s halt at 1 kHz) count as 65 535, not as their low 16
+        // bits (34 464): 65 535 ticks over them read 1 tick per period.
+        let mut est = SpeedEstimator::new(2, 0.01, 1000.0);
+        est.update(0, ONE);
+        let long = NonZeroU32::new(100_000).unwrap();
+        let speed = est.update(65_535, long);
+        let expected = 65_535.0 * 0.01 * 1000.0 / 65_536.0;
+        assert!((speed - expected).abs() < 1e-3, "{speed} vs {expected}");
+        // Two on-time steps later the stall has left: 5 ticks per period again.
+        est.update(5, ONE);
+        assert!((est.update(5, ONE) - 50.0).abs() < 1e-4);
     }
 
     #[test]

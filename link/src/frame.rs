@@ -25,9 +25,11 @@ use crate::protocol::{ProtocolId, HEADER_LEN};
 
 /// Largest postcard body a frame may carry, bytes. The largest messages,
 /// [`Request::SetParams`](crate::Request) and its twin [`Reply::Params`](crate::Reply),
-/// measured 222 and 224 bytes with the core's default configuration (see the crate
-/// doc); 384 leaves room for 40 more `f32` fields in the configuration.
-pub const MAX_BODY_LEN: usize = 384;
+/// take at most 305 and 307 bytes with *any* configuration (every varint at its longest,
+/// every option present; a test derives these bounds from the message schema), 222 and
+/// 224 with the core's defaults. 320 leaves room for three more `f32` fields; each byte
+/// here costs two of RAM on the robot (the receive and the transmit buffer).
+pub const MAX_BODY_LEN: usize = 320;
 
 /// Bytes of CRC after the payload.
 pub const CRC_LEN: usize = 4;

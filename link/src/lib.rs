@@ -34,8 +34,8 @@
 //!   Why in every frame rather than in a handshake: telemetry starts flowing without one,
 //!   and a robot reflashed behind a running station is caught on its next frame.
 //!
-//! Limits: a body is at most [`MAX_BODY_LEN`] = 384 bytes, a frame at most
-//! [`MAX_FRAME_LEN`] = 396 bytes on the wire.
+//! Limits: a body is at most [`MAX_BODY_LEN`] = 320 bytes, a frame at most
+//! [`MAX_FRAME_LEN`] = 332 bytes on the wire.
 //!
 //! # Messages and their sizes
 //!
@@ -64,8 +64,10 @@
 //! | `TuneReport` (a result) | 101 B | 112 B |
 //! | `Ping` / `Heartbeat` / reply `Ack` | 9 / 4 / 6 B | 20 / 15 / 17 B |
 //!
-//! [`MAX_BODY_LEN`] leaves the configuration room for 40 more `f32` fields; a test fails
-//! when less than 25 remain.
+//! The configuration's longest possible encoding (every varint at its longest) is 301 B,
+//! so `SetParams` never exceeds 305 B of body and reply `Params` 307 B: [`MAX_BODY_LEN`]
+//! leaves room for three more `f32` fields, and a test derived from the schema fails
+//! before a configuration that could not be sent is released.
 //!
 //! # Using it
 //!
@@ -151,8 +153,8 @@
 //! `opt-level = "s"` for the program, fat LTO), whose `.text`/`.bss` `cargo xtask
 //! link-qemu` prints:
 //!
-//! - **RAM:** [`Decoder`] 296 B (its frame buffer included), a transmit buffer of
-//!   [`MAX_FRAME_LEN`] = 268 B, [`PathAssembler`] 824 B (the new path is built at commit,
+//! - **RAM:** [`Decoder`] 331 B of frame buffer plus its counters, a transmit buffer of
+//!   [`MAX_FRAME_LEN`] = 332 B, [`PathAssembler`] 824 B (the new path is built at commit,
 //!   about 0.9 KiB, and moved into the controller).
 //! - **Flash:** decoding every [`Downlink`] and encoding every [`Uplink`] took 11 812 B
 //!   (11.5 KiB) of `.text` and 1 228 B of `.rodata` (mostly the 1 KiB CRC table): the

@@ -10,6 +10,7 @@ use link::{
     encode, encode_raw, encode_to_vec, max_wire_len, Downlink, EncodeError, ParamSet, ProtocolId,
     Reply, Request, Uplink, MAX_BODY_LEN, MAX_FRAME_LEN,
 };
+use postcard_schema::Schema;
 use proptest::prelude::*;
 use support::{random_value, Tape};
 
@@ -61,23 +62,62 @@ proptest! {
 }
 
 #[test]
-fn the_configuration_fits_with_room_to_grow() {
-    let body = postcard::to_allocvec(&set_params()).unwrap().len();
+fn every_configuration_fits() {
+    // The longest body any configuration can take, from the schema: every varint at its
+    // longest, every option present. The request and the reply add their own envelope
+    // (seq at its longest, the enum tags) to the configuration.
+    let longest_config = support::max_encoded_len(ParamSet::SCHEMA).unwrap();
+    let config_now = |set: &ParamSet| postcard::to_allocvec(set).unwrap().len();
+    let Request::SetParams(set) = set_params().request else {
+        unreachable!()
+    };
+    let request_envelope = postcard::to_allocvec(&set_params()).unwrap().len() - config_now(&set);
     let reply = Uplink::Reply {
         seq: u16::MAX,
-        result: Ok(match set_params().request {
-            Request::SetParams(p) => Reply::Params(p),
-            _ => unreachable!(),
-        }),
+        result: Ok(Reply::Params(set)),
     };
-    let reply_body = postcard::to_allocvec(&reply).unwrap().len();
-    // Room for at least 25 more f32 fields before the limit.
-    for len in [body, reply_body] {
-        assert!(
-            len + 25 * 4 <= MAX_BODY_LEN,
-            "{len} bytes leave too little margin"
-        );
+    let reply_envelope = postcard::to_allocvec(&reply).unwrap().len() - config_now(&set);
+    let longest = longest_config + request_envelope.max(reply_envelope);
+    assert_eq!(
+        (longest_config, request_envelope, reply_envelope),
+        (301, 4, 6),
+        "the configuration's shape changed: check MAX_BODY_LEN and its doc"
+    );
+    assert!(
+        longest <= MAX_BODY_LEN,
+        "a configuration can take {longest} bytes of body, over MAX_BODY_LEN = {MAX_BODY_LEN}"
+    );
+}
+
+#[test]
+fn the_longest_encoding_bound_is_reached() {
+    // The bound is exact for a value with every varint at its longest: a segment (the
+    // core's, no varint) and a pose encode to exactly their bound.
+    for (bound, value) in [
+        (
+            support::max_encoded_len(controller_core::path::Segment::SCHEMA),
+            postcard::to_allocvec(&controller_core::path::Segment::Arc {
+                center: controller_core::kinematics::Point::new(1.0, 2.0),
+                radius_m: 1.0,
+                start_angle_rad: 0.0,
+                sweep_rad: 1.0,
+            })
+            .unwrap()
+            .len(),
+        ),
+        (
+            support::max_encoded_len(u32::SCHEMA),
+            postcard::to_allocvec(&u32::MAX).unwrap().len(),
+        ),
+        (
+            support::max_encoded_len(Option::<u16>::SCHEMA),
+            postcard::to_allocvec(&Some(u16::MAX)).unwrap().len(),
+        ),
+    ] {
+        assert_eq!(bound, Some(value));
     }
+    // Sequences have no bound in the schema.
+    assert_eq!(support::max_encoded_len(link::Downlink::SCHEMA), None);
 }
 
 #[test]

@@ -107,19 +107,17 @@
 //!
 //! # RAM
 //!
-//! Measured on `thumbv7em-none-eabihf` (`size_of` of each type compiled into a test
-//! program for the target and read back from its binary): [`ControlSide`] 3 188 B (of
-//! which the controller 2 716 B and the supervisor 236 B, which the firmware already
-//! has), [`LinkService`] 2 024 B (decoder 296 B, path assembler 824 B, transmit buffer
-//! [`service::TX_CAPACITY`] = 512 B, the active configuration), [`Channels`] 1 440 B
-//! (mostly the staging area's room for a path). New static RAM for the firmware: about
-//! 3.7 KiB, plus the board's receive ring. `cargo run -p robot-app --example wiring`
-//! prints the host's sizes (a little larger: 8-byte pointers); the budgets below are
-//! checked at compile time on every target. The run report ([`link::RunReport`], sent when
-//! a path-following run ends) added 48 B to [`Channels`], 16 B to [`ControlSide`] and
-//! 48 B to [`LinkService`] on the target (read from compile-time size checks: 1 520,
-//! 3 272 and 2 336 B with it, 1 472, 3 256 and 2 288 B without).
-//!
+//! On `thumbv7em-none-eabihf`, as the firmware's symbols show them (`cargo xtask size`):
+//! [`ControlSide`] 3 568 B (the controller with its active path, about 1 KiB, and two
+//! wheel-speed windows of 64 steps; the supervisor with the wheel-loop tune's state),
+//! [`LinkService`] 2 328 B (the frame decoder, the path assembler's 824 B, the transmit
+//! buffer of [`service::TX_CAPACITY`] = 576 B, the active configuration, the last run and
+//! tune reports), [`Channels`] 1 584 B (mostly the staging area's room for a path). A
+//! path is held three times: while it is assembled, while it is staged, and once active;
+//! building it in the staging area would save the assembler's 824 B.
+//! `cargo run -p robot-app --example wiring` prints the host's sizes (a little larger:
+//! 8-byte pointers); the budgets below are checked at compile time on every target.
+
 //! # Flash
 //!
 //! Measured with the same test program (`opt-level = "s"`, fat LTO, `.text`): a loop of
@@ -159,9 +157,8 @@ pub use crate::start::{start, AppConfig, StartError};
 const _: () = {
     // The wheel-loop tune's state (`controller_core::tune::Tuner`, 552 B on the host) is
     // part of the supervisor.
-    assert!(core::mem::size_of::<ControlSide<'static>>() <= 3_904);
-    assert!(core::mem::size_of::<LinkService<'static>>() <= 2_560);
-    // 1 568 B on a 64-bit host since the run-report slot (48 B on the target) was added.
-    // The report slot holds a run's or a tune's report (`channel::Report`).
+    // 3 624, 2 384 and 1 624 B on a 64-bit host; 3 568, 2 328 and 1 584 B on the target.
+    assert!(core::mem::size_of::<ControlSide<'static>>() <= 3_648);
+    assert!(core::mem::size_of::<LinkService<'static>>() <= 2_432);
     assert!(core::mem::size_of::<Channels>() <= 1_664);
 };

@@ -183,3 +183,48 @@ pub fn frame<M: Message>(message: &M) -> Vec<u8> {
 pub fn decode_all<M: Message>(decoder: &mut Decoder, bytes: &[u8]) -> Vec<Outcome<M>> {
     decoder.feed::<M>(bytes).collect()
 }
+
+/// The longest postcard encoding any value of `ty` can have, bytes: every varint at its
+/// longest, every option present, the longest enum variant. None when the type holds a
+/// sequence or a string, whose length the schema does not bound.
+pub fn max_encoded_len(ty: &NamedType) -> Option<usize> {
+    // A varint of an n-bit integer (zigzag for signed ones keeps n bits): 7 bits a byte.
+    let varint = |bits: u32| (bits as usize).div_ceil(7);
+    let sum = |types: &mut dyn Iterator<Item = &NamedType>| -> Option<usize> {
+        types.map(max_encoded_len).sum()
+    };
+    match ty.ty {
+        DataModelType::Bool | DataModelType::U8 | DataModelType::I8 => Some(1),
+        DataModelType::U16 | DataModelType::I16 => Some(varint(16)),
+        DataModelType::U32 | DataModelType::I32 => Some(varint(32)),
+        DataModelType::U64 | DataModelType::I64 | DataModelType::Usize | DataModelType::Isize => {
+            Some(varint(64))
+        }
+        DataModelType::F32 => Some(4),
+        DataModelType::F64 => Some(8),
+        DataModelType::Option(inner) => max_encoded_len(inner).map(|n| 1 + n),
+        DataModelType::Unit | DataModelType::UnitStruct => Some(0),
+        DataModelType::NewtypeStruct(inner) => max_encoded_len(inner),
+        DataModelType::Tuple(items) | DataModelType::TupleStruct(items) => {
+            sum(&mut items.iter().copied())
+        }
+        DataModelType::Struct(fields) => sum(&mut fields.iter().map(|f| f.ty)),
+        DataModelType::Enum(variants) => {
+            let longest = variants.iter().try_fold(0, |longest, v| {
+                let n = match v.ty {
+                    DataModelVariant::UnitVariant => Some(0),
+                    DataModelVariant::NewtypeVariant(inner) => max_encoded_len(inner),
+                    DataModelVariant::TupleVariant(items) => sum(&mut items.iter().copied()),
+                    DataModelVariant::StructVariant(fields) => {
+                        sum(&mut fields.iter().map(|f| f.ty))
+                    }
+                }?;
+                Some(longest.max(n))
+            })?;
+            // The variant index is a varint too.
+            let index_bits = usize::BITS - (variants.len().max(1) - 1).leading_zeros();
+            Some(varint(index_bits.max(1)) + longest)
+        }
+        _ => None,
+    }
+}

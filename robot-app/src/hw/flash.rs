@@ -172,7 +172,7 @@ pub const fn persist_watchdog_timeout_us(sector: &Sector, record_len: usize) -> 
 mod tests {
     use super::*;
     use crate::hw::chip::Chip;
-    use crate::hw::watchdog::IwdgConfig;
+    use crate::hw::watchdog::{IwdgConfig, IwdgPrescaler};
     use crate::persist::{Slot, MAX_RECORD_LEN};
 
     #[test]
@@ -201,11 +201,17 @@ mod tests {
     fn the_watchdog_outlasts_the_worst_erase_at_the_fastest_lsi() {
         let sector = STORAGE_F411.a;
         let needed = persist_watchdog_timeout_us(&sector, MAX_RECORD_LEN).unwrap();
-        // 2 s erase + 101 words × 100 µs + 50 ms.
-        assert_eq!(words_for(MAX_RECORD_LEN), 101);
-        assert_eq!(needed, 2_060_100);
+        // 2 s erase + 85 words × 100 µs + 50 ms.
+        assert_eq!(words_for(MAX_RECORD_LEN), 85);
+        assert_eq!(needed, 2_058_500);
         let lsi = Chip::F411.lsi_hz();
         let config = IwdgConfig::at_least_us(needed, lsi.2).unwrap();
+        // The firmware's setting (board/f411/flash.rs): ÷32, reload 3023.
+        assert_eq!(
+            (config.prescaler, config.reload),
+            (IwdgPrescaler::Div32, 3023),
+            "{config:?}"
+        );
         let spread = config.spread(lsi);
         assert!(spread.min_us >= needed, "{spread:?}");
         // Not absurdly long either: under 6 s at the slowest LSI.

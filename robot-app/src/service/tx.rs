@@ -3,8 +3,10 @@
 
 use link::{encode, Message};
 
-/// Bytes of the transmit buffer.
-pub const TX_CAPACITY: usize = 640;
+/// Bytes of the transmit buffer: the reply reserve (one frame of the largest size) and
+/// the replies to a full command queue, 524 B, and 52 B more for a telemetry sample or
+/// an event behind them.
+pub const TX_CAPACITY: usize = 576;
 
 /// Frames waiting to go out, in order, in a fixed buffer.
 ///

@@ -124,7 +124,7 @@ pub enum TuneLoad {
     /// about 0.9 m forward and back (the reference robot).
     Ground,
     /// The robot on a stand: the identified τ is multiplied by `ground_inertia_factor`
-    /// (the driving inertia over the lifted one, ≥ 1) before the PI is set.
+    /// (the driving inertia over the lifted one, ≥ 1 and < 1 000) before the PI is set.
     Lifted {
         /// (J_w + m R²/2) / J_w, see [`TuneLoad::lifted`].
         ground_inertia_factor: f32,
@@ -154,18 +154,18 @@ impl TuneLoad {
 pub struct TuneConfig {
     /// u_hi, the largest voltage the experiments apply, V (≤ the motor's rated voltage).
     pub experiment_volts_v: f32,
-    /// Rate of the breakaway ramp, V/s.
+    /// Rate of the breakaway ramp, V/s (> 0 and < 1 000).
     pub breakaway_ramp_v_per_s: f32,
     /// Length of the hold before the step and of the step, s (at least 6 τ of the
-    /// slowest wheel for a clean fit).
+    /// slowest wheel for a clean fit; 0.1 to 10 s, and at least 50 control periods).
     pub hold_s: f32,
-    /// A wheel faster than this stops the tune, rad/s.
+    /// A wheel faster than this stops the tune, rad/s (> 0 and < 10⁴).
     pub max_speed_rad_s: f32,
     /// On the ground, the odometry farther than this from where the tune began stops it,
-    /// m.
+    /// m (> 0 and < 1 000).
     pub max_distance_m: f32,
     /// SIMC's closed-loop time constant over the loop's effective dead time (1 is
-    /// Skogestad's "tight" setting; larger is slower and more robust).
+    /// Skogestad's "tight" setting; larger is slower and more robust; > 0 and < 100).
     pub tau_c_per_dead_time: f32,
     /// On the ground or lifted.
     pub load: TuneLoad,

@@ -3,7 +3,10 @@
 
 use super::*;
 use crate::controller::{Controller, Mode, StepInput, TickDeltas};
+use crate::kinematics::Point;
 use crate::params::RobotConfig;
+use crate::path::Path;
+use crate::reference::{Reference, ReferenceMode};
 
 /// One synthetic wheel: τ ω̇ = K (u − k_S sgn ω) − ω while turning; held at rest while
 /// |u| ≤ k_S.
@@ -341,6 +344,113 @@ fn config_bounds_are_where_the_doc_says() {
     let slow = Params::new(slow).unwrap();
     assert_eq!(check(|c| c.hold_s = 0.1, &slow), Err("hold_s"));
     assert_eq!(check(|c| c.hold_s = 0.2, &slow), Ok(()));
+    assert_eq!(check(|c| c.hold_s = 10.0, &params), Ok(()));
+    assert_eq!(check(|c| c.hold_s = 10.5, &params), Err("hold_s"));
+    // The upper bounds are open: the bound itself is refused, just under it is not.
+    assert_eq!(
+        check(|c| c.breakaway_ramp_v_per_s = 1e3, &params),
+        Err("breakaway_ramp_v_per_s")
+    );
+    assert_eq!(check(|c| c.breakaway_ramp_v_per_s = 999.0, &params), Ok(()));
+    assert_eq!(
+        check(|c| c.max_speed_rad_s = 1e4, &params),
+        Err("max_speed_rad_s")
+    );
+    assert_eq!(check(|c| c.max_speed_rad_s = 9_999.0, &params), Ok(()));
+    assert_eq!(
+        check(|c| c.max_distance_m = 1e3, &params),
+        Err("max_distance_m")
+    );
+    assert_eq!(check(|c| c.max_distance_m = 999.0, &params), Ok(()));
+    assert_eq!(
+        check(|c| c.tau_c_per_dead_time = 100.0, &params),
+        Err("tau_c_per_dead_time")
+    );
+    assert_eq!(check(|c| c.tau_c_per_dead_time = 99.0, &params), Ok(()));
+    // Lifted: a factor from 1 up to (not including) 1 000.
+    let lifted = |f: f32, params: &Params| {
+        let mut c = good;
+        c.load = TuneLoad::Lifted {
+            ground_inertia_factor: f,
+        };
+        c.validate(params).map_err(|e| e.field)
+    };
+    assert_eq!(lifted(1.0, &params), Ok(()));
+    assert_eq!(lifted(3.4, &params), Ok(()));
+    assert_eq!(lifted(1e3, &params), Err("load.ground_inertia_factor"));
+}
+
+#[test]
+fn the_leash_is_counted_from_where_the_tune_began() {
+    // A tune begun 20 m from the origin, on the ground with a 1.5 m leash: it runs to its
+    // end (the leash is measured from the start pose, not from the origin).
+    let mut bench = Bench::new(ground_wheel());
+    let params = bench.params();
+    let path = Path::line(Point::new(20.0, 0.0), 0.0, 5.0).unwrap();
+    let reference = Reference::new(
+        path,
+        0.2,
+        ReferenceMode::TimeIndexed {
+            start_offset_m: 0.0,
+        },
+    )
+    .unwrap();
+    bench.controller = Controller::new(
+        params,
+        reference,
+        crate::law::LawKind::Tracking,
+        Pose::new(20.0, 0.0, 0.0),
+    );
+    let mut tuner = Tuner::new(config(&bench), &params);
+    assert!(bench.run(&mut tuner, None).is_ok());
+}
+
+#[test]
+fn abort_messages_say_what_to_check() {
+    let cases = [
+        (
+            TuneAbort::Stopped,
+            "stopped by the supervisor (fault, button, link)",
+        ),
+        (TuneAbort::NotAtRest, "a wheel was turning at the start"),
+        (
+            TuneAbort::NoBreakaway(Side::Left),
+            "Left wheel did not turn at u_hi",
+        ),
+        (
+            TuneAbort::BreakawayTooHigh(Side::Right),
+            "Right wheel needs over 60 % of u_hi to break away",
+        ),
+        (
+            TuneAbort::WrongDirection(Side::Left),
+            "Left wheel turned against its voltage (wiring)",
+        ),
+        (
+            TuneAbort::Stalled(Side::Right),
+            "Right wheel stopped while driven",
+        ),
+        (
+            TuneAbort::TooFast(Side::Left),
+            "Left wheel exceeded the speed limit",
+        ),
+        (TuneAbort::TooFar, "the robot left the allowed distance"),
+        (TuneAbort::LateStep, "a control step came late"),
+        (
+            TuneAbort::NotStopped,
+            "the wheels did not stop under the brake",
+        ),
+        (
+            TuneAbort::NoFit(Side::Right),
+            "Right wheel's response did not fit",
+        ),
+        (
+            TuneAbort::Inconsistent(Side::Left),
+            "Left wheel's measurements disagree by over 30 %",
+        ),
+    ];
+    for (abort, text) in cases {
+        assert_eq!(abort.to_string(), text);
+    }
 }
 
 #[test]

@@ -172,9 +172,11 @@ fn main() {
     println!("MAX_BODY_LEN {MAX_BODY_LEN}, MAX_FRAME_LEN {MAX_FRAME_LEN}");
     println!("schema 0x{SCHEMA_HASH:08x}");
     println!(
-        "sizes in RAM: Decoder {}, PathAssembler {}, Downlink {}, Uplink {}, Path {}",
+        "sizes in RAM: Decoder {}, PathAssembler {} (UploadState {}, UploadSegments {}), Downlink {}, Uplink {}, Path {}",
         core::mem::size_of::<Decoder>(),
         core::mem::size_of::<PathAssembler>(),
+        core::mem::size_of::<link::UploadState>(),
+        core::mem::size_of::<link::UploadSegments>(),
         core::mem::size_of::<Downlink>(),
         core::mem::size_of::<Uplink>(),
         core::mem::size_of::<controller_core::path::Path>()

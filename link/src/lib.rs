@@ -155,7 +155,10 @@
 //!
 //! - **RAM:** [`Decoder`] 331 B of frame buffer plus its counters, a transmit buffer of
 //!   [`MAX_FRAME_LEN`] = 332 B, [`PathAssembler`] 824 B (the new path is built at commit,
-//!   about 0.9 KiB, and moved into the controller).
+//!   about 0.9 KiB, and moved into the controller). A robot short of RAM keeps the
+//!   upload's 768 B of segments ([`UploadSegments`]) where it has room and the rest of
+//!   the assembler ([`UploadState`]) in 56 B (on a 64-bit host): robot-app assembles in
+//!   its staging area.
 //! - **Flash:** decoding every [`Downlink`] and encoding every [`Uplink`] took 11 812 B
 //!   (11.5 KiB) of `.text` and 1 228 B of `.rodata` (mostly the 1 KiB CRC table): the
 //!   difference between the program with its service replaced by a fixed reply hidden
@@ -197,4 +200,6 @@ pub use crate::frame::{
 };
 pub use crate::message::*;
 pub use crate::protocol::{Mismatch, ProtocolId, PROTOCOL_VERSION, SCHEMA_HASH};
-pub use crate::upload::{Commit, CommittedPath, PathAssembler, Progress};
+pub use crate::upload::{
+    Commit, CommittedPath, PathAssembler, Progress, UploadSegments, UploadState,
+};

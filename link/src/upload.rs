@@ -31,18 +31,45 @@ use crate::message::{
 const _: () = assert!(MAX_SEGMENTS <= 64);
 
 /// Builds a path from an upload's chunks; fixed capacity ([`MAX_SEGMENTS`] segments, about
-/// 0.8 KiB), no heap.
+/// 0.8 KiB), no heap. It is an [`UploadState`] with its own [`UploadSegments`]: a robot
+/// short of RAM keeps the segments where it has room and uses [`UploadState`] directly
+/// (robot-app assembles in the staging area that the committed path then takes).
 #[derive(Clone, Debug, Default)]
 pub struct PathAssembler {
+    state: UploadState,
+    segments: UploadSegments,
+}
+
+/// Room for an upload's segments (about 0.8 KiB), lent to [`UploadState`]'s calls.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UploadSegments([Segment; MAX_SEGMENTS]);
+
+impl UploadSegments {
+    /// Empty room.
+    pub const fn new() -> Self {
+        Self([FILLER; MAX_SEGMENTS])
+    }
+}
+
+impl Default for UploadSegments {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Which upload is open, what of it has arrived, and the last commit; the segments
+/// themselves are in an [`UploadSegments`] that the caller lends to each call and must
+/// not change while an upload is open (or must [`UploadState::abort`] it).
+#[derive(Clone, Debug, Default)]
+pub struct UploadState {
     pending: Option<Pending>,
     last_commit: Option<CommitSummary>,
 }
 
 /// The upload being received.
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug)]
 struct Pending {
     begin: PathBegin,
-    segments: [Segment; MAX_SEGMENTS],
     /// Bit i set: segment i received.
     received: u64,
 }
@@ -102,6 +129,41 @@ impl PathAssembler {
     /// An assembler with no upload open.
     pub const fn new() -> Self {
         Self {
+            state: UploadState::new(),
+            segments: UploadSegments::new(),
+        }
+    }
+
+    /// [`UploadState::begin`].
+    pub fn begin(&mut self, begin: &PathBegin) -> Result<Reply, Refusal> {
+        self.state.begin(begin)
+    }
+
+    /// [`UploadState::chunk`].
+    pub fn chunk(&mut self, chunk: &PathChunk) -> Result<Reply, Refusal> {
+        self.state.chunk(chunk, &mut self.segments)
+    }
+
+    /// [`UploadState::commit`].
+    pub fn commit(&mut self, commit: &PathCommit) -> Result<Commit, Refusal> {
+        self.state.commit(commit, &self.segments)
+    }
+
+    /// [`UploadState::abort`].
+    pub fn abort(&mut self) {
+        self.state.abort();
+    }
+
+    /// [`UploadState::progress`].
+    pub fn progress(&self) -> Option<Progress> {
+        self.state.progress()
+    }
+}
+
+impl UploadState {
+    /// No upload open, none committed.
+    pub const fn new() -> Self {
+        Self {
             pending: None,
             last_commit: None,
         }
@@ -127,21 +189,24 @@ impl PathAssembler {
         if !resent {
             self.pending = Some(Pending {
                 begin: *begin,
-                segments: [FILLER; MAX_SEGMENTS],
                 received: 0,
             });
         }
         Ok(Reply::Ack)
     }
 
-    /// Stores a chunk of the open upload (all its segments or none). Replies
-    /// [`Reply::PathChunkStored`].
-    pub fn chunk(&mut self, chunk: &PathChunk) -> Result<Reply, Refusal> {
+    /// Stores a chunk of the open upload in `segments` (all its segments or none).
+    /// Replies [`Reply::PathChunkStored`].
+    pub fn chunk(
+        &mut self,
+        chunk: &PathChunk,
+        segments: &mut UploadSegments,
+    ) -> Result<Reply, Refusal> {
         let pending = self.open(chunk.upload_id)?;
         let first = usize::from(chunk.first_index);
         let count = usize::from(pending.begin.segment_count);
-        let slots = pending
-            .segments
+        let slots = segments
+            .0
             .get_mut(first..first + chunk.segments.len())
             .filter(|slots| !slots.is_empty() && first + slots.len() <= count)
             .ok_or(invalid(PathProblem::ChunkOutOfRange {
@@ -167,10 +232,14 @@ impl PathAssembler {
         })
     }
 
-    /// Checks the open upload against `commit` and builds its path. On success the
-    /// upload is closed and the caller makes the path active; see the module doc for the
-    /// failures that keep the upload open and those that discard it.
-    pub fn commit(&mut self, commit: &PathCommit) -> Result<Commit, Refusal> {
+    /// Checks the open upload against `commit` and builds its path from `segments`. On
+    /// success the upload is closed and the caller makes the path active; see the module
+    /// doc for the failures that keep the upload open and those that discard it.
+    pub fn commit(
+        &mut self,
+        commit: &PathCommit,
+        segments: &UploadSegments,
+    ) -> Result<Commit, Refusal> {
         let Some(pending) = self
             .pending
             .as_ref()
@@ -205,7 +274,7 @@ impl PathAssembler {
                 expected: progress.expected,
             });
         }
-        let segments = pending.segments();
+        let segments = pending.announced(segments);
         let computed = path_checksum(segments);
         let result = if computed != commit.checksum {
             Err(invalid(PathProblem::ChecksumMismatch {
@@ -270,10 +339,11 @@ impl Pending {
         (0..self.begin.segment_count).find(|&i| self.received & (1 << i) == 0)
     }
 
-    /// The announced segments (all received once `first_missing` is `None`).
-    fn segments(&self) -> &[Segment] {
+    /// The announced segments in `segments` (all received once `first_missing` is
+    /// `None`).
+    fn announced<'s>(&self, segments: &'s UploadSegments) -> &'s [Segment] {
         let count = usize::from(self.begin.segment_count);
-        self.segments.get(..count).unwrap_or(&self.segments)
+        segments.0.get(..count).unwrap_or(&segments.0)
     }
 }
 

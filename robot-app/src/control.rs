@@ -487,6 +487,8 @@ fn install(
                 .map_err(set_refusal)?;
             controller.follow(&path.reference, path.law, path.supervisor.start_pose);
         }
+        // The link side never publishes an upload being assembled.
+        Staged::Assembling(_) => return Err(Refused::Busy),
     }
     Ok(())
 }

@@ -110,11 +110,11 @@
 //! On `thumbv7em-none-eabihf`, as the firmware's symbols show them (`cargo xtask size`):
 //! [`ControlSide`] 3 568 B (the controller with its active path, about 1 KiB, and two
 //! wheel-speed windows of 64 steps; the supervisor with the wheel-loop tune's state),
-//! [`LinkService`] 2 328 B (the frame decoder, the path assembler's 824 B, the transmit
-//! buffer of [`service::TX_CAPACITY`] = 576 B, the active configuration, the last run and
-//! tune reports), [`Channels`] 1 584 B (mostly the staging area's room for a path). A
-//! path is held three times: while it is assembled, while it is staged, and once active;
-//! building it in the staging area would save the assembler's 824 B.
+//! [`LinkService`] 1 560 B (the frame decoder, the transmit buffer of
+//! [`service::TX_CAPACITY`] = 576 B, the active configuration, the last run and tune
+//! reports), [`Channels`] 1 592 B (mostly the staging area's room for a path). A path is
+//! held twice: once active in the controller, and in the staging area, where the link
+//! side also assembles uploads (`Staged::Assembling`), so it needs no room of its own.
 //! `cargo run -p robot-app --example wiring` prints the host's sizes (a little larger:
 //! 8-byte pointers); the budgets below are checked at compile time on every target.
 
@@ -157,8 +157,8 @@ pub use crate::start::{start, AppConfig, StartError};
 const _: () = {
     // The wheel-loop tune's state (`controller_core::tune::Tuner`, 552 B on the host) is
     // part of the supervisor.
-    // 3 624, 2 384 and 1 624 B on a 64-bit host; 3 568, 2 328 and 1 584 B on the target.
+    // 3 624, 1 616 and 1 632 B on a 64-bit host; 3 568, 1 560 and 1 592 B on the target.
     assert!(core::mem::size_of::<ControlSide<'static>>() <= 3_648);
-    assert!(core::mem::size_of::<LinkService<'static>>() <= 2_432);
+    assert!(core::mem::size_of::<LinkService<'static>>() <= 1_664);
     assert!(core::mem::size_of::<Channels>() <= 1_664);
 };

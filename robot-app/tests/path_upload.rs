@@ -219,3 +219,68 @@ fn a_commit_moves_an_enabled_geofence_to_the_new_path() {
     rig.run(2000);
     assert_eq!(rig.last.map(|a| a.state), Some(State::Armed), "no fault");
 }
+
+/// Uploads `segments` under `upload_id` and commits them; the commit's reply.
+fn upload(rig: &mut Rig<'_>, upload_id: u16, segments: &[Segment]) -> Result<Reply, Refusal> {
+    let count = segments.len() as u8;
+    let begin = PathBegin {
+        segment_count: count,
+        ..begin(upload_id)
+    };
+    assert_eq!(rig.ask(Request::PathBegin(begin)), Ok(Reply::Ack));
+    for chunk in chunks(upload_id, segments) {
+        assert!(rig.ask(Request::PathChunk(chunk)).is_ok());
+    }
+    rig.ask(Request::PathCommit(PathCommit {
+        upload_id,
+        segment_count: count,
+        checksum: path_checksum(segments),
+    }))
+}
+
+#[test]
+fn uploads_one_after_another_each_become_active() {
+    // Each upload is assembled in the staging area, where the path installed before it
+    // was: the second and third must not see the first's segments.
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    let six = segments();
+    for (id, count) in [(1, 6), (2, 2), (3, 5)] {
+        let Ok(Reply::PathCommitted(summary)) = upload(&mut rig, id, &six[..count]) else {
+            panic!("upload {id} not committed");
+        };
+        assert_eq!(summary.segment_count, count as u8);
+        let length = rig.control.controller().reference().path().length_m();
+        assert!((length - 0.3 * count as f32).abs() < 1e-5, "{id}: {length}");
+    }
+}
+
+#[test]
+fn a_configuration_set_during_an_upload_discards_it() {
+    // The configuration is staged in the room the upload's segments are in: the upload
+    // ends, and its commit is refused as unknown rather than building a path from what
+    // the configuration overwrote. Begun again, it completes.
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    let parts: Vec<_> = chunks(9, &segments()).collect();
+    assert_eq!(rig.ask(Request::PathBegin(begin(9))), Ok(Reply::Ack));
+    assert!(rig.ask(Request::PathChunk(parts[0].clone())).is_ok());
+    assert!(matches!(
+        rig.ask(Request::SetParams(default_params())),
+        Ok(Reply::ParamsApplied { .. })
+    ));
+    assert_eq!(
+        rig.ask(Request::PathChunk(parts[1].clone())),
+        Err(Refusal::UnknownUpload { upload_id: 9 })
+    );
+    assert_eq!(
+        rig.ask(Request::PathCommit(commit(9))),
+        Err(Refusal::UnknownUpload { upload_id: 9 })
+    );
+    assert_eq!(rig.control.controller().reference().path().length_m(), 2.0);
+    assert!(matches!(
+        upload(&mut rig, 9, &segments()),
+        Ok(Reply::PathCommitted(_))
+    ));
+    assert!((rig.control.controller().reference().path().length_m() - 1.8).abs() < 1e-5);
+}

@@ -1,22 +1,24 @@
 //! A one-item hand-over between two contexts for data too large to queue: the sender
-//! fills it, the receiver uses it in place and marks it done, and the sender reads it
-//! back (to learn what was applied) and empties it.
+//! prepares the item (in place, or by replacing it), the receiver uses it in place and
+//! marks it done, and the sender reads it back (to learn what was applied) and empties
+//! the box.
 //!
 //! ```text
-//!   Empty ──stage (sender)──► Staged ──finish (receiver)──► Done ──clear (sender)──► Empty
+//!   Empty ──publish (sender)──► Staged ──finish (receiver)──► Done ──clear (sender)──► Empty
 //! ```
 //!
-//! The state is one atomic byte; whoever the state names owns the item (the sender in
-//! Empty and Done, the receiver in Staged), and the owner's `Release` store of the next
-//! state hands it over. Nobody waits: a sender finds the box occupied, a receiver finds
-//! nothing staged.
+//! The item is always initialised (the box starts with one), so the sender can prepare
+//! the next item in place while the box is Empty, building it in the room it will be
+//! read from instead of on the stack. The state is one atomic byte; whoever the state
+//! names owns the item (the sender in Empty and Done, the receiver in Staged), and the
+//! owner's `Release` store of the next state hands it over. Nobody waits: a sender finds
+//! the box occupied, a receiver finds nothing staged.
 
 // Like the ring: the item is shared between two contexts and its owner is decided by the
 // state byte, which the compiler cannot check.
 #![allow(unsafe_code)]
 
 use core::cell::UnsafeCell;
-use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicU8, Ordering};
 
 const EMPTY: u8 = 0;
@@ -27,25 +29,25 @@ const DONE: u8 = 2;
 /// with [`Mailbox::split`].
 pub struct Mailbox<T> {
     state: AtomicU8,
-    item: UnsafeCell<MaybeUninit<T>>,
+    item: UnsafeCell<T>,
 }
 
 // SAFETY: the item moves between the two contexts (so `T: Send`) and the state byte gives
 // it one owner at a time (module doc).
 unsafe impl<T: Send> Sync for Mailbox<T> {}
 
-impl<T> Default for Mailbox<T> {
+impl<T: Default> Default for Mailbox<T> {
     fn default() -> Self {
-        Self::new()
+        Self::new(T::default())
     }
 }
 
 impl<T> Mailbox<T> {
-    /// An empty mailbox.
-    pub const fn new() -> Self {
+    /// An empty mailbox whose room holds `item` until the sender prepares another.
+    pub const fn new(item: T) -> Self {
         Self {
             state: AtomicU8::new(EMPTY),
-            item: UnsafeCell::new(MaybeUninit::uninit()),
+            item: UnsafeCell::new(item),
         }
     }
 
@@ -56,33 +58,43 @@ impl<T> Mailbox<T> {
     }
 }
 
-impl<T> Drop for Mailbox<T> {
-    fn drop(&mut self) {
-        if *self.state.get_mut() != EMPTY {
-            // SAFETY: `&mut self`: no end is alive, and outside Empty the item is
-            // initialised.
-            unsafe { self.item.get_mut().assume_init_drop() };
-        }
-    }
-}
-
-/// The end that stages items and collects them back.
+/// The end that prepares and publishes items and collects them back.
 pub struct Sender<'a, T> {
     mailbox: &'a Mailbox<T>,
 }
 
 impl<T> Sender<'_, T> {
-    /// Puts `item` in the mailbox for the receiver, or gives it back when the mailbox is
-    /// not empty.
-    pub fn stage(&mut self, item: T) -> Result<(), T> {
+    /// The item, to prepare in place, while the mailbox is empty; None otherwise.
+    pub fn item_mut(&mut self) -> Option<&mut T> {
         let m = self.mailbox;
         if m.state.load(Ordering::Acquire) != EMPTY {
-            return Err(item);
+            return None;
         }
-        // SAFETY: Empty: the sender owns the (uninitialised) item; the receiver only reads
-        // it once the Release store below publishes it.
-        unsafe { (*m.item.get()).write(item) };
+        // SAFETY: Empty: the sender owns the item, and the receiver only reads it once a
+        // Release store of Staged (by `publish`, which needs `&mut self` and so cannot
+        // run while the returned borrow lives) publishes it.
+        Some(unsafe { &mut *m.item.get() })
+    }
+
+    /// Hands the item, as prepared, to the receiver; false (nothing done) when the
+    /// mailbox is not empty.
+    pub fn publish(&mut self) -> bool {
+        let m = self.mailbox;
+        if m.state.load(Ordering::Acquire) != EMPTY {
+            return false;
+        }
         m.state.store(STAGED, Ordering::Release);
+        true
+    }
+
+    /// Replaces the item with `item` and publishes it, or gives `item` back when the
+    /// mailbox is not empty.
+    pub fn stage(&mut self, item: T) -> Result<(), T> {
+        match self.item_mut() {
+            Some(slot) => *slot = item,
+            None => return Err(item),
+        }
+        self.publish();
         Ok(())
     }
 
@@ -98,21 +110,18 @@ impl<T> Sender<'_, T> {
             return None;
         }
         // SAFETY: Done: the receiver gave the item back (its Release store is seen by the
-        // Acquire load above) and will not touch it again until it is staged anew, which
-        // only this sender does, not while the returned borrow of `self` lives.
-        Some(unsafe { (*m.item.get()).assume_init_ref() })
+        // Acquire load above) and will not touch it again until it is published anew,
+        // which only this sender does, not while the returned borrow of `self` lives.
+        Some(unsafe { &*m.item.get() })
     }
 
-    /// Empties a mailbox the receiver has finished with (drops the item); does nothing
-    /// in any other state.
+    /// Empties a mailbox the receiver has finished with (the item stays, for the sender
+    /// to prepare the next one in); does nothing in any other state.
     pub fn clear(&mut self) {
         let m = self.mailbox;
-        if m.state.load(Ordering::Acquire) != DONE {
-            return;
+        if m.state.load(Ordering::Acquire) == DONE {
+            m.state.store(EMPTY, Ordering::Release);
         }
-        // SAFETY: Done: the sender owns the initialised item (see `done`).
-        unsafe { (*m.item.get()).assume_init_drop() };
-        m.state.store(EMPTY, Ordering::Release);
     }
 }
 
@@ -131,7 +140,7 @@ impl<T> Receiver<'_, T> {
         // SAFETY: Staged: the sender published the item (its Release store is seen by the
         // Acquire load above) and does not touch it until the receiver hands it back,
         // which only `finish` does, not while the returned borrow of `self` lives.
-        Some(unsafe { (*m.item.get()).assume_init_ref() })
+        Some(unsafe { &*m.item.get() })
     }
 
     /// Hands a staged item back to the sender; does nothing when none is staged.
@@ -152,12 +161,14 @@ mod tests {
 
     #[test]
     fn an_item_goes_there_and_back() {
-        let mut mailbox = Mailbox::<[u32; 8]>::new();
+        let mut mailbox = Mailbox::new([0u32; 8]);
         let (mut tx, mut rx) = mailbox.split();
         assert!(tx.is_empty());
         assert_eq!(rx.staged(), None);
         assert_eq!(tx.stage([7; 8]), Ok(()));
         assert_eq!(tx.stage([9; 8]), Err([9; 8]), "occupied");
+        assert_eq!(tx.item_mut(), None, "not the sender's while staged");
+        assert!(!tx.publish());
         assert_eq!(tx.done(), None, "not finished yet");
         tx.clear();
         assert_eq!(
@@ -169,9 +180,30 @@ mod tests {
         assert_eq!(rx.staged(), None);
         assert_eq!(tx.done(), Some(&[7; 8]));
         assert!(!tx.is_empty());
+        assert_eq!(
+            tx.item_mut(),
+            None,
+            "not the sender's to change until cleared"
+        );
         tx.clear();
         assert!(tx.is_empty());
         assert_eq!(tx.stage([9; 8]), Ok(()));
+    }
+
+    #[test]
+    fn an_item_prepared_in_place_is_what_the_receiver_reads() {
+        let mut mailbox = Mailbox::new([0u32; 4]);
+        let (mut tx, mut rx) = mailbox.split();
+        // Prepared in two steps, published once: the receiver sees nothing before.
+        tx.item_mut().unwrap()[0] = 1;
+        assert_eq!(rx.staged(), None);
+        tx.item_mut().unwrap()[3] = 4;
+        assert!(tx.publish());
+        assert_eq!(rx.staged(), Some(&[1, 0, 0, 4]));
+        rx.finish();
+        tx.clear();
+        // The item stays after clear: the next one can start from it.
+        assert_eq!(tx.item_mut(), Some(&mut [1, 0, 0, 4]));
     }
 
     struct Counted<'a>(&'a AtomicU32);
@@ -185,21 +217,27 @@ mod tests {
     fn items_are_dropped_once() {
         let drops = AtomicU32::new(0);
         {
-            let mut mailbox = Mailbox::new();
+            let mut mailbox = Mailbox::new(Counted(&drops));
             let (mut tx, mut rx) = mailbox.split();
             assert!(tx.stage(Counted(&drops)).is_ok());
+            assert_eq!(drops.load(Ordering::Relaxed), 1, "the first item, replaced");
             rx.finish();
             tx.clear();
-            assert_eq!(drops.load(Ordering::Relaxed), 1);
+            assert_eq!(drops.load(Ordering::Relaxed), 1, "kept after clear");
             assert!(tx.stage(Counted(&drops)).is_ok());
+            assert_eq!(drops.load(Ordering::Relaxed), 2);
         }
-        assert_eq!(drops.load(Ordering::Relaxed), 2, "dropped with the mailbox");
+        assert_eq!(
+            drops.load(Ordering::Relaxed),
+            3,
+            "the last, with the mailbox"
+        );
     }
 
     #[test]
     fn two_threads_hand_items_back_and_forth() {
         const ROUNDS: u32 = 20_000;
-        let mut mailbox = Mailbox::<[u32; 16]>::new();
+        let mut mailbox = Mailbox::new([u32::MAX; 16]);
         let (mut tx, mut rx) = mailbox.split();
         std::thread::scope(|s| {
             s.spawn(move || {

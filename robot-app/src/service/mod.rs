@@ -32,10 +32,11 @@ mod tx;
 use controller_core::supervisor::{ArmRequest, Command, RunMode, State};
 use link::{
     bounded, check_telemetry_rate, params_hash, ArmMode, Commit, CommitSummary, Decoder, Downlink,
-    FieldProblem, LinkStats, NotPermitted, ParamSet, PathAssembler, ProtocolId, Received, Refusal,
-    Reply, Request, RobotInfo, RunReport, Stats, TuneReport, Uplink, MAX_FRAME_LEN,
+    FieldProblem, LinkStats, NotPermitted, ParamSet, ProtocolId, Received, Refusal, Reply, Request,
+    RobotInfo, RunReport, Stats, TuneReport, Uplink, UploadSegments, UploadState, MAX_FRAME_LEN,
 };
 
+use crate::channel::mailbox::Sender;
 use crate::channel::{
     ControlStatus, LinkEnd, Op, OpKind, Refused, Report, Staged, ToControl, ToLink,
     COMMAND_CAPACITY,
@@ -126,7 +127,8 @@ pub struct ServiceCounters {
 pub struct LinkService<'a> {
     end: LinkEnd<'a>,
     decoder: Decoder,
-    uploads: PathAssembler,
+    /// The open path upload; its segments are in the staging area (`Staged::Assembling`).
+    uploads: UploadState,
     tx: TxBuffer,
     identity: Identity,
     /// The configuration in force (the control side confirmed it).
@@ -163,7 +165,7 @@ impl<'a> LinkService<'a> {
         Self {
             end,
             decoder: Decoder::new(),
-            uploads: PathAssembler::new(),
+            uploads: UploadState::new(),
             tx: TxBuffer::new(),
             identity,
             active,
@@ -354,7 +356,7 @@ impl<'a> LinkService<'a> {
                 self.refuse_if_armed()
                     .and_then(|()| self.uploads.begin(&begin)),
             ),
-            Request::PathChunk(chunk) => Some(self.uploads.chunk(&chunk)),
+            Request::PathChunk(chunk) => Some(self.path_chunk(&chunk)),
             Request::PathCommit(commit) => self.path_commit(seq, &commit),
             Request::Arm {
                 mode,
@@ -450,6 +452,16 @@ impl<'a> LinkService<'a> {
         Ok(())
     }
 
+    /// Stores a chunk of the open upload in the staging area, which holds the upload's
+    /// segments while it is empty (`Staged::Assembling`; busy while a staged item waits
+    /// for the control side, which a host that waits for each reply never meets).
+    fn path_chunk(&mut self, chunk: &link::PathChunk) -> Result<Reply, Refusal> {
+        match upload_room(&mut self.end.staging) {
+            Some(segments) => self.uploads.chunk(chunk, segments),
+            None => Err(self.busy()),
+        }
+    }
+
     /// Stages `staged` and asks the control side to install it. Called only after
     /// [`LinkService::ready_to_install`]: the mailbox is empty and the queue has room,
     /// and only this side fills either, so neither step can fail here (a staged item
@@ -473,7 +485,11 @@ impl<'a> LinkService<'a> {
         if let Err(refusal) = self.ready_to_install() {
             return Some(Err(refusal));
         }
-        let committed = match self.uploads.commit(commit) {
+        // `ready_to_install` found the staging area empty, so the room is there.
+        let Some(segments) = upload_room(&mut self.end.staging) else {
+            return Some(Err(self.busy()));
+        };
+        let committed = match self.uploads.commit(commit, segments) {
             Ok(Commit::New(committed)) => committed,
             Ok(Commit::Repeated(summary)) if self.active_path == Some(summary) => {
                 return Some(Ok(Reply::PathCommitted(summary)));
@@ -501,13 +517,18 @@ impl<'a> LinkService<'a> {
             return Some(Err(refusal));
         }
         match config::check(set, self.active.robot.control_rate_hz) {
-            Ok(params) => self.install(
-                seq,
-                Staged::Params {
-                    params,
-                    supervisor: set.supervisor,
-                },
-            ),
+            Ok(params) => {
+                // The configuration takes the room the open upload's segments are in:
+                // the upload is over (the host begins it again).
+                self.uploads.abort();
+                self.install(
+                    seq,
+                    Staged::Params {
+                        params,
+                        supervisor: set.supervisor,
+                    },
+                )
+            }
             Err(refusal) => Some(Err(refusal)),
         }
     }
@@ -550,6 +571,8 @@ impl<'a> LinkService<'a> {
                 self.active_path = Some(path.summary);
                 Ok(Reply::PathCommitted(path.summary))
             }
+            // Never published (the control side refuses it as not staged).
+            (Ok(()), Some(Staged::Assembling(_))) => Err(Refusal::Busy),
         };
         self.end.staging.clear();
         reply
@@ -610,6 +633,19 @@ pub fn max_telemetry_rate_hz(baud: u32) -> u8 {
     u8::try_from(rate).map_or(max, |r| r.min(max))
 }
 
+/// The room the open path upload is assembled in: the staging area, while it is empty
+/// (what was installed last is no longer needed there, and its room becomes the
+/// upload's). None while a staged item waits for the control side or for its reply.
+fn upload_room<'s>(staging: &'s mut Sender<'_, Staged>) -> Option<&'s mut UploadSegments> {
+    let slot = staging.item_mut()?;
+    if !matches!(slot, Staged::Assembling(_)) {
+        *slot = Staged::Assembling(UploadSegments::new());
+    }
+    match slot {
+        Staged::Assembling(segments) => Some(segments),
+        _ => None,
+    }
+}
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -146,6 +146,8 @@ impl Segment {
         if !(finite && length_m.is_finite()) {
             return Err(PathError::NonFinite);
         }
+        // A zero radius gives a zero length, refused just below, so `>=` here is an
+        // equivalent mutant (.cargo/mutants.toml).
         let radius_ok = match *self {
             Segment::Line { .. } => true,
             Segment::Arc { radius_m, .. } => radius_m > 0.0,
@@ -318,6 +320,8 @@ impl Joint {
     fn between(before: &Segment, after: &Segment) -> Joint {
         let end = before.sample(before.length_m());
         let start = after.sample(0.0);
+        // Tolerance boundaries: `>=` for either `>` differs only when a distance or an
+        // angle equals its tolerance exactly (equivalent mutants, .cargo/mutants.toml).
         if end.point.distance_to(start.point) > JOINT_TOLERANCE_M {
             Joint::Gap
         } else if math::abs(math::wrap_angle(start.heading_rad - end.heading_rad))
@@ -866,6 +870,32 @@ mod tests {
                 radius_m: 1.0,
                 start_angle_rad: 0.0,
                 sweep_rad: f32::NAN,
+            },
+            // Every field of an arc on its own, including those its length does not
+            // depend on (the centre and the start angle).
+            Segment::Arc {
+                center: Point::new(f32::NAN, 0.0),
+                radius_m: 1.0,
+                start_angle_rad: 0.0,
+                sweep_rad: 1.0,
+            },
+            Segment::Arc {
+                center: Point::new(0.0, f32::INFINITY),
+                radius_m: 1.0,
+                start_angle_rad: 0.0,
+                sweep_rad: 1.0,
+            },
+            Segment::Arc {
+                center: Point::new(0.0, 0.0),
+                radius_m: f32::NAN,
+                start_angle_rad: 0.0,
+                sweep_rad: 1.0,
+            },
+            Segment::Arc {
+                center: Point::new(0.0, 0.0),
+                radius_m: 1.0,
+                start_angle_rad: f32::NAN,
+                sweep_rad: 1.0,
             },
             Segment::Arc {
                 center: Point::new(0.0, 0.0),

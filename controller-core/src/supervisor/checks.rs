@@ -61,6 +61,8 @@ impl Stall {
         for (i, (volts, speed)) in wheels.into_iter().enumerate() {
             let driven = math::abs(volts) >= check.min_volts;
             let direction = if volts >= 0.0 { 1.0 } else { -1.0 };
+            // Equivalent mutants (.cargo/mutants.toml): `/` for `*` (direction is ±1) and
+            // `<=` for `<` (a speed of exactly the threshold).
             if driven && speed * direction < check.min_speed_rad_s {
                 self.steps[i] = self.steps[i].saturating_add(1);
             } else {
@@ -135,7 +137,8 @@ impl Divergence {
         if self.armed_periods <= check.settle_steps {
             return false;
         }
-        // A NaN error is caught as a non-finite fault; it does not count here.
+        // A NaN error is caught as a non-finite fault; it does not count here. (`>=`: an
+        // error of exactly the bound, an equivalent mutant.)
         if telemetry.error.position_m() > check.bound_m {
             self.above_periods = self.above_periods.saturating_add(periods);
         } else {
@@ -272,6 +275,63 @@ mod tests {
             s.update(&telemetry(-4.0, 0.5, 0.0), &check);
         }
         assert_eq!(s.update(&telemetry(-4.0, 0.5, 0.0), &check), [true, true]);
+    }
+
+    #[test]
+    fn a_wheel_driven_backwards_and_turning_backwards_is_not_stalled() {
+        let check = StallCheck {
+            min_volts: 3.6,
+            min_speed_rad_s: 1.0,
+            timeout_steps: 3,
+        };
+        let mut s = Stall::default();
+        for _ in 0..10 {
+            assert_eq!(
+                s.update(&telemetry(-4.0, -5.0, 0.0), &check),
+                [false, false]
+            );
+        }
+    }
+
+    #[test]
+    fn a_reset_stall_count_starts_from_zero() {
+        let check = StallCheck {
+            min_volts: 3.6,
+            min_speed_rad_s: 1.0,
+            timeout_steps: 3,
+        };
+        let mut s = Stall::default();
+        let stuck = telemetry(4.0, 0.0, 0.0);
+        s.update(&stuck, &check);
+        s.update(&stuck, &check);
+        s.reset();
+        // Two more stuck steps after the reset: still under the 3-step timeout.
+        assert_eq!(s.update(&stuck, &check), [false, false]);
+        assert_eq!(s.update(&stuck, &check), [false, false]);
+        assert_eq!(s.update(&stuck, &check), [true, true]);
+    }
+
+    #[test]
+    fn a_reset_divergence_check_waits_for_the_settling_window_again() {
+        let check = DivergenceCheck {
+            settle_steps: 100,
+            bound_m: 0.5,
+            persist_steps: 50,
+        };
+        let mut d = Divergence::default();
+        let near = telemetry(0.0, 0.0, 0.1);
+        let far = telemetry(0.0, 0.0, 1.0);
+        for _ in 0..200 {
+            assert!(!d.update(&near, 1, &check));
+        }
+        // A new run: far off the path at first, as a run that starts away from it is.
+        d.reset();
+        for k in 0..100 {
+            assert!(
+                !d.update(&far, 1, &check),
+                "step {k} of the new settling window"
+            );
+        }
     }
 
     #[test]

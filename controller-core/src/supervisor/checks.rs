@@ -400,6 +400,21 @@ mod tests {
         let start = Pose::new(1.0, 1.0, 0.0);
         assert!(!outside_geofence(&Pose::new(3.0, 1.0, 2.0), &start, 2.5));
         assert!(outside_geofence(&Pose::new(3.0, 3.0, 0.0), &start, 2.5));
+        // On the fence (3-4-5, exact in f32) is still inside.
+        assert!(!outside_geofence(&Pose::new(4.0, 5.0, 0.0), &start, 5.0));
+    }
+
+    #[test]
+    fn the_top_of_the_supply_range_is_allowed() {
+        // The driver's maximum itself is in range; only above it counts as high.
+        let check = BatteryCheck {
+            warn_v: 5.0,
+            fault_v: 4.6,
+            debounce_steps: 1,
+        };
+        let mut s = Supply::default();
+        assert!(!s.update(13.5, &check, 13.5).high);
+        assert!(s.update(13.6, &check, 13.5).high);
     }
 
     #[test]

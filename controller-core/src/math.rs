@@ -304,7 +304,7 @@ pub fn ln(x: f32) -> f32 {
     if x == f32::INFINITY {
         return x;
     }
-    // Subnormals: scale into the normal range first.
+    // Subnormals: scale into the normal range first (`<=`: equivalent, the scaling is exact).
     let (x, mut e) = if x < f32::MIN_POSITIVE {
         (x * 8_388_608.0, -23)
     } else {
@@ -313,6 +313,7 @@ pub fn ln(x: f32) -> f32 {
     let bits = x.to_bits();
     e += ((bits >> 23) & 0xff) as i32 - 127;
     // The mantissa m in [1, 2), then in [√½, √2) so |z| below is ≤ 0.172.
+    // (Equivalent mutants: `^` for `|`, no bit in common; `>=`, both accurate at √2.)
     let mut m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
     if m > core::f32::consts::SQRT_2 {
         m *= 0.5;

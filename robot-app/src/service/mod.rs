@@ -646,6 +646,7 @@ fn upload_room<'s>(staging: &'s mut Sender<'_, Staged>) -> Option<&'s mut Upload
         _ => None,
     }
 }
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -638,8 +638,14 @@ pub(crate) mod tests {
     /// reference at 0.2 m/s, believing it starts at the origin. Shared with the
     /// supervisor's tests.
     pub(crate) fn on_a_line(length_m: f32) -> Controller {
+        on_a_line_from(Point::new(0.0, 0.0), length_m)
+    }
+
+    /// As [`on_a_line`], with the line and the robot's belief starting at `start` (world
+    /// frame, m) instead of the origin.
+    pub(crate) fn on_a_line_from(start: Point, length_m: f32) -> Controller {
         let params = Params::new(RobotConfig::REFERENCE_ROBOT).unwrap();
-        let path = Path::line(Point::new(0.0, 0.0), 0.0, length_m).unwrap();
+        let path = Path::line(start, 0.0, length_m).unwrap();
         let reference = Reference::new(
             path,
             0.2,
@@ -648,7 +654,8 @@ pub(crate) mod tests {
             },
         )
         .unwrap();
-        Controller::new(params, reference, LawKind::Tracking, Pose::default())
+        let pose = Pose::new(start.x_m, start.y_m, 0.0);
+        Controller::new(params, reference, LawKind::Tracking, pose)
     }
 
     fn controller() -> Controller {

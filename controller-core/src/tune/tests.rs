@@ -5,8 +5,6 @@ use super::*;
 use crate::controller::{Controller, Mode, StepInput, TickDeltas};
 use crate::kinematics::Point;
 use crate::params::RobotConfig;
-use crate::path::Path;
-use crate::reference::{Reference, ReferenceMode};
 
 /// One synthetic wheel: τ ω̇ = K (u − k_S sgn ω) − ω while turning; held at rest while
 /// |u| ≤ k_S.
@@ -385,23 +383,9 @@ fn the_leash_is_counted_from_where_the_tune_began() {
     // A tune begun 20 m from the origin, on the ground with a 1.5 m leash: it runs to its
     // end (the leash is measured from the start pose, not from the origin).
     let mut bench = Bench::new(ground_wheel());
-    let params = bench.params();
-    let path = Path::line(Point::new(20.0, 0.0), 0.0, 5.0).unwrap();
-    let reference = Reference::new(
-        path,
-        0.2,
-        ReferenceMode::TimeIndexed {
-            start_offset_m: 0.0,
-        },
-    )
-    .unwrap();
-    bench.controller = Controller::new(
-        params,
-        reference,
-        crate::law::LawKind::Tracking,
-        Pose::new(20.0, 0.0, 0.0),
-    );
-    let mut tuner = Tuner::new(config(&bench), &params);
+    bench.controller = crate::controller::tests::on_a_line_from(Point::new(20.0, 0.0), 5.0);
+    assert_eq!(bench.controller.pose(), Pose::new(20.0, 0.0, 0.0));
+    let mut tuner = Tuner::new(config(&bench), &bench.params());
     assert!(bench.run(&mut tuner, None).is_ok());
 }
 

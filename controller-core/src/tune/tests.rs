@@ -56,8 +56,9 @@ struct Bench {
     /// Encoder: +1 or −1 (an encoder wired the wrong way round).
     encoder_sign: [f32; 2],
     ticks_seen: [i32; 2],
-    /// From this step on, the left wheel is held (a blocked wheel): (step, static friction).
-    block_left_at: Option<(usize, f32)>,
+    /// Over these steps the left wheel's static friction is raised (a blocked wheel):
+    /// (steps, static friction); it is restored after them.
+    block_left: Option<(core::ops::Range<usize>, f32)>,
     /// Every voltage the tune asked for, and the true speeds after each step.
     asked: Vec<WheelVolts>,
     speeds: Vec<[f32; 2]>,
@@ -70,7 +71,7 @@ impl Bench {
             wheels: [wheel; 2],
             encoder_sign: [1.0; 2],
             ticks_seen: [0; 2],
-            block_left_at: None,
+            block_left: None,
             asked: Vec::new(),
             speeds: Vec::new(),
         }
@@ -100,9 +101,11 @@ impl Bench {
                 },
                 6.0,
             ));
-            if let Some((at, ks)) = self.block_left_at {
-                if k == at {
-                    self.wheels[0].ks = ks;
+            if let Some((steps, ks)) = &self.block_left {
+                if k == steps.start {
+                    self.wheels[0].ks = *ks;
+                } else if k == steps.end {
+                    self.wheels[0].ks = self.wheels[1].ks;
                 }
             }
             let applied = self.controller.telemetry().wheel_loop.volts;
@@ -380,11 +383,11 @@ fn config_bounds_are_where_the_doc_says() {
 
 #[test]
 fn the_leash_is_counted_from_where_the_tune_began() {
-    // A tune begun 20 m from the origin, on the ground with a 1.5 m leash: it runs to its
+    // A tune begun 21 m from the origin, on the ground with a 1.5 m leash: it runs to its
     // end (the leash is measured from the start pose, not from the origin).
     let mut bench = Bench::new(ground_wheel());
-    bench.controller = crate::controller::tests::on_a_line_from(Point::new(20.0, 0.0), 5.0);
-    assert_eq!(bench.controller.pose(), Pose::new(20.0, 0.0, 0.0));
+    bench.controller = crate::controller::tests::on_a_line_from(Point::new(20.0, -7.0), 5.0);
+    assert_eq!(bench.controller.pose(), Pose::new(20.0, -7.0, 0.0));
     let mut tuner = Tuner::new(config(&bench), &bench.params());
     assert!(bench.run(&mut tuner, None).is_ok());
 }
@@ -514,7 +517,7 @@ fn once_turning_the_voltage_stays_well_above_breakaway_until_the_brake() {
 fn a_wheel_that_stops_while_driven_stops_the_tune() {
     let mut bench = Bench::new(ground_wheel());
     // Blocked in the middle of the forward experiment (the hold or the step).
-    bench.block_left_at = Some((2000, 10.0));
+    bench.block_left = Some((2000..usize::MAX, 10.0));
     let mut tuner = Tuner::new(config(&bench), &bench.params());
     assert_eq!(
         bench.run(&mut tuner, None),
@@ -522,4 +525,100 @@ fn a_wheel_that_stops_while_driven_stops_the_tune() {
     );
     // Within the speed window and its grace of the block, not at the end of the phase.
     assert!(bench.asked.len() < 2000 + 300, "{}", bench.asked.len());
+}
+
+#[test]
+fn the_defaults_follow_the_robot() {
+    // u_hi is 40 % of the rated voltage and the speed limit 75 % of the top speed at the
+    // rated voltage, for any motor; the rest are fixed.
+    let mut robot = RobotConfig::REFERENCE_ROBOT;
+    for rated in [6.0, 12.0] {
+        robot.motor.rated_voltage_v = rated;
+        let c = TuneConfig::for_robot(&robot);
+        assert!(close(c.experiment_volts_v, 0.4 * rated, 1e-6), "{c:?}");
+        let top = robot.left_wheel.speed_at_volts(rated);
+        assert!(top > 5.0 * rated, "{top}");
+        assert!(close(c.max_speed_rad_s, 0.75 * top, 1e-6), "{c:?}");
+        assert_eq!(
+            (c.breakaway_ramp_v_per_s, c.hold_s, c.max_distance_m),
+            (1.0, 1.0, 1.5)
+        );
+        assert_eq!((c.tau_c_per_dead_time, c.load), (1.2, TuneLoad::Ground));
+    }
+}
+
+/// Where the hold begins in `asked`: the jump from the breakaway ramp (1 mV a step) to
+/// u_lo.
+fn hold_start(asked: &[WheelVolts]) -> usize {
+    1 + asked
+        .windows(2)
+        .position(|pair| pair[1].left_v - pair[0].left_v > 0.05)
+        .unwrap()
+}
+
+#[test]
+fn the_hold_lies_three_tenths_of_the_way_from_the_breakaway_to_u_hi() {
+    let mut bench = Bench::new(ground_wheel());
+    let c = config(&bench);
+    let mut tuner = Tuner::new(c, &bench.params());
+    bench.run(&mut tuner, None).unwrap();
+    let at = hold_start(&bench.asked);
+    // The last voltage of the ramp is the one both wheels were seen turning at.
+    let breakaway = bench.asked[at - 1].left_v;
+    assert!(
+        breakaway > ground_wheel().ks && breakaway < 1.0,
+        "{breakaway}"
+    );
+    let low = breakaway + 0.3 * (c.experiment_volts_v - breakaway);
+    assert!(
+        math::abs(bench.asked[at].left_v - low) < 2e-3,
+        "{:?} vs {low}",
+        bench.asked[at]
+    );
+}
+
+#[test]
+fn a_breakaway_above_three_fifths_of_u_hi_is_refused_and_names_its_wheel() {
+    // u_hi = 2.4 V: a wheel that needs more than 1.44 V to turn leaves too little room
+    // between u_lo and u_hi for a clean step.
+    for (stiff, side) in [(0, Side::Left), (1, Side::Right)] {
+        let mut bench = Bench::new(ground_wheel());
+        bench.wheels[stiff].ks = 1.6;
+        let mut tuner = Tuner::new(config(&bench), &bench.params());
+        assert_eq!(
+            bench.run(&mut tuner, None),
+            Err(TuneAbort::BreakawayTooHigh(side))
+        );
+        // Refused as soon as it is known: at about 1.6 V of the 1 V/s ramp, plus the time
+        // to reach 1 rad/s.
+        assert!(bench.asked.len() < 2_000, "{}", bench.asked.len());
+    }
+    // A stiff wheel under the limit is tuned.
+    let mut bench = Bench::new(ground_wheel());
+    bench.wheels[1].ks = 1.0;
+    let mut tuner = Tuner::new(config(&bench), &bench.params());
+    assert!(bench.run(&mut tuner, None).is_ok());
+}
+
+#[test]
+fn a_wheel_that_sticks_for_a_moment_as_the_hold_begins_is_given_time() {
+    let mut bench = Bench::new(ground_wheel());
+    let mut tuner = Tuner::new(config(&bench), &bench.params());
+    bench.run(&mut tuner, None).unwrap();
+    let at = hold_start(&bench.asked);
+    // Stuck for 80 ms early in the hold (a stone, cogging): within the hold's first fifth
+    // (200 ms of 1 s) a stopped wheel is waited for, and the tune ends normally.
+    let mut bench = Bench::new(ground_wheel());
+    bench.block_left = Some((at + 20..at + 100, 10.0));
+    let mut tuner = Tuner::new(config(&bench), &bench.params());
+    assert!(bench.run(&mut tuner, None).is_ok());
+    assert!(bench.speeds[at + 40..at + 100].iter().all(|w| w[0] == 0.0));
+    // The same 80 ms later in the hold stops it.
+    let mut bench = Bench::new(ground_wheel());
+    bench.block_left = Some((at + 300..at + 380, 10.0));
+    let mut tuner = Tuner::new(config(&bench), &bench.params());
+    assert_eq!(
+        bench.run(&mut tuner, None),
+        Err(TuneAbort::Stalled(Side::Left))
+    );
 }

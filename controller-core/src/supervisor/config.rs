@@ -308,7 +308,8 @@ impl DivergenceCheck {
     /// the bound is 0.25 m plus the look-ahead plus one second of reference travel (0.5 m
     /// at the paper's 0.25 m/s; the paper's own law trails by ≈ v_r/γ = 0.25 m), the error
     /// must persist for 1 s, and the check starts once the robot has had 3 s plus twice
-    /// the time to cover its initial distance to the path at the reference speed.
+    /// the time to cover its initial distance to the path at the reference speed (a day
+    /// or more of that, from a start far from a slow path, means never: `u32::MAX`).
     pub fn for_reference(reference: &Reference, start: &Pose, control_rate_hz: u32) -> Self {
         let speed = reference.speed_m_s();
         let lookahead = match reference.mode() {
@@ -557,6 +558,84 @@ mod tests {
     }
 
     #[test]
+    fn every_bound_is_where_the_doc_says() {
+        type Edit = fn(&mut SupervisorConfig);
+        const fn divergence(bound_m: f32, persist_steps: u32) -> Option<DivergenceCheck> {
+            Some(DivergenceCheck {
+                settle_steps: 0,
+                bound_m,
+                persist_steps,
+            })
+        }
+        // Each rule just inside its bound (accepted) and just outside it (refused, with
+        // the field named).
+        let cases: &[(Edit, Result<(), &str>)] = &[
+            (|c| (c.debounce_steps, c.long_press_steps) = (1, 2), Ok(())),
+            (
+                |c| c.long_press_steps = c.debounce_steps,
+                Err("long_press_steps"),
+            ),
+            (|c| c.max_consecutive_overruns = 1, Ok(())),
+            (|c| c.background_timeout_steps = 1, Ok(())),
+            (|c| c.missed_ticks.window_steps = 1, Ok(())),
+            (|c| c.missed_ticks.window_steps = 0, Err("missed_ticks")),
+            (|c| c.missed_ticks.max_gap_periods = 2, Ok(())),
+            (|c| c.missed_ticks.max_gap_periods = 1, Err("missed_ticks")),
+            (|c| c.stall.min_volts = f32::MIN_POSITIVE, Ok(())),
+            (|c| c.stall.min_volts = f32::INFINITY, Err("stall")),
+            (|c| c.stall.min_speed_rad_s = 0.0, Ok(())),
+            (|c| c.stall.min_speed_rad_s = f32::NAN, Err("stall")),
+            (|c| c.stall.timeout_steps = 1, Ok(())),
+            (|c| c.saturation.window_steps = 1, Ok(())),
+            (|c| c.saturation.window_steps = 0, Err("saturation")),
+            (|c| c.saturation.max_fraction = 1.0, Ok(())),
+            (|c| c.saturation.max_fraction = 1.001, Err("saturation")),
+            (|c| c.saturation.max_fraction = 1e-6, Ok(())),
+            (|c| c.saturation.max_fraction = 0.0, Err("saturation")),
+            (|c| c.saturation.max_fraction = f32::NAN, Err("saturation")),
+            (|c| c.divergence = divergence(1e-6, 1), Ok(())),
+            (|c| c.divergence = divergence(0.0, 1), Err("divergence")),
+            (
+                |c| c.divergence = divergence(f32::INFINITY, 1),
+                Err("divergence"),
+            ),
+            (|c| c.divergence = divergence(0.5, 0), Err("divergence")),
+            (|c| c.geofence_radius_m = Some(1e-6), Ok(())),
+            (
+                |c| c.geofence_radius_m = Some(0.0),
+                Err("geofence_radius_m"),
+            ),
+            (
+                |c| c.geofence_radius_m = Some(f32::INFINITY),
+                Err("geofence_radius_m"),
+            ),
+            // The reference robot's bridge needs 4.5 V.
+            (
+                |c| (c.battery.fault_v, c.battery.warn_v) = (4.5, 4.5),
+                Ok(()),
+            ),
+            (|c| c.battery.fault_v = 4.49, Err("battery")),
+            (
+                |c| c.battery.warn_v = c.battery.fault_v - 0.01,
+                Err("battery"),
+            ),
+            (|c| c.battery.warn_v = f32::INFINITY, Err("battery")),
+            (|c| c.battery.debounce_steps = 1, Ok(())),
+            (|c| c.battery.debounce_steps = 0, Err("battery")),
+            (|c| c.heartbeat_timeout_steps = 1, Ok(())),
+        ];
+        for (i, (edit, expected)) in cases.iter().enumerate() {
+            let mut c = SupervisorConfig::at_rate(1000, Pose::default(), WheelSpeeds::default());
+            edit(&mut c);
+            assert_eq!(
+                c.validate(&params()).map_err(|e| e.field()),
+                *expected,
+                "case {i}: {c:?}"
+            );
+        }
+    }
+
+    #[test]
     fn defaults_are_valid_at_any_rate() {
         for rate in [1, 100, 1000, 20_000] {
             let c = SupervisorConfig::at_rate(rate, Pose::default(), WheelSpeeds::default());
@@ -620,6 +699,136 @@ mod tests {
         assert!((d - (2f32.sqrt() + 1.0)).abs() < 1e-5, "{d}");
     }
 
+    /// The farthest of `n + 1` evenly spaced points along `segment` from `p`, in f64.
+    fn farthest_sampled_m(segment: &Segment, p: Point, n: u32) -> f64 {
+        let point_at = |t: f64| -> (f64, f64) {
+            match *segment {
+                Segment::Line {
+                    start,
+                    heading_rad,
+                    length_m,
+                } => {
+                    let (h, l) = (f64::from(heading_rad), f64::from(length_m));
+                    (
+                        f64::from(start.x_m) + t * l * h.cos(),
+                        f64::from(start.y_m) + t * l * h.sin(),
+                    )
+                }
+                Segment::Arc {
+                    center,
+                    radius_m,
+                    start_angle_rad,
+                    sweep_rad,
+                } => {
+                    let a = f64::from(start_angle_rad) + t * f64::from(sweep_rad);
+                    let r = f64::from(radius_m);
+                    (
+                        f64::from(center.x_m) + r * a.cos(),
+                        f64::from(center.y_m) + r * a.sin(),
+                    )
+                }
+            }
+        };
+        (0..=n)
+            .map(|i| {
+                let (x, y) = point_at(f64::from(i) / f64::from(n));
+                (x - f64::from(p.x_m)).hypot(y - f64::from(p.y_m))
+            })
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn the_farthest_point_of_any_line_or_arc_is_found() {
+        // Against a dense sampling, from points all around: never less than the farthest
+        // sample, and not more than the sampling's gap (0.6 mm) above it.
+        let coordinates = [-3.1, -1.0, -0.3, 0.45, 2.2];
+        let points = coordinates
+            .iter()
+            .flat_map(|x| coordinates.iter().map(|y| Point::new(*x, *y)));
+        let mut segments = std::vec::Vec::new();
+        for start_angle_rad in [-3.0, -1.2, 0.0, 0.7, 2.5] {
+            for sweep_rad in [-6.0, -2.0, -0.5, 0.5, 2.0, 6.0] {
+                segments.push(Segment::Arc {
+                    center: Point::new(0.5, -0.2),
+                    radius_m: 1.3,
+                    start_angle_rad,
+                    sweep_rad,
+                });
+            }
+            segments.push(Segment::Line {
+                start: Point::new(-0.7, 0.9),
+                heading_rad: start_angle_rad,
+                length_m: 2.4,
+            });
+        }
+        for p in points {
+            for segment in &segments {
+                let found = f64::from(farthest_distance_m(segment, p));
+                let sampled = farthest_sampled_m(segment, p, 20_000);
+                assert!(
+                    found >= sampled - 1e-5 && found <= sampled + 6e-4,
+                    "{segment:?} from {p:?}: {found} vs {sampled}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_geofence_reaches_the_farthest_segment() {
+        // An L: 2 m east, then 3 m north; from the start the corner is 2 m away and the
+        // end √13 m: the radius is that plus 1 m, whichever segment comes first.
+        let l = Path::polyline(
+            &[
+                Point::new(0.0, 0.0),
+                Point::new(2.0, 0.0),
+                Point::new(2.0, 3.0),
+            ],
+            0.0,
+            false,
+        )
+        .unwrap();
+        let r = geofence_radius_m(&l, Pose::default());
+        assert!((r - (13f32.sqrt() + 1.0)).abs() < 1e-5, "{r}");
+        let back = Path::polyline(
+            &[
+                Point::new(2.0, 3.0),
+                Point::new(2.0, 0.0),
+                Point::new(0.0, 0.0),
+            ],
+            0.0,
+            false,
+        )
+        .unwrap();
+        let r = geofence_radius_m(&back, Pose::default());
+        assert!((r - (13f32.sqrt() + 1.0)).abs() < 1e-5, "{r}");
+    }
+
+    #[test]
+    fn each_requirement_states_its_bound() {
+        use SupervisorConfigError as E;
+        let cases = [
+            (E::NonFiniteStartPose, "finite"),
+            (E::BadButtonTiming, "exceed debounce_steps"),
+            (E::ZeroOverrunLimit, "≥ 1"),
+            (E::BadMissedTickCheck, "max_gap_periods ≥ 2"),
+            (E::BadStallCheck, "min_volts > 0"),
+            (E::BadSaturationCheck, "max_fraction in (0, 1]"),
+            (E::BadDivergenceCheck, "bound_m > 0"),
+            (E::BadGeofence, "> 0"),
+            (
+                E::BadBatteryThresholds {
+                    warn_v: 5.0,
+                    fault_v: 6.0,
+                    min_supply_v: 4.5,
+                },
+                "fault_v ≤ warn_v",
+            ),
+        ];
+        for (error, bound) in cases {
+            assert!(error.requirement().contains(bound), "{error:?}");
+        }
+    }
+
     #[test]
     fn divergence_defaults_follow_the_reference() {
         let circle = Path::circle(Point::new(0.0, 0.0), 1.25, -2.265, true).unwrap();
@@ -636,5 +845,31 @@ mod tests {
         assert_eq!(d.persist_steps, 1000);
         // 0.312 m from the circle at 0.25 m/s: 3 s + 2 · 1.25 s.
         assert!((5400..5600).contains(&d.settle_steps), "{}", d.settle_steps);
+        // Following the path with a 0.3 m look-ahead: the bound grows by it.
+        let ahead = Reference::new(
+            reference.path().clone(),
+            0.25,
+            ReferenceMode::PathFollowing { lookahead_m: 0.3 },
+        )
+        .unwrap();
+        let d = DivergenceCheck::for_reference(&ahead, &Pose::new(-1.0, -1.2, 2.09), 1000);
+        assert!((d.bound_m - 0.8).abs() < 1e-6, "{d:?}");
+        // 100 m from a path followed at 1 mm/s: 2·10⁵ s to settle, more than a day.
+        let slow = Reference::new(
+            Path::line(Point::new(0.0, 0.0), 0.0, 2.0).unwrap(),
+            1e-3,
+            ReferenceMode::TimeIndexed {
+                start_offset_m: 0.0,
+            },
+        )
+        .unwrap();
+        let far = DivergenceCheck::for_reference(&slow, &Pose::new(0.0, 100.0, 0.0), 1000);
+        assert_eq!(far.settle_steps, u32::MAX);
+        let near = DivergenceCheck::for_reference(&slow, &Pose::new(0.0, 10.0, 0.0), 1000);
+        // 3 s + 2·10⁴ s, under a day.
+        assert!(
+            (near.settle_steps as f32 - 20_003_000.0).abs() < 2_000.0,
+            "{near:?}"
+        );
     }
 }

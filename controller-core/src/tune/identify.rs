@@ -284,6 +284,39 @@ mod tests {
         assert_eq!(flat.line(), None);
     }
 
+    #[test]
+    fn a_line_needs_three_points_and_a_finite_answer() {
+        // Two points define a line but leave no check on it: refused; three are enough.
+        let mut fit = LineFit::default();
+        fit.push(1.0, 3.0);
+        fit.push(2.0, 5.0);
+        assert_eq!(fit.line(), None);
+        fit.push(3.0, 7.0);
+        let (c, slope) = fit.line().unwrap();
+        assert!(
+            (c - 1.0).abs() < 1e-5 && (slope - 2.0).abs() < 1e-5,
+            "{c} {slope}"
+        );
+        // A slope of 10¹⁰ through points near x = 10³⁰: the intercept overflows f32.
+        let steep = LineFit {
+            n: 3,
+            mean_x: 1e30,
+            mean_y: 0.0,
+            cxx: 1.0,
+            cxy: 1e10,
+        };
+        assert_eq!(steep.line(), None);
+        // A spread in x too small for the slope to be an f32: refused too.
+        let vertical = LineFit {
+            n: 3,
+            mean_x: 0.0,
+            mean_y: 0.0,
+            cxx: 1e-30,
+            cxy: 1e10,
+        };
+        assert_eq!(vertical.line(), None);
+    }
+
     /// The samples a moving average of `w` periods makes of an FOPDT step response
     /// (exact: the average of the continuous response over the window).
     fn filtered_step(k: f32, tau: f32, theta: f32, du: f32, t: f32, w: u32, n: usize) -> Vec<f32> {

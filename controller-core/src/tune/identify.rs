@@ -194,6 +194,9 @@ impl StepSums {
         weights: &[f32; BANK],
     ) -> Option<Fopdt> {
         let delta = self.delta();
+        // Equivalent mutants (`<` → `==` and `<=` on `samples`, .cargo/mutants.toml): one
+        // sample cannot bracket (every Q is ≥ 1), and the only caller, the tune, always
+        // has at least 50 (`TuneConfig::validate`).
         if self.samples < 2 || delta <= 0.0 || delta_u <= 0.0 {
             return None;
         }
@@ -361,6 +364,18 @@ mod tests {
             assert!((m.tau - tau).abs() < 0.02 * tau, "{m:?} vs τ {tau}");
             assert!((m.theta - theta).abs() < 2e-3, "{m:?} vs θ {theta}");
         }
+    }
+
+    #[test]
+    fn exact_samples_fit_to_within_rounding() {
+        // The method is exact for the continuous response; on exact samples of a settled
+        // one (1.5 s, 17 τ) what is left is the trapezoid's error and f32 rounding: τ to
+        // about 10⁻⁵ and θ to a fraction of a microsecond (measured 7·10⁻⁶ and 0.2 µs).
+        let samples = filtered_step(6.35, 0.089, 0.0, 1.4, 0.001, 20, 1500);
+        let m = fit(&samples, 1.4, 0.001, 20).unwrap();
+        assert!((m.tau - 0.089).abs() < 1.2e-5 * 0.089, "{m:?}");
+        assert!(m.theta.abs() < 5e-7, "{m:?}");
+        assert!((m.gain - 6.35).abs() < 1e-4 * 6.35, "{m:?}");
     }
 
     #[test]

@@ -237,6 +237,8 @@ fn solve_tau(sa: f32, sb: f32, target: f32) -> Option<f32> {
     if !(f(lo) >= 0.0 && f(hi) <= 0.0) {
         return None;
     }
+    // Equivalent mutant (`>` → `>=` below, .cargo/mutants.toml): at f(mid) = 0 exactly
+    // mid is the root, and either half keeps it as an end.
     for _ in 0..60 {
         let mid = 0.5 * (lo + hi);
         if f(mid) > 0.0 {
@@ -254,6 +256,7 @@ fn solve_tau(sa: f32, sb: f32, target: f32) -> Option<f32> {
 pub(crate) fn simc(model: &Fopdt, dead_time_s: f32, tau_c_s: f32) -> (f32, f32) {
     let horizon = tau_c_s + dead_time_s;
     let kc = model.tau / (model.gain * horizon);
+    // Equivalent mutant (`<` → `<=`, .cargo/mutants.toml): on a tie both are the same.
     let ti = if model.tau < 4.0 * horizon {
         model.tau
     } else {
@@ -367,6 +370,18 @@ mod tests {
     }
 
     #[test]
+    fn tau_is_solved_within_its_range_only() {
+        // s_a = 1/s, s_b = 2/s: ln(1 + 2τ)/2 − ln(1 + τ) is −0.1438 s at τ = 1 s and
+        // −3.107 s at τ = 1 000 s, beyond the 100 s searched; a positive target has no
+        // τ ≥ 0 at all.
+        let at = |tau: f32| math::ln(1.0 + 2.0 * tau) / 2.0 - math::ln(1.0 + tau);
+        let tau = solve_tau(1.0, 2.0, at(1.0)).unwrap();
+        assert!((tau - 1.0).abs() < 1e-4, "{tau}");
+        assert_eq!(solve_tau(1.0, 2.0, at(1_000.0)), None);
+        assert_eq!(solve_tau(1.0, 2.0, 0.1), None);
+    }
+
+    #[test]
     fn exact_samples_fit_to_within_rounding() {
         // The method is exact for the continuous response; on exact samples of a settled
         // one (1.5 s, 17 τ) what is left is the trapezoid's error and f32 rounding: τ to
@@ -399,6 +414,10 @@ mod tests {
             .map(|y| -y)
             .collect();
         assert_eq!(fit(&down, 1.0, 0.001, 20), None);
+        // A response to a step of 10⁻⁴⁰ V: a gain beyond f32, refused.
+        let up = filtered_step(6.0, 0.05, 0.0, 1.0, 0.001, 20, 500);
+        assert!(fit(&up, 1.0, 0.001, 20).is_some());
+        assert_eq!(fit(&up, 1e-40, 0.001, 20), None);
     }
 
     #[test]

@@ -251,13 +251,23 @@ mod tests {
         t
     }
 
+    /// A stall after 3 steps driven with ≥ 3.6 V and turning slower than 1 rad/s.
+    const STALL: StallCheck = StallCheck {
+        min_volts: 3.6,
+        min_speed_rad_s: 1.0,
+        timeout_steps: 3,
+    };
+
+    /// Divergence: 100 steps to settle, then 50 steps over 0.5 m.
+    const DIVERGENCE: DivergenceCheck = DivergenceCheck {
+        settle_steps: 100,
+        bound_m: 0.5,
+        persist_steps: 50,
+    };
+
     #[test]
     fn stall_needs_drive_without_motion_in_the_driven_direction() {
-        let check = StallCheck {
-            min_volts: 3.6,
-            min_speed_rad_s: 1.0,
-            timeout_steps: 3,
-        };
+        let check = STALL;
         let mut s = Stall::default();
         // Driven forward, turning backwards (wrong polarity): counts.
         let t = telemetry(4.0, -5.0, 0.0);
@@ -279,11 +289,7 @@ mod tests {
 
     #[test]
     fn a_wheel_driven_backwards_and_turning_backwards_is_not_stalled() {
-        let check = StallCheck {
-            min_volts: 3.6,
-            min_speed_rad_s: 1.0,
-            timeout_steps: 3,
-        };
+        let check = STALL;
         let mut s = Stall::default();
         for _ in 0..10 {
             assert_eq!(
@@ -295,11 +301,7 @@ mod tests {
 
     #[test]
     fn a_reset_stall_count_starts_from_zero() {
-        let check = StallCheck {
-            min_volts: 3.6,
-            min_speed_rad_s: 1.0,
-            timeout_steps: 3,
-        };
+        let check = STALL;
         let mut s = Stall::default();
         let stuck = telemetry(4.0, 0.0, 0.0);
         s.update(&stuck, &check);
@@ -313,11 +315,7 @@ mod tests {
 
     #[test]
     fn a_reset_divergence_check_waits_for_the_settling_window_again() {
-        let check = DivergenceCheck {
-            settle_steps: 100,
-            bound_m: 0.5,
-            persist_steps: 50,
-        };
+        let check = DIVERGENCE;
         let mut d = Divergence::default();
         let near = telemetry(0.0, 0.0, 0.1);
         let far = telemetry(0.0, 0.0, 1.0);
@@ -363,11 +361,7 @@ mod tests {
 
     #[test]
     fn divergence_waits_for_the_settling_window_then_for_persistence() {
-        let check = DivergenceCheck {
-            settle_steps: 100,
-            bound_m: 0.5,
-            persist_steps: 50,
-        };
+        let check = DIVERGENCE;
         let mut d = Divergence::default();
         let far = telemetry(0.0, 0.0, 1.0);
         for _ in 0..100 {

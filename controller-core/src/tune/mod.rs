@@ -382,7 +382,8 @@ pub struct Tuner {
     phase: Phase,
     /// 0 forward, 1 backward.
     direction: usize,
-    /// Steps observed in the present phase.
+    /// Steps observed in the present phase before this one: 0 at the first step after
+    /// the phase was entered.
     steps: u32,
     start: Pose,
     /// The voltage magnitude asked for the next step.
@@ -493,9 +494,13 @@ impl Tuner {
         if !self.running() {
             return TuneStep::Finished(self.outcome.unwrap_or(Err(TuneAbort::Stopped)));
         }
+        let (phase, direction) = (self.phase, self.direction);
         match self.observe(telemetry, periods) {
             Ok(()) => {
-                self.steps = self.steps.saturating_add(1);
+                // A phase entered in this step starts its count at the next one.
+                if (self.phase, self.direction) == (phase, direction) {
+                    self.steps = self.steps.saturating_add(1);
+                }
                 let sign = if self.direction == 0 { 1.0 } else { -1.0 };
                 let v = sign * self.command;
                 TuneStep::Drive(WheelVolts {
@@ -525,11 +530,18 @@ impl Tuner {
         }
     }
 
-    /// Steps of `seconds` at the control period.
+    /// The lag of the speed estimate (a moving average of W periods, W T/2) and of the
+    /// sampling (T/2), s.
+    fn window_lag_s(&self) -> f32 {
+        0.5 * (self.window_steps + 1) as f32 * self.period_s
+    }
+
+    /// Steps of `seconds` at the control period, to the nearest (1 s at 1 kHz is 1 000,
+    /// though 1/0.001 is 999.99994 in f32).
     fn steps_of(&self, seconds: f32) -> u32 {
         let n = seconds / self.period_s;
         if (1.0..4e9).contains(&n) {
-            n as u32
+            (n + 0.5) as u32
         } else {
             1
         }
@@ -670,11 +682,15 @@ impl Tuner {
             .zip(self.hold_volts);
         for (((side, fit), (sums, step_volts)), hold_volts) in wheels {
             let delta_u = step_volts / tail_n - hold_volts;
+            // Equivalent mutants (the three in this filter, .cargo/mutants.toml): `fit`
+            // returns τ > 0 (a bisection's midpoint) and K = Δω/Δu > 0 (both > 0) unless
+            // Δω/Δu underflows f32; the filter only guards against that.
             let model = sums
                 .fit(delta_u, self.period_s, self.window_steps, weights)
                 .filter(|m| m.gain > 0.0 && m.tau > 0.0)
                 .ok_or(TuneAbort::NoFit(*side))?;
             fit.model = model;
+            // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): on a tie both are the same.
             slowest = if model.tau > slowest {
                 model.tau
             } else {
@@ -697,17 +713,21 @@ impl Tuner {
         }
         let next = self.config.experiment_volts_v
             - self.ramp_rate * self.period_s * (self.steps + 1) as f32;
+        // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): it differs only when the
+        // ramp lands on u_lo exactly in f32, one step more or less of a ramp of 12 τ.
         if next > self.low_v {
             self.command = next;
             return Ok(());
         }
         // The ramp is done: k_V from its slope, k_S from its intercept and the step's lag.
-        let window_lag = 0.5 * (self.window_steps + 1) as f32 * self.period_s;
+        let window_lag = self.window_lag_s();
         let fits = self
             .fits
             .get_mut(self.direction)
             .ok_or(TuneAbort::Stopped)?;
         for ((side, fit), line) in Side::BOTH.iter().zip(fits.iter_mut()).zip(&self.ramp) {
+            // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): a slope of exactly 0 is
+            // refused either way (here, or as inconsistent: K k_V ≠ 1).
             let (intercept, slope) = line
                 .line()
                 .filter(|(_, k)| *k > 0.0)
@@ -743,6 +763,9 @@ impl Tuner {
     }
 
     /// A wheel that should turn stopped, after `grace` steps of the phase.
+    ///
+    /// Equivalent mutants (`<` → `<=` on the grace and on each speed, .cargo/mutants.toml):
+    /// a grace one step longer, or a speed of exactly the threshold in f32.
     fn check_turning(&self, speed: [f32; 2], grace: u32) -> Result<(), TuneAbort> {
         if self.steps < grace {
             return Ok(());
@@ -819,7 +842,8 @@ impl Tuner {
             theta: mean(f.model.theta, b.model.theta),
         };
         // The loop's dead time: the plant's (never below 0) and the controller's own.
-        let window_lag = 0.5 * (self.window_steps + 1) as f32 * self.period_s;
+        let window_lag = self.window_lag_s();
+        // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): at θ = 0 both give 0.
         let dead_time = if model.theta > 0.0 { model.theta } else { 0.0 } + window_lag;
         let (kp, ti) = simc(
             &model,

@@ -14,7 +14,10 @@
 //!    [`TuneConfig::experiment_volts_v`].
 //! 2. **Hold** u_lo until steady (the pre-step speed ω₁).
 //! 3. **Step** to u_hi and hold: a first-order-plus-dead-time model (K, τ, θ) per wheel
-//!    from the response's Laplace transform (the `identify` submodule).
+//!    from the response's Laplace transform (the `identify` submodule). θ counts from
+//!    the step in which the tune asks for u_hi, one control period before the controller
+//!    applies it; the wheel loop acts in its own step, so its PI is set for that period
+//!    more dead time than it has.
 //! 4. **Ramp** down from u_hi to u_lo over 12 τ: a straight line u = c + k_V ω̂ through
 //!    the samples after the first 4 τ gives k_V, and with τ and θ from the step, k_S.
 //! 5. **Brake** (0 V, a short brake) until both wheels are at rest.
@@ -28,14 +31,14 @@
 //! the SIMC rule with τ_c = [`TuneConfig::tau_c_per_dead_time`] × the loop's effective
 //! dead time (the plant's θ, the speed estimate's window W T/2 and the sampling T/2). The
 //! default 1.2 is a little looser than Skogestad's "tight" τ_c = θ_e: on the reference
-//! robot the tight setting gives K_p ≈ 0.60 V/(rad/s), T_i ≈ 88 ms, the hand-tuned loop,
+//! robot the tight setting gives K_p ≈ 0.62 V/(rad/s), T_i ≈ 89 ms, the hand-tuned loop,
 //! whose margins (`host-sim margins`) meet gain margin ≥ 2.5 and phase margin ≥ 45° on the
 //! ground driving straight and turning, motoring and braking (turning on the spot has a
 //! quarter less inertia, braking a gearbox multiplies its torque per volt by 1/η²); 1.2
 //! lowers K_p by a tenth for the identification's errors. A looser loop is not better
 //! for a large step: the saturated start leaves the integral a larger share and the 0 →
 //! 15 rad/s step overshoots more (`host-sim tune --tau-c-per-dead-time`, at 6 V: 1.0 →
-//! 4.9 %, 1.5 → 5.3 %, 2.0 → 6.3 %).
+//! 4.8 %, 1.5 → 5.1 %, 2.0 → 5.9 %).
 //!
 //! ## Lifted wheels
 //!
@@ -655,9 +658,11 @@ impl Tuner {
     fn step_response(&mut self, speed: [f32; 2], volts: [f32; 2]) -> Result<(), TuneAbort> {
         let hold = self.steps_of(self.config.hold_s);
         self.check_turning(speed, 0)?;
-        if self.steps > 0 {
-            self.bank.advance();
-        }
+        // Each sample is one period after the last, the first one period after the step
+        // was asked for. The controller applies what the tune asks in its next step, so
+        // the identified θ includes that period; the wheel loop acts in the same step and
+        // does not have it, so its PI is set for one period more dead time than it sees.
+        self.bank.advance();
         let tail = self.steps >= hold - hold / BASELINE_FRACTION;
         let weights = self.bank.weights();
         for ((sums, w), base) in self.step_sums.iter_mut().zip(speed).zip(self.hold_speed) {

@@ -856,6 +856,7 @@ impl Tuner {
             self.config.tau_c_per_dead_time * dead_time,
         );
         let ks = mean(f.ks_v, b.ks_v);
+        // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): at k_S = 0 both give 0.
         let ks = if ks > 0.0 { ks } else { 0.0 };
         if ![ks, kv, kp, ti].iter().all(|x| x.is_finite()) {
             return Err(TuneAbort::NoFit(side));

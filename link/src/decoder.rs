@@ -157,12 +157,14 @@ impl Decoder {
     /// was.
     pub fn push<M: Message>(&mut self, byte: u8) -> Option<Outcome<M>> {
         if byte != 0 {
+            // Once the buffer is full every further byte finds no slot: the frame stays
+            // overflowed until its delimiter.
             match self.buf.get_mut(self.len) {
-                Some(slot) if !self.overflowed => {
+                Some(slot) => {
                     *slot = byte;
                     self.len += 1;
                 }
-                _ => self.overflowed = true,
+                None => self.overflowed = true,
             }
             return None;
         }

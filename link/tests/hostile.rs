@@ -203,13 +203,14 @@ fn an_intact_frame_with_a_bad_body_is_a_decode_error() {
     for body in [
         &trailing[..],
         &good[..good.len() - 1],
+        &good[..1],
         &bad_variant[..],
         &[][..],
     ] {
         let mut wire = [0u8; MAX_FRAME_LEN];
         let len = encode_raw(ProtocolId::OURS, body, &mut wire).unwrap();
         let out = decode_all::<Downlink>(&mut decoder, &wire[..len]);
-        // An empty body is shorter than the minimum frame.
+        // An empty body is shorter than the minimum frame; one byte is a (bad) body.
         let expected = if body.is_empty() {
             Dropped::TooShort
         } else {
@@ -218,7 +219,25 @@ fn an_intact_frame_with_a_bad_body_is_a_decode_error() {
         assert_eq!(out, vec![Err(expected)], "body {body:02x?}");
     }
     let c = decoder.counters();
-    assert_eq!((c.decode_errors, c.format_errors, c.frames_ok), (3, 1, 0));
+    assert_eq!((c.decode_errors, c.format_errors, c.frames_ok), (4, 1, 0));
+}
+
+#[test]
+fn each_drop_says_why() {
+    let all = [
+        (Dropped::Cobs, "COBS"),
+        (Dropped::TooShort, "too short"),
+        (Dropped::Crc, "CRC"),
+        (Dropped::Overflow, "longer than the link's maximum"),
+        (Dropped::Decode, "not a valid message"),
+    ];
+    for (dropped, why) in all {
+        let text = dropped.to_string();
+        assert!(
+            text.starts_with("frame dropped: ") && text.contains(why),
+            "{text}"
+        );
+    }
 }
 
 #[test]

@@ -114,7 +114,8 @@ pub fn encode_raw(id: ProtocolId, body: &[u8], out: &mut [u8]) -> Result<usize, 
 }
 
 /// Bytes COBS adds at most to the largest payload (one per 254, plus one): where the
-/// payload is put before it is encoded in place.
+/// payload is put before it is encoded in place. Equivalent mutant (the second `+` to
+/// `-`, .cargo/mutants.toml): with these lengths 329/254 and 321/254 are both 1.
 const COBS_ROOM: usize = 1 + (HEADER_LEN + MAX_BODY_LEN + CRC_LEN) / 254;
 
 /// The frame of `value` under the header of `id`. `value` is a message or a byte slice
@@ -153,6 +154,8 @@ fn frame_into<T: Encodable + ?Sized>(id: ProtocolId, value: &T, out: &mut [u8]) 
     let crc = CRC32.checksum(out.get(COBS_ROOM..crc_at)?);
     out.get_mut(crc_at..crc_at + CRC_LEN)?
         .copy_from_slice(&crc.to_le_bytes());
+    // Equivalent mutant (`-` → `/`, .cargo/mutants.toml): CRC_LEN − COBS_ROOM and
+    // CRC_LEN / COBS_ROOM are both 2.
     let stuffed = cobs_in_place(out, COBS_ROOM, crc_at + CRC_LEN - COBS_ROOM)?;
     *out.get_mut(stuffed)? = 0;
     Some(stuffed + 1)
@@ -270,9 +273,30 @@ mod tests {
     extern crate std;
 
     use proptest::prelude::*;
+    use std::string::ToString;
     use std::vec::Vec;
 
     use super::*;
+
+    #[test]
+    fn cobs_in_place_needs_its_overhead_in_front_and_the_data_inside() {
+        // 10 bytes need 1 byte in front; 300 need 2.
+        let mut buf = [7u8; 320];
+        assert_eq!(cobs_in_place(&mut buf, 0, 10), None);
+        assert_eq!(cobs_in_place(&mut buf, 1, 10), Some(11));
+        assert_eq!(cobs_in_place(&mut buf, 1, 300), None);
+        assert_eq!(cobs_in_place(&mut buf, 2, 300), Some(302));
+        // Past the end of the buffer.
+        assert_eq!(cobs_in_place(&mut buf, 20, 301), None);
+    }
+
+    #[test]
+    fn encode_errors_say_what_to_do() {
+        let small = EncodeError::BufferTooSmall { available: 12 }.to_string();
+        assert!(small.contains("12 bytes") && small.contains(&MAX_FRAME_LEN.to_string()));
+        let large = EncodeError::TooLarge.to_string();
+        assert!(large.contains(&MAX_BODY_LEN.to_string()), "{large}");
+    }
 
     /// `cobs_in_place` on `data`, placed at `start`.
     fn in_place(data: &[u8], start: usize) -> Option<Vec<u8>> {

@@ -214,6 +214,32 @@ mod tests {
     }
 
     #[test]
+    fn the_hash_steps_are_fnv_1a_and_a_fold() {
+        // FNV-1a-64 of the bytes 08 07 06 05 04 03 02 01 from the standard basis, and of
+        // eight zero bytes (computed independently from the FNV specification, checked
+        // against its vector for "a", 0xaf63dc4c8601ec8c).
+        assert_eq!(
+            fnv1a64_u64(FNV_BASIS, 0x0102_0304_0506_0708),
+            0x0c6d_4496_e178_59d5
+        );
+        assert_eq!(fnv1a64_u64(FNV_BASIS, 0), 0xa8c7_f832_281a_39c5);
+        assert_eq!(fold(0x1234_5678_9abc_def0), 0x1234_5678 ^ 0x9abc_def0);
+    }
+
+    #[test]
+    fn a_mismatch_reads_as_the_peer_and_this_side() {
+        let theirs = ProtocolId {
+            version: 9,
+            schema_hash: 1,
+        };
+        let text = Mismatch::with(theirs).to_string();
+        assert!(
+            text.starts_with("the peer speaks protocol v9 schema 0x00000001, this side "),
+            "{text}"
+        );
+    }
+
+    #[test]
     fn mismatch_names_both_sides() {
         let theirs = ProtocolId {
             version: 2,

@@ -76,6 +76,23 @@ fn a_whole_upload_in_order_becomes_the_path() {
 }
 
 #[test]
+fn an_aborted_upload_is_gone() {
+    let segments = rounded_square().segments().to_vec();
+    let mut assembler = PathAssembler::new();
+    assembler.begin(&begin(3, &segments)).unwrap();
+    for chunk in chunks(3, &segments) {
+        assembler.chunk(&chunk).unwrap();
+    }
+    assert!(assembler.progress().is_some());
+    assembler.abort();
+    assert_eq!(assembler.progress(), None);
+    assert!(matches!(
+        assembler.commit(&commit_of(3, &segments)),
+        Err(Refusal::UnknownUpload { upload_id: 3 })
+    ));
+}
+
+#[test]
 fn a_lost_chunk_is_named_and_can_be_resent() {
     let path = rounded_square();
     let segments = path.segments();

@@ -267,6 +267,11 @@ fn bad_begins_and_chunks_are_refused() {
         Err(Refusal::InvalidPath(PathProblem::BadStartPose))
     );
     assert_eq!(assembler.progress(), None, "nothing was opened");
+    // The largest count a path can hold is accepted.
+    b = begin(1, segments);
+    b.segment_count = MAX_SEGMENTS as u8;
+    assert_eq!(assembler.begin(&b), Ok(Reply::Ack));
+    assembler.abort();
 
     assembler.begin(&begin(1, segments)).unwrap();
     let mut past_end = chunks(1, segments).last().unwrap();

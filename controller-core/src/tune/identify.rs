@@ -14,8 +14,9 @@
 //! Q(s) = s Y(s) / (Δω MA(s)) = e^(−θs) / (1 + τs),   g(s) = −ln Q(s) = θ s + ln(1 + τ s).
 //! ```
 //!
-//! Y(s) is a weighted sum of the samples, Σ y_j e^(−s jT) T (trapezoidal, with the tail
-//! after the last sample taken as settled), accumulated for a bank of s = 2, 4, … 1024
+//! Y(s) is a weighted sum of the samples, Σ y_j e^(−s jT) T (trapezoidal from y = 0 at
+//! the step, with the tail after the last sample taken as settled), accumulated for a
+//! bank of s = 2, 4, … 1024
 //! s⁻¹. The weight e^(−st) makes the late, noisy samples count little, which is what makes
 //! this better than the method of moments, whose t-weighted integrals amplify the encoder's
 //! quantisation in the tail. Two bank values bracketing the response (Q ≈ 0.6 and
@@ -146,8 +147,7 @@ impl Bank {
 pub(crate) struct StepSums {
     /// Σ y_j e^(−s_k jT) per bank value.
     weighted: [f32; BANK],
-    /// y_0 and the latest y.
-    first: f32,
+    /// The latest y.
     last: f32,
     samples: u32,
     /// The settled tail: Σ y and count over the final part of the hold.
@@ -159,9 +159,6 @@ impl StepSums {
     /// Adds sample `y` (rad/s above the pre-step speed) with the bank's present weights;
     /// `in_tail` marks samples of the settled end, whose mean is Δω.
     pub(crate) fn push(&mut self, y: f32, weights: &[f32; BANK], in_tail: bool) {
-        if self.samples == 0 {
-            self.first = y;
-        }
         self.samples = self.samples.saturating_add(1);
         self.last = y;
         for (sum, w) in self.weighted.iter_mut().zip(weights) {
@@ -194,9 +191,8 @@ impl StepSums {
         weights: &[f32; BANK],
     ) -> Option<Fopdt> {
         let delta = self.delta();
-        // Equivalent mutants (`<` → `==` and `<=` on `samples`, .cargo/mutants.toml): one
-        // sample cannot bracket (every Q is ≥ 1), and the only caller, the tune, always
-        // has at least 50 (`TuneConfig::validate`).
+        // Equivalent mutants (`<` → `==` and `<=` on `samples`, .cargo/mutants.toml): the
+        // only caller, the tune, always has at least 50 (`TuneConfig::validate`).
         if self.samples < 2 || delta <= 0.0 || delta_u <= 0.0 {
             return None;
         }
@@ -205,16 +201,13 @@ impl StepSums {
         let mut q = [0.0f32; BANK];
         for (k, ((qk, sum), w_last)) in q.iter_mut().zip(&self.weighted).zip(weights).enumerate() {
             let s = bank_s(k);
-            // Trapezoid over the samples (y_0 weight 1), plus the settled tail after the
-            // last one.
-            let integral =
-                period_s * (sum - 0.5 * self.first - 0.5 * self.last * w_last) + delta * w_last / s;
+            // Trapezoid from y = 0 at the step (t = 0) over the samples, plus the settled
+            // tail after the last one.
+            let integral = period_s * (sum - 0.5 * self.last * w_last) + delta * w_last / s;
             let moving_average = (1.0 - math::exp(-s * window_s)) / (s * window_s);
             *qk = s * integral / (delta * moving_average);
         }
-        // The bracket: the last bank value with Q ≥ 0.6, the first after it with Q ≤ 0.35.
-        let a = q.iter().rposition(|&x| x >= 0.6)?;
-        let b = a + 1 + q.get(a + 1..)?.iter().position(|&x| x <= 0.35)?;
+        let (a, b) = bracket(&q)?;
         let (qa, qb) = (*q.get(a)?, *q.get(b)?);
         let (sa, sb) = (bank_s(a), bank_s(b));
         let target = -math::ln(qb) / sb + math::ln(qa) / sa;
@@ -227,6 +220,14 @@ impl StepSums {
             theta,
         })
     }
+}
+
+/// The bank values that bracket the response: the last with Q ≥ 0.6 and the first after
+/// it with Q ≤ 0.35 (their indices).
+fn bracket(q: &[f32; BANK]) -> Option<(usize, usize)> {
+    let a = q.iter().rposition(|&x| x >= 0.6)?;
+    let b = a + 1 + q.get(a + 1..)?.iter().position(|&x| x <= 0.35)?;
+    Some((a, b))
 }
 
 /// τ ≥ 0 with ln(1 + τ s_b)/s_b − ln(1 + τ s_a)/s_a = `target` (s_b > s_a; the left side
@@ -367,6 +368,16 @@ mod tests {
             assert!((m.tau - tau).abs() < 0.02 * tau, "{m:?} vs τ {tau}");
             assert!((m.theta - theta).abs() < 2e-3, "{m:?} vs θ {theta}");
         }
+    }
+
+    #[test]
+    fn the_bracket_is_the_last_q_over_0_6_and_the_first_under_0_35_after_it() {
+        let q = [1.0, 0.9, 0.61, 0.7, 0.6, 0.5, 0.4, 0.35, 0.3, 0.1];
+        assert_eq!(bracket(&q), Some((4, 7)));
+        // Nothing under 0.35 after the last Q ≥ 0.6, or nothing ≥ 0.6: no bracket.
+        let q = [1.0, 0.9, 0.3, 0.7, 0.6, 0.5, 0.4, 0.36, 0.36, 0.36];
+        assert_eq!(bracket(&q), None);
+        assert_eq!(bracket(&[0.5; BANK]), None);
     }
 
     #[test]

@@ -31,14 +31,14 @@
 //! the SIMC rule with τ_c = [`TuneConfig::tau_c_per_dead_time`] × the loop's effective
 //! dead time (the plant's θ, the speed estimate's window W T/2 and the sampling T/2). The
 //! default 1.2 is a little looser than Skogestad's "tight" τ_c = θ_e: on the reference
-//! robot the tight setting gives K_p ≈ 0.62 V/(rad/s), T_i ≈ 89 ms, the hand-tuned loop,
+//! robot the tight setting gives K_p ≈ 0.61 V/(rad/s), T_i ≈ 89 ms, the hand-tuned loop,
 //! whose margins (`host-sim margins`) meet gain margin ≥ 2.5 and phase margin ≥ 45° on the
 //! ground driving straight and turning, motoring and braking (turning on the spot has a
 //! quarter less inertia, braking a gearbox multiplies its torque per volt by 1/η²); 1.2
 //! lowers K_p by a tenth for the identification's errors. A looser loop is not better
 //! for a large step: the saturated start leaves the integral a larger share and the 0 →
 //! 15 rad/s step overshoots more (`host-sim tune --tau-c-per-dead-time`, at 6 V: 1.0 →
-//! 4.8 %, 1.5 → 5.1 %, 2.0 → 5.9 %).
+//! 5.0 %, 1.5 → 5.3 %, 2.0 → 5.9 %; 1.2 gives 4.7 %).
 //!
 //! ## Lifted wheels
 //!

@@ -108,7 +108,7 @@
 //! # RAM
 //!
 //! On `thumbv7em-none-eabihf`, as the firmware's symbols show them (`cargo xtask size`):
-//! [`ControlSide`] 3 568 B (the controller with its active path, about 1 KiB, and two
+//! [`ControlSide`] 3 560 B (the controller with its active path, about 1 KiB, and two
 //! wheel-speed windows of 64 steps; the supervisor with the wheel-loop tune's state),
 //! [`LinkService`] 1 560 B (the frame decoder, the transmit buffer of
 //! [`service::TX_CAPACITY`] = 576 B, the active configuration, the last run and tune
@@ -157,7 +157,7 @@ pub use crate::start::{start, AppConfig, StartError};
 const _: () = {
     // The wheel-loop tune's state (`controller_core::tune::Tuner`, 552 B on the host) is
     // part of the supervisor.
-    // 3 624, 1 616 and 1 632 B on a 64-bit host; 3 568, 1 560 and 1 592 B on the target.
+    // 3 616, 1 616 and 1 632 B on a 64-bit host; 3 560, 1 560 and 1 592 B on the target.
     assert!(core::mem::size_of::<ControlSide<'static>>() <= 3_648);
     assert!(core::mem::size_of::<LinkService<'static>>() <= 1_664);
     assert!(core::mem::size_of::<Channels>() <= 1_664);

@@ -19,7 +19,7 @@ use crate::steps::{build_target_executables, Context};
 /// The flash target for the firmware with the runtime link, bytes. Not met yet:
 /// see [`FLASH_BUDGET`].
 pub const FLASH_TARGET: u64 = 32 * 1024;
-/// The flash budget this check enforces, bytes: the measured size (68 296 B with the
+/// The flash budget this check enforces, bytes: the measured size (68 352 B with the
 /// `firmware` profile, STM32F411 build, with the link service and the self-tune) plus a
 /// small margin, because [`FLASH_TARGET`] is out of reach with the features the firmware
 /// carries (`controller-core` alone is about 23 KB; see README.md, "Budgets"); the check
@@ -27,8 +27,8 @@ pub const FLASH_TARGET: u64 = 32 * 1024;
 pub const FLASH_BUDGET: u64 = 68 * 1024;
 /// The static RAM target, bytes (no heap); met.
 pub const RAM_TARGET: u64 = 8 * 1024;
-/// The static RAM budget this check enforces, bytes: the target. Measured 7 612 B (control
-/// side 3 568 B with the tune's state, channels 1 592 B, link service 1 560 B, receive
+/// The static RAM budget this check enforces, bytes: the target. Measured 7 604 B (control
+/// side 3 560 B with the tune's state, channels 1 592 B, link service 1 560 B, receive
 /// ring 264 B, RTT 256 B, panic record 128 B).
 pub const RAM_BUDGET: u64 = RAM_TARGET;
 

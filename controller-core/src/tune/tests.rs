@@ -173,7 +173,7 @@ fn the_tune_recovers_the_model_of_a_synthetic_wheel() {
         assert!(close(m.time_constant_s, 0.089, 0.05), "{m:?}");
         // The truth is k_S = 0.375 V and θ = 1 ms: none in the wheel, one period between
         // the tune asking for a voltage and the controller applying it (measured 0.379 V
-        // and 0.94 ms).
+        // and 1.08 ms).
         assert!(math::abs(m.dead_time_s - 0.001) < 5e-4, "{m:?}");
         assert!(close(m.ks_v, 0.375, 0.02), "{m:?}");
         assert_eq!(m.design_time_constant_s, m.time_constant_s);
@@ -726,7 +726,7 @@ fn the_hold_and_the_step_last_hold_s_and_the_ramp_twelve_time_constants() {
 fn a_wheel_with_dead_time_is_identified_with_it() {
     // 15 ms between the bridge and the wheel: θ is that plus the tune's own period, and
     // k_S, which the ramp's lag (τ + θ + the speed window) corrects, stays right
-    // (measured: θ 15.99 ms, k_S 0.380 V).
+    // (measured: θ 16.05 ms, k_S 0.379 V).
     let mut bench = Bench::new(ground_wheel());
     bench.dead_steps = 15;
     let mut tuner = Tuner::new(config(&bench), &bench.params());

@@ -707,40 +707,14 @@ mod tests {
         assert!((d - (2f32.sqrt() + 1.0)).abs() < 1e-5, "{d}");
     }
 
-    /// The farthest of `n + 1` evenly spaced points along `segment` from `p`, in f64.
+    /// The farthest of `n + 1` evenly spaced points along `segment` (its own
+    /// `Segment::sample`) from `p`, m.
     fn farthest_sampled_m(segment: &Segment, p: Point, n: u32) -> f64 {
-        let point_at = |t: f64| -> (f64, f64) {
-            match *segment {
-                Segment::Line {
-                    start,
-                    heading_rad,
-                    length_m,
-                } => {
-                    let (h, l) = (f64::from(heading_rad), f64::from(length_m));
-                    (
-                        f64::from(start.x_m) + t * l * h.cos(),
-                        f64::from(start.y_m) + t * l * h.sin(),
-                    )
-                }
-                Segment::Arc {
-                    center,
-                    radius_m,
-                    start_angle_rad,
-                    sweep_rad,
-                } => {
-                    let a = f64::from(start_angle_rad) + t * f64::from(sweep_rad);
-                    let r = f64::from(radius_m);
-                    (
-                        f64::from(center.x_m) + r * a.cos(),
-                        f64::from(center.y_m) + r * a.sin(),
-                    )
-                }
-            }
-        };
+        let length_m = segment.length_m();
         (0..=n)
             .map(|i| {
-                let (x, y) = point_at(f64::from(i) / f64::from(n));
-                (x - f64::from(p.x_m)).hypot(y - f64::from(p.y_m))
+                let point = segment.sample(length_m * i as f32 / n as f32).point;
+                f64::from(point.x_m - p.x_m).hypot(f64::from(point.y_m - p.y_m))
             })
             .fold(0.0, f64::max)
     }
@@ -785,30 +759,16 @@ mod tests {
     fn the_geofence_reaches_the_farthest_segment() {
         // An L: 2 m east, then 3 m north; from the start the corner is 2 m away and the
         // end √13 m: the radius is that plus 1 m, whichever segment comes first.
-        let l = Path::polyline(
-            &[
-                Point::new(0.0, 0.0),
-                Point::new(2.0, 0.0),
-                Point::new(2.0, 3.0),
-            ],
-            0.0,
-            false,
-        )
-        .unwrap();
-        let r = geofence_radius_m(&l, Pose::default());
-        assert!((r - (13f32.sqrt() + 1.0)).abs() < 1e-5, "{r}");
-        let back = Path::polyline(
-            &[
-                Point::new(2.0, 3.0),
-                Point::new(2.0, 0.0),
-                Point::new(0.0, 0.0),
-            ],
-            0.0,
-            false,
-        )
-        .unwrap();
-        let r = geofence_radius_m(&back, Pose::default());
-        assert!((r - (13f32.sqrt() + 1.0)).abs() < 1e-5, "{r}");
+        let corners = [
+            Point::new(0.0, 0.0),
+            Point::new(2.0, 0.0),
+            Point::new(2.0, 3.0),
+        ];
+        for points in [corners, [corners[2], corners[1], corners[0]]] {
+            let path = Path::polyline(&points, 0.0, false).unwrap();
+            let r = geofence_radius_m(&path, Pose::default());
+            assert!((r - (13f32.sqrt() + 1.0)).abs() < 1e-5, "{points:?}: {r}");
+        }
     }
 
     #[test]

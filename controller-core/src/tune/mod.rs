@@ -504,8 +504,7 @@ impl Tuner {
                 if (self.phase, self.direction) == (phase, direction) {
                     self.steps = self.steps.saturating_add(1);
                 }
-                let sign = if self.direction == 0 { 1.0 } else { -1.0 };
-                let v = sign * self.command;
+                let v = self.sign() * self.command;
                 TuneStep::Drive(WheelVolts {
                     left_v: v,
                     right_v: v,

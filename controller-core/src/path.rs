@@ -17,6 +17,10 @@ use crate::math;
 /// with rounded corners uses 2n.
 pub const MAX_SEGMENTS: usize = 32;
 
+/// A set of a path's segments, bit i for segment i.
+type SegmentSet = u32;
+const _: () = assert!(MAX_SEGMENTS <= SegmentSet::BITS as usize);
+
 /// How far apart (m) the end of one segment and the start of the next may be for
 /// [`Path::from_segments`] to accept them as joined: 1 mm, well above the f32 rounding of
 /// segments computed on a host and well below anything a robot could follow as a step.
@@ -612,25 +616,26 @@ impl Path {
     }
 
     /// The point at arc length `s_m` (m), which the caller has already brought into
-    /// [0, length] ([`Path::normalize_m`]). The segments are searched in order and the
-    /// search stops at the first that starts beyond `s_m`; nothing is indexed, so nothing
-    /// can panic.
+    /// [0, length] ([`Path::normalize_m`]), from the segment that holds it
+    /// ([`Path::segment_index`]).
     pub fn sample_normalized(&self, s_m: f32) -> PathSample {
-        let mut chosen = None;
-        for (segment, &start) in self.segments.iter().zip(self.starts_m.iter()) {
-            if s_m < start {
-                break;
-            }
-            chosen = Some((segment, start));
+        let i = self.segment_index(s_m);
+        match (self.segments.get(i), self.starts_m.get(i)) {
+            // Before the first segment (only for s < 0, which normalising excludes) the
+            // segment clamps to its start.
+            (Some(segment), Some(&start)) => segment.sample(s_m - start),
+            _ => PathSample::default(),
         }
-        match chosen {
-            Some((segment, start)) => segment.sample(s_m - start),
-            // Before the first segment (only for s < 0, which normalising excludes).
-            None => match self.segments.first() {
-                Some(first) => first.sample(0.0),
-                None => PathSample::default(),
-            },
-        }
+    }
+
+    /// Index of the segment that holds arc length `s_m` (m): the last that starts at or
+    /// before it (the first for s < 0, the last for NaN). A binary search over the
+    /// segments' starts, which never decrease: log₂ [`MAX_SEGMENTS`] steps at most, so
+    /// the control step's cost does not grow with the path.
+    fn segment_index(&self, s_m: f32) -> usize {
+        self.starts_m
+            .partition_point(|&start| start <= s_m || s_m.is_nan())
+            .saturating_sub(1)
     }
 
     /// Arc length (m) of the point of the path closest to `p`, looked for within
@@ -639,16 +644,15 @@ impl Path {
     pub fn project(&self, p: Point, hint_m: f32, behind_m: f32, ahead_m: f32) -> f32 {
         let mut best_s = hint_m;
         let mut best_d = f32::INFINITY;
-        for (segment, start) in self.segments.iter().zip(self.starts_m.iter()) {
-            if !self.overlaps_window(
-                *start,
-                start + segment.length_m(),
-                hint_m,
-                behind_m,
-                ahead_m,
-            ) {
-                continue;
-            }
+        let mut near = self.segments_near(hint_m, behind_m, ahead_m);
+        // In the segments' order, as a scan of the whole path would visit them, so a tie
+        // goes to the same segment.
+        while near != 0 {
+            let i = near.trailing_zeros() as usize;
+            near &= near - 1;
+            let (Some(segment), Some(&start)) = (self.segments.get(i), self.starts_m.get(i)) else {
+                break;
+            };
             let candidate = start + segment.closest_m(p);
             let mut offset = candidate - hint_m;
             if self.closed && behind_m.is_finite() {
@@ -665,6 +669,38 @@ impl Path {
             }
         }
         best_s
+    }
+
+    /// The segments that meet the search window around `hint_m` ([`Path::project`]), as
+    /// a set of indices (bit i for segment i). Found by walking from the segment that
+    /// holds the window's start ([`Path::segment_index`]) until the segments leave the
+    /// window: the few segments near the robot cost, not the whole path (a window that
+    /// holds the whole path, as the global search's, visits every segment).
+    fn segments_near(&self, hint_m: f32, behind_m: f32, ahead_m: f32) -> SegmentSet {
+        let n = self.segments.len();
+        let first = self.segment_index(self.normalize_m(hint_m - behind_m));
+        // One before: a segment that ends exactly at the window's start meets it too.
+        let from = if self.closed {
+            (first + n - 1) % n.max(1)
+        } else {
+            first.saturating_sub(1)
+        };
+        let mut near: SegmentSet = 0;
+        for step in 0..n {
+            let i = from + step;
+            let i = if i >= n && self.closed { i - n } else { i };
+            let (Some(segment), Some(&start)) = (self.segments.get(i), self.starts_m.get(i)) else {
+                break;
+            };
+            if self.overlaps_window(start, start + segment.length_m(), hint_m, behind_m, ahead_m) {
+                near |= 1 << i;
+            } else if near != 0 {
+                // The segments that meet a window are consecutive (modulo a lap): past
+                // the last of them, none follows.
+                break;
+            }
+        }
+        near
     }
 
     /// True when arc lengths [`from_m`, `to_m`] meet the search window around `hint_m`
@@ -1770,5 +1806,134 @@ mod tests {
                 assert_ne!(text, std::format!("{other}"));
             }
         }
+    }
+
+    /// The projection as a scan of every segment computes it: the oracle for the
+    /// windowed search of [`Path::project`].
+    fn project_by_scanning_every_segment(
+        path: &Path,
+        p: Point,
+        hint_m: f32,
+        behind_m: f32,
+        ahead_m: f32,
+    ) -> f32 {
+        let mut best = (f32::INFINITY, hint_m);
+        for (segment, &start) in path.segments.iter().zip(&path.starts_m) {
+            if !path.overlaps_window(start, start + segment.length_m(), hint_m, behind_m, ahead_m) {
+                continue;
+            }
+            let mut offset = start + segment.closest_m(p) - hint_m;
+            if path.closed && behind_m.is_finite() {
+                offset = path.normalize_m(offset + 0.5 * path.length_m) - 0.5 * path.length_m;
+            }
+            let s = hint_m + math::clamp(offset, -behind_m, ahead_m);
+            let d = p.distance_to(path.sample(s).point);
+            if d < best.0 {
+                best = (d, s);
+            }
+        }
+        best.1
+    }
+
+    /// The point at `s_m` as a scan of every segment finds it: the oracle for
+    /// [`Path::sample_normalized`]'s binary search.
+    fn sample_by_scanning_every_segment(path: &Path, s_m: f32) -> PathSample {
+        let mut chosen = (&path.segments[0], 0.0);
+        for (segment, &start) in path.segments.iter().zip(&path.starts_m) {
+            if s_m >= start {
+                chosen = (segment, start);
+            }
+        }
+        chosen.0.sample(s_m - chosen.1)
+    }
+
+    /// A polyline of `corners` waypoints on a jittered circle of `radius_m`, corners
+    /// rounded by `fillet_m` (falls back to sharp corners where the fillet does not fit).
+    fn jittered_polygon(
+        corners: usize,
+        radius_m: f32,
+        jitter: &[f32],
+        fillet_m: f32,
+        closed: bool,
+    ) -> Path {
+        let points: std::vec::Vec<Point> = (0..corners)
+            .map(|k| {
+                let a = TAU * k as f32 / corners as f32;
+                let r = radius_m * (1.0 + 0.3 * jitter[k % jitter.len()]);
+                Point::new(r * math::cos(a), r * math::sin(a))
+            })
+            .collect();
+        Path::polyline(&points, fillet_m, closed)
+            .or_else(|_| Path::polyline(&points, 0.0, closed))
+            .unwrap()
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn the_windowed_search_finds_what_a_scan_of_every_segment_finds(
+            corners in 3usize..=16,
+            radius_m in 0.05f32..3.0,
+            jitter in proptest::collection::vec(-1.0f32..1.0, 16),
+            fillet_m in 0.0f32..0.4,
+            closed in proptest::bool::ANY,
+            at in (-4.0f32..4.0, -4.0f32..4.0),
+            hint_fraction in -0.2f32..1.2,
+            window in (0.0f32..0.6, 0.0f32..1.5),
+        ) {
+            let path = jittered_polygon(corners, radius_m, &jitter, fillet_m, closed);
+            let p = Point::new(at.0, at.1);
+            let hint = hint_fraction * path.length_m();
+            for (behind, ahead) in [window, (f32::INFINITY, f32::INFINITY), (0.05, 0.5)] {
+                let expected = project_by_scanning_every_segment(&path, p, hint, behind, ahead);
+                let found = path.project(p, hint, behind, ahead);
+                proptest::prop_assert_eq!(found.to_bits(), expected.to_bits(),
+                    "window [{} − {}, + {}] on {} segments", hint, behind, ahead, path.segments.len());
+            }
+            let s = path.normalize_m(hint);
+            proptest::prop_assert_eq!(path.sample_normalized(s), sample_by_scanning_every_segment(&path, s));
+            // The set itself, also with the window starting exactly where a segment
+            // starts (the one before then ends on the window's edge: it meets it too).
+            let k = corners % path.segments.len();
+            for (hint, behind, ahead) in [(hint, window.0, window.1), (path.starts_m[k], 0.0, window.1)] {
+                let expected: u32 = (0..path.segments.len())
+                    .filter(|&i| {
+                        let start = path.starts_m[i];
+                        path.overlaps_window(start, start + path.segments[i].length_m(), hint, behind, ahead)
+                    })
+                    .map(|i| 1 << i)
+                    .sum();
+                proptest::prop_assert_eq!(path.segments_near(hint, behind, ahead), expected,
+                    "window [{} − {}, + {}]", hint, behind, ahead);
+            }
+        }
+    }
+
+    #[test]
+    fn the_search_visits_only_the_segments_near_the_window() {
+        // 32 segments, each edge about 0.59 m long: a 0.55 m window meets two or three.
+        let path = jittered_polygon(16, 1.5, &[0.0], 0.1, true);
+        assert_eq!(path.segments.len(), MAX_SEGMENTS);
+        for k in 0..64 {
+            let hint = path.length_m() * k as f32 / 64.0;
+            let near = path.segments_near(hint, 0.05, 0.5);
+            let count = near.count_ones();
+            assert!((1..=4).contains(&count), "{count} segments near {hint} m");
+            let first = path.segment_index(path.normalize_m(hint - 0.05)) as u32;
+            assert!(
+                near & (1 << first) != 0,
+                "the window's first segment {first} at {hint} m"
+            );
+        }
+        // Past the end of a lap (closed) the window wraps to the first segments.
+        let near = path.segments_near(path.length_m() - 0.01, 0.05, 0.5);
+        assert!(near & 1 != 0 && near & (1 << 31) != 0, "{near:#034b}");
+        // A global search visits every segment; a NaN hint none.
+        assert_eq!(
+            path.segments_near(0.0, f32::INFINITY, f32::INFINITY),
+            u32::MAX
+        );
+        assert_eq!(path.segments_near(f32::NAN, 0.05, 0.5), 0);
+        assert_eq!(path.segment_index(f32::NAN), MAX_SEGMENTS - 1);
+        assert_eq!(path.segment_index(-1.0), 0);
     }
 }

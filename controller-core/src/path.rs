@@ -17,6 +17,11 @@ use crate::math;
 /// with rounded corners uses 2n.
 pub const MAX_SEGMENTS: usize = 32;
 
+/// How much nearer (m) a later segment's point must be for [`Path::project`] to prefer
+/// it: points as near as f32 rounding can tell (1 µm) go to the earlier segment, the one
+/// the robot meets first.
+const PROJECTION_TIE_M: f32 = 1e-6;
+
 /// A set of a path's segments, bit i for segment i.
 type SegmentSet = u32;
 const _: () = assert!(MAX_SEGMENTS <= SegmentSet::BITS as usize);
@@ -162,8 +167,11 @@ impl Segment {
         Ok(())
     }
 
-    /// Arc length (m, from the segment's start) of the segment's point closest to `p`.
-    fn closest_m(&self, p: Point) -> f32 {
+    /// The segment's point closest to `p` (world frame): its arc length from the
+    /// segment's start, m, and its distance from `p`, m. No trigonometry beyond the
+    /// line's direction or the arc's polar angle of `p`: the distance comes from the
+    /// same numbers (for an arc's inside point, |p − centre| − radius).
+    fn closest(&self, p: Point) -> (f32, f32) {
         match *self {
             Segment::Line {
                 start,
@@ -171,8 +179,9 @@ impl Segment {
                 length_m,
             } => {
                 let (sin_h, cos_h) = math::sin_cos(heading_rad);
-                let along = (p.x_m - start.x_m) * cos_h + (p.y_m - start.y_m) * sin_h;
-                math::clamp(along, 0.0, length_m)
+                let (dx, dy) = (p.x_m - start.x_m, p.y_m - start.y_m);
+                let along = math::clamp(dx * cos_h + dy * sin_h, 0.0, length_m);
+                (along, math::hypot(dx - along * cos_h, dy - along * sin_h))
             }
             Segment::Arc {
                 center,
@@ -189,15 +198,18 @@ impl Segment {
                 }
                 let sweep = math::abs(sweep_rad);
                 if travelled <= sweep {
-                    travelled * radius_m
+                    (
+                        travelled * radius_m,
+                        math::abs(p.distance_to(center) - radius_m),
+                    )
                 } else {
                     let end = self.length_m();
                     let to_start = p.distance_to(self.sample(0.0).point);
                     let to_end = p.distance_to(self.sample(end).point);
                     if to_start <= to_end {
-                        0.0
+                        (0.0, to_start)
                     } else {
-                        end
+                        (end, to_end)
                     }
                 }
             }
@@ -641,6 +653,8 @@ impl Path {
     /// Arc length (m) of the point of the path closest to `p`, looked for within
     /// [`hint_m` − `behind_m`, `hint_m` + `ahead_m`] of arc length (wrapping on a closed
     /// path). Pass infinite bounds for a global search. The result is not normalised.
+    /// Of points as near as rounding can tell apart ([`PROJECTION_TIE_M`]), the earlier
+    /// segment's.
     pub fn project(&self, p: Point, hint_m: f32, behind_m: f32, ahead_m: f32) -> f32 {
         let mut best_s = hint_m;
         let mut best_d = f32::INFINITY;
@@ -653,22 +667,42 @@ impl Path {
             let (Some(segment), Some(&start)) = (self.segments.get(i), self.starts_m.get(i)) else {
                 break;
             };
-            let candidate = start + segment.closest_m(p);
-            let mut offset = candidate - hint_m;
-            if self.closed && behind_m.is_finite() {
-                // Into [−L/2, L/2]. (`+` → `-` inside is an equivalent mutant,
-                // .cargo/mutants.toml: ±L/2 are the same residue modulo the lap L.)
-                offset = self.normalize_m(offset + 0.5 * self.length_m) - 0.5 * self.length_m;
-            }
-            let offset = math::clamp(offset, -behind_m, ahead_m);
-            let s = hint_m + offset;
-            let d = p.distance_to(self.sample(s).point);
-            if d < best_d {
+            let (s, d) = self.candidate(segment, start, p, hint_m, behind_m, ahead_m);
+            if d < best_d - PROJECTION_TIE_M {
                 best_d = d;
                 best_s = s;
             }
         }
         best_s
+    }
+
+    /// What `segment` (starting at arc length `start_m`) offers [`Path::project`] for `p`:
+    /// the arc length (m) of its point closest to `p`, brought into the search window,
+    /// and that point's distance from `p` (m). Inside the window the point is the
+    /// segment's own closest point; beyond it, the path's point at the window's edge.
+    fn candidate(
+        &self,
+        segment: &Segment,
+        start_m: f32,
+        p: Point,
+        hint_m: f32,
+        behind_m: f32,
+        ahead_m: f32,
+    ) -> (f32, f32) {
+        let (along_m, distance_m) = segment.closest(p);
+        let mut offset = start_m + along_m - hint_m;
+        if self.closed && behind_m.is_finite() {
+            // Into [−L/2, L/2]. (`+` → `-` inside is an equivalent mutant,
+            // .cargo/mutants.toml: ±L/2 are the same residue modulo the lap L.)
+            offset = self.normalize_m(offset + 0.5 * self.length_m) - 0.5 * self.length_m;
+        }
+        let in_window = math::clamp(offset, -behind_m, ahead_m);
+        let s = hint_m + in_window;
+        if in_window == offset {
+            (s, distance_m)
+        } else {
+            (s, p.distance_to(self.sample(s).point))
+        }
     }
 
     /// The segments that meet the search window around `hint_m` ([`Path::project`]), as
@@ -732,6 +766,18 @@ mod tests {
 
     fn close(a: f32, b: f32, tol: f32) -> bool {
         (a - b).abs() <= tol
+    }
+
+    /// Arc length of `segment`'s point closest to `p`, after checking the distance
+    /// [`Segment::closest`] gives with it against the point that length samples.
+    fn closest_m(segment: &Segment, p: Point) -> f32 {
+        let (along_m, distance_m) = segment.closest(p);
+        let sampled = p.distance_to(segment.sample(along_m).point);
+        assert!(
+            close(distance_m, sampled, 1e-5),
+            "{segment:?} from {p:?}: {distance_m} m, but {sampled} m to the point at {along_m} m"
+        );
+        along_m
     }
 
     #[test]
@@ -1098,18 +1144,18 @@ mod tests {
         };
         for left in [-0.3, 0.0, 0.3] {
             assert!(close(
-                line.closest_m(offset(start, h, 0.8, left)),
+                closest_m(&line, offset(start, h, 0.8, left)),
                 0.8,
                 1e-5
             ));
             assert!(close(
-                line.closest_m(offset(start, h, 1.9, left)),
+                closest_m(&line, offset(start, h, 1.9, left)),
                 1.9,
                 1e-5
             ));
             // Before the start and past the end: the nearer end.
-            assert_eq!(line.closest_m(offset(start, h, -0.5, left)), 0.0);
-            assert_eq!(line.closest_m(offset(start, h, 2.7, left)), 2.0);
+            assert_eq!(closest_m(&line, offset(start, h, -0.5, left)), 0.0);
+            assert_eq!(closest_m(&line, offset(start, h, 2.7, left)), 2.0);
         }
     }
 
@@ -1125,20 +1171,20 @@ mod tests {
         };
         assert!(close(arc.length_m(), 4.0, 1e-6));
         // Inside and outside the arc: the arc length to the point's polar angle.
-        assert!(close(arc.closest_m(polar(center, 1.0, 1.2)), 1.4, 1e-5));
-        assert!(close(arc.closest_m(polar(center, 3.5, 2.0)), 3.0, 1e-5));
-        assert!(close(arc.closest_m(polar(center, 0.2, 0.6)), 0.2, 1e-4));
+        assert!(close(closest_m(&arc, polar(center, 1.0, 1.2)), 1.4, 1e-5));
+        assert!(close(closest_m(&arc, polar(center, 3.5, 2.0)), 3.0, 1e-5));
+        assert!(close(closest_m(&arc, polar(center, 0.2, 0.6)), 0.2, 1e-4));
         // Past the end (0.4 rad beyond it) and before the start (0.3 rad before it).
-        assert_eq!(arc.closest_m(polar(center, 2.0, 2.9)), 4.0);
-        assert_eq!(arc.closest_m(polar(center, 2.5, 0.2)), 0.0);
+        assert_eq!(closest_m(&arc, polar(center, 2.0, 2.9)), 4.0);
+        assert_eq!(closest_m(&arc, polar(center, 2.5, 0.2)), 0.0);
         // Behind the centre, outside the sweep: whichever end is nearer.
-        assert_eq!(arc.closest_m(polar(center, 2.0, -1.3)), 0.0);
-        assert_eq!(arc.closest_m(polar(center, 2.0, 4.2)), 4.0);
+        assert_eq!(closest_m(&arc, polar(center, 2.0, -1.3)), 0.0);
+        assert_eq!(closest_m(&arc, polar(center, 2.0, 4.2)), 4.0);
         // The sampled point really is the nearest of the arc's points.
         for angle in [-2.0f32, -0.4, 0.3, 0.9, 1.7, 2.4, 3.1, 4.0] {
             for radius in [0.5f32, 2.0, 3.0] {
                 let p = polar(center, radius, angle);
-                let best = arc.sample(arc.closest_m(p)).point.distance_to(p);
+                let best = arc.sample(closest_m(&arc, p)).point.distance_to(p);
                 for i in 0..=400 {
                     let q = arc.sample(4.0 * i as f32 / 400.0).point;
                     assert!(best <= q.distance_to(p) + 1e-5, "p = {p:?}");
@@ -1157,10 +1203,10 @@ mod tests {
             start_angle_rad: 1.0,
             sweep_rad: -2.5,
         };
-        assert!(close(arc.closest_m(polar(center, 0.5, 0.0)), 1.5, 1e-5));
-        assert!(close(arc.closest_m(polar(center, 2.0, -1.0)), 3.0, 1e-5));
-        assert_eq!(arc.closest_m(polar(center, 1.5, -1.8)), 3.75);
-        assert_eq!(arc.closest_m(polar(center, 1.5, 1.3)), 0.0);
+        assert!(close(closest_m(&arc, polar(center, 0.5, 0.0)), 1.5, 1e-5));
+        assert!(close(closest_m(&arc, polar(center, 2.0, -1.0)), 3.0, 1e-5));
+        assert_eq!(closest_m(&arc, polar(center, 1.5, -1.8)), 3.75);
+        assert_eq!(closest_m(&arc, polar(center, 1.5, 1.3)), 0.0);
     }
 
     #[test]
@@ -1174,13 +1220,13 @@ mod tests {
             sweep_rad: 1.0,
         };
         assert!(close(
-            arc.closest_m(polar(center, 1.2, -2.9)),
+            closest_m(&arc, polar(center, 1.2, -2.9)),
             TAU - 5.9,
             1e-5
         ));
-        assert!(close(arc.closest_m(polar(center, 0.8, 3.1)), 0.1, 1e-5));
+        assert!(close(closest_m(&arc, polar(center, 0.8, 3.1)), 0.1, 1e-5));
         // Just before the start: the start, not most of a turn further on.
-        assert_eq!(arc.closest_m(polar(center, 1.0, 2.9)), 0.0);
+        assert_eq!(closest_m(&arc, polar(center, 1.0, 2.9)), 0.0);
     }
 
     #[test]
@@ -1809,7 +1855,7 @@ mod tests {
     }
 
     /// The projection as a scan of every segment computes it: the oracle for the
-    /// windowed search of [`Path::project`].
+    /// windowed search of [`Path::project`] (the same candidates, from every segment).
     fn project_by_scanning_every_segment(
         path: &Path,
         p: Point,
@@ -1822,13 +1868,8 @@ mod tests {
             if !path.overlaps_window(start, start + segment.length_m(), hint_m, behind_m, ahead_m) {
                 continue;
             }
-            let mut offset = start + segment.closest_m(p) - hint_m;
-            if path.closed && behind_m.is_finite() {
-                offset = path.normalize_m(offset + 0.5 * path.length_m) - 0.5 * path.length_m;
-            }
-            let s = hint_m + math::clamp(offset, -behind_m, ahead_m);
-            let d = p.distance_to(path.sample(s).point);
-            if d < best.0 {
+            let (s, d) = path.candidate(segment, start, p, hint_m, behind_m, ahead_m);
+            if d < best.0 - PROJECTION_TIE_M {
                 best = (d, s);
             }
         }

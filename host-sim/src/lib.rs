@@ -16,8 +16,8 @@
 //! - [`robot_file`] — the `[robot]` and `[supervisor]` TOML sections, shared with the
 //!   ground station's robot files.
 //! - [`scenario`] — TOML scenarios with every quantity in SI units, validated with errors
-//!   that name the key; four built in (`paper-circle`, `paper-line`, `square-waypoints`,
-//!   `figure-eight`).
+//!   that name the key; five built in (`paper-circle`, `paper-line`, `square-waypoints`,
+//!   `figure-eight`, and `longest-path`, the most segments a path may have).
 //! - [`hardware`] — the simulated robot as the firmware sees it: encoder ticks, the supply
 //!   measurement and the button in, duties and the bridge state (drive, brake, coast) out,
 //!   with [`faults`] injected on a timeline.

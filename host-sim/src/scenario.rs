@@ -83,7 +83,7 @@ use crate::plant::{BodyParams, DriverKind, DriverParams, Load, MotorParams};
 use crate::robot_file::{param_error, PathContext, RobotSection, SectionError, SupervisorSection};
 
 /// The built-in scenarios: (name, TOML text).
-pub const BUILTIN: [(&str, &str); 4] = [
+pub const BUILTIN: [(&str, &str); 5] = [
     (
         "paper-circle",
         include_str!("../scenarios/paper-circle.toml"),
@@ -96,6 +96,10 @@ pub const BUILTIN: [(&str, &str); 4] = [
     (
         "figure-eight",
         include_str!("../scenarios/figure-eight.toml"),
+    ),
+    (
+        "longest-path",
+        include_str!("../scenarios/longest-path.toml"),
     ),
 ];
 
@@ -132,7 +136,7 @@ pub enum ScenarioError {
     #[error(transparent)]
     Section(#[from] SectionError),
     /// Neither a file nor a built-in scenario.
-    #[error("no scenario file or built-in scenario named `{0}` (built in: paper-circle, paper-line, square-waypoints, figure-eight)")]
+    #[error("no scenario file or built-in scenario named `{0}` (built in: paper-circle, paper-line, square-waypoints, figure-eight, longest-path)")]
     Unknown(String),
 }
 

@@ -273,7 +273,7 @@ impl Controller {
         let steps_per_s = params.control_rate().get() as f32;
         let window = params.config().speed_window_steps as usize;
         for speed in &mut self.speed {
-            *speed = SpeedEstimator::new(window, params.rad_per_tick(), steps_per_s);
+            speed.reconfigure(window, params.rad_per_tick(), steps_per_s);
         }
         self.odometry = Odometry::new(params.geometry(), params.ticks_per_wheel_rev(), start);
         self.drive = WheelDrive::new(params);

@@ -82,20 +82,26 @@ impl SpeedEstimator {
     /// `steps_per_s` is 1/T. It starts as if the wheel had been at rest for the whole
     /// window.
     pub fn new(window_steps: usize, rad_per_tick: f32, steps_per_s: f32) -> Self {
-        let window = window_steps.clamp(1, MAX_SPEED_WINDOW_STEPS);
-        let rad_per_tick_per_s = rad_per_tick * steps_per_s;
         let mut estimator = Self {
             ticks: [0; MAX_SPEED_WINDOW_STEPS],
             periods: [1; MAX_SPEED_WINDOW_STEPS],
-            window,
+            window: 1,
             head: 0,
             tick_sum: 0,
-            period_sum: window as u32,
-            rad_per_tick_per_s,
+            period_sum: 1,
+            rad_per_tick_per_s: 0.0,
             scale: 0.0,
         };
-        estimator.reset();
+        estimator.reconfigure(window_steps, rad_per_tick, steps_per_s);
         estimator
+    }
+
+    /// Makes this estimator the one [`SpeedEstimator::new`] builds with these arguments,
+    /// in place (no estimator on the stack of the interrupt that installs new parameters).
+    pub fn reconfigure(&mut self, window_steps: usize, rad_per_tick: f32, steps_per_s: f32) {
+        self.window = window_steps.clamp(1, MAX_SPEED_WINDOW_STEPS);
+        self.rad_per_tick_per_s = rad_per_tick * steps_per_s;
+        self.reset();
     }
 
     /// Adds one step's tick delta `ticks`, counted over `periods` control periods (≥ 1;

@@ -297,6 +297,31 @@ pub struct Path {
     closed: bool,
 }
 
+/// A path's length and closure, from [`Path::check_segments`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathShape {
+    /// Total length, m.
+    pub length_m: f32,
+    /// The end joins the start.
+    pub closed: bool,
+}
+
+impl Path {
+    /// A 1 m line along +x from the origin (world frame): a valid path that costs no
+    /// computation, for room a path is then built into in place
+    /// ([`Path::rebuild_from_segments`]).
+    pub const PLACEHOLDER: Path = Path {
+        segments: Vec::from_array([Segment::Line {
+            start: Point::new(0.0, 0.0),
+            heading_rad: 0.0,
+            length_m: 1.0,
+        }]),
+        starts_m: Vec::from_array([0.0]),
+        length_m: 1.0,
+        closed: false,
+    };
+}
+
 impl Clone for Path {
     fn clone(&self) -> Self {
         Self {
@@ -357,16 +382,21 @@ fn finite_point(p: Point) -> bool {
 impl Path {
     /// A path of `segments` taken as they are (no checks), `closed` or not.
     fn chain(segments: &[Segment], closed: bool) -> Result<Self, PathError> {
-        let mut path = Path {
-            segments: Vec::new(),
-            starts_m: Vec::new(),
-            length_m: 0.0,
-            closed,
-        };
-        for segment in segments {
-            path.push(*segment)?;
-        }
+        let mut path = Path::PLACEHOLDER;
+        path.refill(segments, closed)?;
         Ok(path)
+    }
+
+    /// Empties the path and pushes `segments`; `closed` as given.
+    fn refill(&mut self, segments: &[Segment], closed: bool) -> Result<(), PathError> {
+        self.segments.clear();
+        self.starts_m.clear();
+        self.length_m = 0.0;
+        self.closed = closed;
+        for segment in segments {
+            self.push(*segment)?;
+        }
+        Ok(())
     }
 
     fn push(&mut self, segment: Segment) -> Result<(), PathError> {
@@ -394,6 +424,14 @@ impl Path {
     /// direction, within the same tolerances. [`Path::segments`] gives the segments back
     /// unchanged, so a host can send any path with it and the robot rebuild it with this.
     pub fn from_segments(segments: &[Segment]) -> Result<Self, PathError> {
+        let shape = Self::check_segments(segments)?;
+        Self::chain(segments, shape.closed)
+    }
+
+    /// What [`Path::from_segments`] would build from `segments`, without building it:
+    /// the same checks and errors, and the path's length and closure. For a caller that
+    /// must refuse a bad path before it gives up what it holds.
+    pub fn check_segments(segments: &[Segment]) -> Result<PathShape, PathError> {
         if segments.is_empty() {
             return Err(PathError::NoSegments);
         }
@@ -416,7 +454,17 @@ impl Path {
             (Some(last), Some(first)) => Joint::between(last, first) == Joint::Smooth,
             _ => false,
         };
-        Self::chain(segments, closed)
+        // Summed in the order `push` sums them: the same length to the bit.
+        let length_m = segments.iter().fold(0.0, |sum, s| sum + s.length_m());
+        Ok(PathShape { length_m, closed })
+    }
+
+    /// Makes this path the one [`Path::from_segments`] builds from `segments`, in place
+    /// (no path on the stack: for an interrupt's or a link task's small stack). On an
+    /// error the path is unchanged.
+    pub fn rebuild_from_segments(&mut self, segments: &[Segment]) -> Result<(), PathError> {
+        let shape = Self::check_segments(segments)?;
+        self.refill(segments, shape.closed)
     }
 
     /// A closed circle about `center` (m) of `radius_m` (m), starting at the point at polar
@@ -1825,6 +1873,49 @@ mod tests {
         assert!(close_points(sharp.sample(2.0).point, w[1], 1e-6));
         assert!(close(sharp.sample(2.0).heading_rad, FRAC_PI_2, 1e-6));
         assert!(close(sharp.length_m(), 3.0, 1e-6));
+    }
+
+    #[test]
+    fn a_path_checked_or_rebuilt_in_place_is_the_one_from_segments_builds() {
+        let square = [
+            Point::new(0.0, 0.0),
+            Point::new(2.0, 0.0),
+            Point::new(2.0, 2.0),
+            Point::new(0.0, 2.0),
+        ];
+        let closed = Path::polyline(&square, 0.3, true).unwrap();
+        let open = Path::polyline(&square, 0.3, false).unwrap();
+        for path in [&closed, &open] {
+            let shape = Path::check_segments(path.segments()).unwrap();
+            assert_eq!(shape.length_m.to_bits(), path.length_m().to_bits());
+            assert_eq!(shape.closed, path.is_closed());
+            let mut rebuilt = Path::circle(Point::new(5.0, 5.0), 1.0, 0.0, true).unwrap();
+            rebuilt.rebuild_from_segments(path.segments()).unwrap();
+            let built = Path::from_segments(path.segments()).unwrap();
+            assert_eq!(rebuilt.segments(), built.segments());
+            assert_eq!(rebuilt.starts_m, built.starts_m);
+            assert_eq!(rebuilt.length_m().to_bits(), built.length_m().to_bits());
+            assert_eq!(rebuilt.is_closed(), built.is_closed());
+        }
+        assert!(closed.is_closed() && !open.is_closed());
+        // Refused: unchanged.
+        let mut kept = closed.clone();
+        let gap = [open.segments()[0], open.segments()[2]];
+        assert_eq!(
+            kept.rebuild_from_segments(&gap),
+            Err(PathError::Gap { segment: 1 })
+        );
+        assert_eq!(kept.segments(), closed.segments());
+        assert_eq!(kept.length_m(), closed.length_m());
+        // The placeholder is a path like any other.
+        assert_eq!(
+            Path::check_segments(Path::PLACEHOLDER.segments()),
+            Ok(PathShape {
+                length_m: 1.0,
+                closed: false
+            })
+        );
+        assert_eq!(Path::PLACEHOLDER.length_m(), 1.0);
     }
 
     #[test]

@@ -25,7 +25,7 @@ use core::num::NonZeroU32;
 use crate::compensated::DoubleF32;
 use crate::fixed::PathFraction;
 use crate::kinematics::{BodyVelocity, Point, Pose};
-use crate::path::{Path, PathSample};
+use crate::path::{Path, PathError, PathSample, Segment};
 
 /// How far behind the previous projection the path-following search looks, m.
 const SEARCH_BEHIND_M: f32 = 0.05;
@@ -66,6 +66,30 @@ pub enum ReferenceError {
     NonPositiveSpeed,
     /// The start offset or look-ahead distance was negative or not finite.
     BadDistance,
+}
+
+/// Why [`Reference::rebuild`] refused.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RebuildError {
+    /// The segments do not make a path.
+    Path(PathError),
+    /// The speed or the distance of the mode is out of range.
+    Reference(ReferenceError),
+}
+
+/// Speed and mode checks of [`Reference::new`].
+fn check_motion(speed_m_s: f32, mode: ReferenceMode) -> Result<(), ReferenceError> {
+    if !(speed_m_s > 0.0 && speed_m_s.is_finite()) {
+        return Err(ReferenceError::NonPositiveSpeed);
+    }
+    let distance = match mode {
+        ReferenceMode::TimeIndexed { start_offset_m } => start_offset_m,
+        ReferenceMode::PathFollowing { lookahead_m } => lookahead_m,
+    };
+    if !(distance >= 0.0 && distance.is_finite()) {
+        return Err(ReferenceError::BadDistance);
+    }
+    Ok(())
 }
 
 impl core::fmt::Display for ReferenceError {
@@ -152,16 +176,7 @@ impl Clone for Reference {
 impl Reference {
     /// A reference moving along `path` at `speed_m_s` (m/s, > 0) in `mode`.
     pub fn new(path: Path, speed_m_s: f32, mode: ReferenceMode) -> Result<Self, ReferenceError> {
-        if !(speed_m_s > 0.0 && speed_m_s.is_finite()) {
-            return Err(ReferenceError::NonPositiveSpeed);
-        }
-        let distance = match mode {
-            ReferenceMode::TimeIndexed { start_offset_m } => start_offset_m,
-            ReferenceMode::PathFollowing { lookahead_m } => lookahead_m,
-        };
-        if !(distance >= 0.0 && distance.is_finite()) {
-            return Err(ReferenceError::BadDistance);
-        }
+        check_motion(speed_m_s, mode)?;
         let mut reference = Self {
             path,
             speed_m_s,
@@ -173,6 +188,41 @@ impl Reference {
         };
         reference.restart();
         Ok(reference)
+    }
+
+    /// A reference at 1 m/s along [`Path::PLACEHOLDER`], time-indexed from its start: room
+    /// that a reference is then built into in place ([`Reference::rebuild`]).
+    pub const PLACEHOLDER: Reference = Reference {
+        progress: PathFraction::START,
+        per_period: PathFraction::START,
+        per_period_rate_hz: 0,
+        speed_m_s: 1.0,
+        mode: ReferenceMode::TimeIndexed {
+            start_offset_m: 0.0,
+        },
+        projection_m: None,
+        path: Path::PLACEHOLDER,
+    };
+
+    /// Makes this reference the one `Reference::new(Path::from_segments(segments)?,
+    /// speed_m_s, mode)` builds, in place (no path or reference on the stack). On an
+    /// error the reference is unchanged.
+    pub fn rebuild(
+        &mut self,
+        segments: &[Segment],
+        speed_m_s: f32,
+        mode: ReferenceMode,
+    ) -> Result<(), RebuildError> {
+        check_motion(speed_m_s, mode).map_err(RebuildError::Reference)?;
+        self.path
+            .rebuild_from_segments(segments)
+            .map_err(RebuildError::Path)?;
+        self.speed_m_s = speed_m_s;
+        self.mode = mode;
+        self.per_period = PathFraction::START;
+        self.per_period_rate_hz = 0;
+        self.restart();
+        Ok(())
     }
 
     /// The path being followed.
@@ -287,6 +337,109 @@ mod tests {
 
     fn circle() -> Path {
         Path::circle(Point::new(0.0, 0.0), 1.25, 0.0, true).unwrap()
+    }
+
+    #[test]
+    fn a_reference_rebuilt_in_place_is_the_one_new_builds() {
+        let square = [
+            Point::new(0.0, 0.0),
+            Point::new(2.0, 0.0),
+            Point::new(2.0, 2.0),
+            Point::new(0.0, 2.0),
+        ];
+        let path = Path::polyline(&square, 0.3, true).unwrap();
+        let robot = Pose {
+            x_m: 0.4,
+            y_m: -0.2,
+            theta_rad: 0.1,
+        };
+        for mode in [
+            ReferenceMode::TimeIndexed {
+                start_offset_m: 0.7,
+            },
+            ReferenceMode::PathFollowing { lookahead_m: 0.2 },
+        ] {
+            let mut built = Reference::new(path.clone(), 0.3, mode).unwrap();
+            // Rebuilt over a reference with a history (another path, sampled), in place.
+            let mut rebuilt = Reference::new(
+                circle(),
+                1.0,
+                ReferenceMode::TimeIndexed {
+                    start_offset_m: 0.0,
+                },
+            )
+            .unwrap();
+            for _ in 0..37 {
+                rebuilt.sample(3, HZ_100, &robot);
+            }
+            rebuilt.rebuild(path.segments(), 0.3, mode).unwrap();
+            assert_eq!(rebuilt.path().segments(), path.segments());
+            assert_eq!(
+                rebuilt.path().length_m().to_bits(),
+                path.length_m().to_bits()
+            );
+            assert_eq!(rebuilt.path().is_closed(), path.is_closed());
+            for k in 0..200 {
+                let at = Pose {
+                    x_m: robot.x_m + 0.01 * k as f32,
+                    ..robot
+                };
+                assert_eq!(
+                    rebuilt.sample(1, HZ_100, &at),
+                    built.sample(1, HZ_100, &at),
+                    "{mode:?} sample {k}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_refused_rebuild_changes_nothing() {
+        let mut reference = Reference::new(
+            circle(),
+            0.25,
+            ReferenceMode::TimeIndexed {
+                start_offset_m: 0.0,
+            },
+        )
+        .unwrap();
+        let first = reference.clone().sample(10, HZ_100, &Pose::default());
+        let line = Path::line(Point::new(0.0, 0.0), 0.0, 1.0).unwrap();
+        let ok = ReferenceMode::TimeIndexed {
+            start_offset_m: 0.0,
+        };
+        assert_eq!(
+            reference.rebuild(line.segments(), 0.0, ok),
+            Err(RebuildError::Reference(ReferenceError::NonPositiveSpeed))
+        );
+        let bad_distance = ReferenceMode::PathFollowing { lookahead_m: -1.0 };
+        assert_eq!(
+            reference.rebuild(line.segments(), 0.25, bad_distance),
+            Err(RebuildError::Reference(ReferenceError::BadDistance))
+        );
+        assert_eq!(
+            reference.rebuild(&[], 0.25, ok),
+            Err(RebuildError::Path(PathError::NoSegments))
+        );
+        assert_eq!(reference.path().segments(), circle().segments());
+        assert_eq!(reference.speed_m_s(), 0.25);
+        assert_eq!(reference.sample(10, HZ_100, &Pose::default()), first);
+    }
+
+    #[test]
+    fn the_placeholder_is_a_valid_reference() {
+        let mut placeholder = Reference::PLACEHOLDER;
+        let line = Path::line(Point::new(0.0, 0.0), 0.0, 1.0).unwrap();
+        assert_eq!(placeholder.path().segments(), line.segments());
+        let mode = ReferenceMode::TimeIndexed {
+            start_offset_m: 0.0,
+        };
+        let mut built = Reference::new(line, 1.0, mode).unwrap();
+        let at = Pose::default();
+        assert_eq!(
+            placeholder.sample(10, HZ_100, &at),
+            built.sample(10, HZ_100, &at)
+        );
     }
 
     #[test]

@@ -1,5 +1,7 @@
-//! The robot's side of a path upload: chunks in, a whole checked [`Path`] out, or
-//! nothing.
+//! The robot's side of a path upload: chunks in, the segments of a whole path checked
+//! as [`Path::from_segments`] checks them out, or nothing. The caller builds the path from
+//! them where it will use it (robot-app: in place, with `Reference::rebuild`), so no path
+//! crosses the stack.
 //!
 //! The host sends [`PathBegin`], the segments in [`PathChunk`]s (up to
 //! [`SEGMENTS_PER_CHUNK`] each, any order), then [`PathCommit`]. Nothing the assembler
@@ -49,6 +51,12 @@ impl UploadSegments {
     pub const fn new() -> Self {
         Self([FILLER; MAX_SEGMENTS])
     }
+
+    /// The first `count` segments (all of them for a larger count): a committed path's
+    /// with its [`CommitSummary::segment_count`].
+    pub fn first(&self, count: u8) -> &[Segment] {
+        self.0.get(..usize::from(count)).unwrap_or(&self.0)
+    }
 }
 
 impl Default for UploadSegments {
@@ -74,11 +82,11 @@ struct Pending {
     received: u64,
 }
 
-/// A path that a commit made whole, with how to follow it.
-#[derive(Clone, Debug)]
+/// An upload that a commit made whole and checked, with how to follow it. Its segments
+/// are the first `summary.segment_count` of the [`UploadSegments`] the commit was given
+/// ([`UploadSegments::first`]); [`Path::from_segments`] accepts them.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CommittedPath {
-    /// The path, checked by `Path::from_segments`.
-    pub path: Path,
     /// Speed, reference mode, law and start pose announced by the upload's begin.
     pub begin: PathBegin,
     /// What to report ([`Reply::PathCommitted`]).
@@ -86,9 +94,6 @@ pub struct CommittedPath {
 }
 
 /// The outcome of an accepted commit.
-// `New` carries a whole path (about 1 KiB) by value: there is no heap to box it into, and
-// the caller moves it once into its controller.
-#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum Commit {
     /// A new path: make it active.
@@ -152,6 +157,11 @@ impl PathAssembler {
     /// [`UploadState::abort`].
     pub fn abort(&mut self) {
         self.state.abort();
+    }
+
+    /// The segments of `committed` (valid until the next chunk is stored).
+    pub fn segments_of(&self, committed: &CommittedPath) -> &[Segment] {
+        self.segments.first(committed.summary.segment_count)
     }
 
     /// [`UploadState::progress`].
@@ -282,21 +292,17 @@ impl UploadState {
                 computed,
             }))
         } else {
-            Path::from_segments(segments)
+            Path::check_segments(segments)
                 .map_err(|e| invalid(PathProblem::Geometry(e)))
-                .map(|path| {
-                    let summary = CommitSummary {
+                .map(|shape| CommittedPath {
+                    begin: pending.begin,
+                    summary: CommitSummary {
                         upload_id: commit.upload_id,
                         segment_count: begun,
                         checksum: computed,
-                        length_m: path.length_m(),
-                        closed: path.is_closed(),
-                    };
-                    CommittedPath {
-                        path,
-                        begin: pending.begin,
-                        summary,
-                    }
+                        length_m: shape.length_m,
+                        closed: shape.closed,
+                    },
                 })
         };
         // Whole and checked, or discarded: the upload is over either way.
@@ -342,8 +348,7 @@ impl Pending {
     /// The announced segments in `segments` (all received once `first_missing` is
     /// `None`).
     fn announced<'s>(&self, segments: &'s UploadSegments) -> &'s [Segment] {
-        let count = usize::from(self.begin.segment_count);
-        segments.0.get(..count).unwrap_or(&segments.0)
+        segments.first(self.begin.segment_count)
     }
 }
 

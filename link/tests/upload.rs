@@ -67,8 +67,9 @@ fn a_whole_upload_in_order_becomes_the_path() {
         })
     );
     let result = committed(assembler.commit(&commit_of(1, segments)));
-    assert_eq!(result.path.segments(), segments);
-    assert!(result.path.is_closed());
+    assert_eq!(assembler.segments_of(&result), segments);
+    assert!(result.summary.closed);
+    assert_eq!(result.summary.segment_count, 8);
     assert_eq!(result.begin, begin(1, segments));
     assert_eq!(result.summary.length_m, original.length_m());
     assert_eq!(result.summary.checksum, path_checksum(segments));
@@ -114,7 +115,7 @@ fn a_lost_chunk_is_named_and_can_be_resent() {
     // Still open: re-send and commit.
     assembler.chunk(&all[1]).unwrap();
     let result = committed(assembler.commit(&commit_of(5, segments)));
-    assert_eq!(result.path.segments(), segments);
+    assert_eq!(assembler.segments_of(&result), segments);
 }
 
 #[test]
@@ -157,7 +158,7 @@ fn repeated_chunks_are_idempotent_and_conflicts_refused() {
 
     assembler.chunk(&all[1]).unwrap();
     let result = committed(assembler.commit(&commit_of(2, segments)));
-    assert_eq!(result.path.segments(), segments);
+    assert_eq!(assembler.segments_of(&result), segments);
 }
 
 #[test]
@@ -397,8 +398,10 @@ proptest! {
                 assembler.chunk(&all[i]).unwrap();
             }
         }
-        let path = committed(assembler.commit(&commit)).path;
-        prop_assert_eq!(path.segments(), segments);
-        prop_assert!(!path.is_closed());
+        let result = committed(assembler.commit(&commit));
+        prop_assert_eq!(assembler.segments_of(&result), segments);
+        prop_assert!(!result.summary.closed);
+        let path = Path::from_segments(assembler.segments_of(&result)).unwrap();
+        prop_assert_eq!(path.length_m().to_bits(), result.summary.length_m.to_bits());
     }
 }

@@ -104,6 +104,10 @@ fn a_lost_and_a_repeated_chunk_then_a_commit_the_controller_follows() {
     // Path, law and start pose reached the controller and the supervisor together.
     let controller = rig.control.controller();
     assert!((controller.reference().path().length_m() - 1.8).abs() < 1e-5);
+    // Built in the staging area in place, the very segments uploaded, speed and mode.
+    assert_eq!(controller.reference().path().segments(), &segments()[..]);
+    assert_eq!(controller.reference().speed_m_s(), 0.2);
+    assert_eq!(controller.reference().mode(), begin(7).mode);
     assert_eq!(controller.law(), LawKind::Kanayama);
     assert_eq!(controller.pose(), Pose::new(0.0, 0.0, FRAC_PI_2));
     let start = rig.control.supervisor().config().start_pose;

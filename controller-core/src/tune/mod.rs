@@ -467,11 +467,12 @@ impl Tuner {
     /// Starts a tune from `pose` (the odometry's, world frame), forgetting the last
     /// outcome. The first [`Tuner::step`] applies 0 V.
     pub fn start(&mut self, pose: Pose) {
-        *self = Self {
-            start: pose,
-            phase: Phase::Breakaway,
-            ..Self::with_timing(self.config, self.period_s, self.window_steps)
-        };
+        // Rebuilt in place, then the two fields set: no second tuner on the stack of the
+        // control interrupt that arms it.
+        let (config, period_s, window_steps) = (self.config, self.period_s, self.window_steps);
+        *self = Self::with_timing(config, period_s, window_steps);
+        self.start = pose;
+        self.phase = Phase::Breakaway;
     }
 
     /// Replaces the settings (takes effect at the next [`Tuner::start`]) and the robot's

@@ -29,6 +29,7 @@ pub mod ring;
 
 use core::sync::atomic::{AtomicU32, AtomicU8, Ordering};
 
+use controller_core::kinematics::{Pose, WheelSpeeds};
 use controller_core::law::LawKind;
 use controller_core::params::Params;
 use controller_core::reference::Reference;
@@ -170,6 +171,14 @@ pub enum Staged {
     Path(StagedPath),
 }
 
+impl Staged {
+    /// An empty upload room (a constant: written from flash, not built on the stack).
+    pub const ASSEMBLING: Staged = Staged::Assembling(UploadSegments::new());
+    /// Room for a committed path to be built into ([`StagedPath::PLACEHOLDER`]), whole
+    /// for the same reason.
+    pub const PATH_PLACEHOLDER: Staged = Staged::Path(StagedPath::PLACEHOLDER);
+}
+
 /// A committed path upload, ready to install.
 #[derive(Clone, Debug)]
 pub struct StagedPath {
@@ -182,6 +191,32 @@ pub struct StagedPath {
     pub supervisor: SupervisorConfig,
     /// What the commit reports.
     pub summary: CommitSummary,
+}
+
+impl StagedPath {
+    /// Room for a path to be built into in place ([`Reference::PLACEHOLDER`], the
+    /// tracking law, the supervisor's defaults at 1 kHz, an empty summary): a constant,
+    /// written from flash.
+    pub const PLACEHOLDER: StagedPath = StagedPath {
+        reference: Reference::PLACEHOLDER,
+        law: LawKind::Tracking,
+        supervisor: SupervisorConfig::at_rate(
+            1000,
+            Pose {
+                x_m: 0.0,
+                y_m: 0.0,
+                theta_rad: 0.0,
+            },
+            WheelSpeeds::new(0.0, 0.0),
+        ),
+        summary: CommitSummary {
+            upload_id: 0,
+            segment_count: 0,
+            checksum: 0,
+            length_m: 0.0,
+            closed: false,
+        },
+    };
 }
 
 /// What the control side publishes every step, and the telemetry rate the link side sets.

@@ -2,10 +2,9 @@
 //! name the field and need no float formatting.
 
 use controller_core::params::Params;
-use controller_core::reference::Reference;
-use controller_core::supervisor::{
-    geofence_radius_m, DivergenceCheck, SupervisorConfig, SupervisorConfigError,
-};
+use controller_core::path::Segment;
+use controller_core::reference::RebuildError;
+use controller_core::supervisor::{geofence_radius_m, DivergenceCheck, SupervisorConfigError};
 use heapless::String;
 use link::{CommittedPath, FieldProblem, ParamSet, PathProblem, Refusal, FIELD_CAP};
 
@@ -45,38 +44,48 @@ pub fn supervisor_problem(error: &SupervisorConfigError) -> FieldProblem {
     }
 }
 
-/// A committed upload ready to stage: its reference (speed and mode from the upload's
-/// begin), its law, and the supervisor settings in force with the upload's start pose
-/// and, where enabled, the divergence check and geofence derived for the new path (both
-/// depend on the path and the start pose; a geofence around the old path could stop the
-/// robot on the new one).
+/// Builds, in `staged` (in place: no path or reference on the stack), a committed
+/// upload with its `segments`: its reference (speed and mode from the upload's begin),
+/// its law, and the supervisor settings in force with the upload's start pose and, where
+/// enabled, the divergence check and geofence derived for the new path (both depend on
+/// the path and the start pose; a geofence around the old path could stop the robot on
+/// the new one).
 pub(crate) fn stage_path(
-    committed: CommittedPath,
+    staged: &mut StagedPath,
+    committed: &CommittedPath,
+    segments: &[Segment],
     active: &ParamSet,
-) -> Result<StagedPath, Refusal> {
+) -> Result<(), Refusal> {
     let begin = committed.begin;
-    let reference = Reference::new(committed.path, begin.speed_m_s, begin.mode)
-        .map_err(|e| Refusal::InvalidPath(PathProblem::Reference(e)))?;
-    let mut supervisor: SupervisorConfig = active.supervisor;
+    staged
+        .reference
+        .rebuild(segments, begin.speed_m_s, begin.mode)
+        .map_err(|e| {
+            Refusal::InvalidPath(match e {
+                RebuildError::Path(e) => PathProblem::Geometry(e),
+                RebuildError::Reference(e) => PathProblem::Reference(e),
+            })
+        })?;
+    // In place too: the settings are not small.
+    staged.law = begin.law;
+    let supervisor = &mut staged.supervisor;
+    *supervisor = active.supervisor;
     supervisor.start_pose = begin.start_pose;
-    let rate = active.robot.control_rate_hz;
     if supervisor.divergence.is_some() {
         supervisor.divergence = Some(DivergenceCheck::for_reference(
-            &reference,
+            &staged.reference,
             &supervisor.start_pose,
-            rate,
+            active.robot.control_rate_hz,
         ));
     }
     if supervisor.geofence_radius_m.is_some() {
-        supervisor.geofence_radius_m =
-            Some(geofence_radius_m(reference.path(), supervisor.start_pose));
+        supervisor.geofence_radius_m = Some(geofence_radius_m(
+            staged.reference.path(),
+            supervisor.start_pose,
+        ));
     }
-    Ok(StagedPath {
-        reference,
-        law: begin.law,
-        supervisor,
-        summary: committed.summary,
-    })
+    staged.summary = committed.summary;
+    Ok(())
 }
 
 #[cfg(test)]
@@ -84,6 +93,7 @@ mod tests {
     use super::*;
     use controller_core::kinematics::{Pose, WheelSpeeds};
     use controller_core::params::RobotConfig;
+    use controller_core::supervisor::SupervisorConfig;
     use link::PROBLEM_CAP;
 
     fn set() -> ParamSet {

@@ -29,11 +29,13 @@ mod config;
 mod persisting;
 mod tx;
 
+use controller_core::path::{Segment, MAX_SEGMENTS};
 use controller_core::supervisor::{ArmRequest, Command, RunMode, State};
 use link::{
-    bounded, check_telemetry_rate, params_hash, ArmMode, Commit, CommitSummary, Decoder, Downlink,
-    FieldProblem, LinkStats, NotPermitted, ParamSet, ProtocolId, Received, Refusal, Reply, Request,
-    RobotInfo, RunReport, Stats, TuneReport, Uplink, UploadSegments, UploadState, MAX_FRAME_LEN,
+    bounded, check_telemetry_rate, params_hash, ArmMode, Commit, CommitSummary, CommittedPath,
+    Decoder, Downlink, FieldProblem, LinkStats, NotPermitted, ParamSet, ProtocolId, Received,
+    Refusal, Reply, Request, RobotInfo, RunReport, Stats, TuneReport, Uplink, UploadSegments,
+    UploadState, MAX_FRAME_LEN,
 };
 
 use crate::channel::mailbox::Sender;
@@ -473,8 +475,16 @@ impl<'a> LinkService<'a> {
         self.forward(seq, Op::Install)
     }
 
-    // Cold and large (a path or a configuration by value): kept out of the link task's
-    // frame, which a control step preempting it adds to.
+    /// Publishes what was built in the staging area and asks the control side to
+    /// install it (see [`LinkService::install`]).
+    fn forward_staged(&mut self, seq: u16) -> Option<Result<Reply, Refusal>> {
+        if !self.end.staging.publish() {
+            return Some(Err(self.busy()));
+        }
+        self.forward(seq, Op::Install)
+    }
+
+    // Cold: kept out of the link task's frame, which a control step preempting it adds to.
     #[inline(never)]
     fn path_commit(
         &mut self,
@@ -503,8 +513,8 @@ impl<'a> LinkService<'a> {
             }
             Err(refusal) => return Some(Err(refusal)),
         };
-        match config::stage_path(committed, &self.active) {
-            Ok(staged) => self.install(seq, Staged::Path(staged)),
+        match stage_path_in_place(&mut self.end.staging, &committed, &self.active) {
+            Ok(()) => self.forward_staged(seq),
             Err(refusal) => Some(Err(refusal)),
         }
     }
@@ -633,13 +643,40 @@ pub fn max_telemetry_rate_hz(baud: u32) -> u8 {
     u8::try_from(rate).map_or(max, |r| r.min(max))
 }
 
+/// Turns the staging area's upload room into the committed path, in place: the
+/// segments are copied out (the one copy on the stack, under 1 KiB), the room becomes
+/// [`Staged::PATH_PLACEHOLDER`] (written from flash), and the path is built into it
+/// ([`config::stage_path`]). Not published: the caller does that. Not inlined, so its
+/// copy of the segments and the commit's own temporaries are never on the stack together.
+#[inline(never)]
+fn stage_path_in_place(
+    staging: &mut Sender<'_, Staged>,
+    committed: &CommittedPath,
+    active: &ParamSet,
+) -> Result<(), Refusal> {
+    let Some(slot) = staging.item_mut() else {
+        return Err(Refusal::Busy);
+    };
+    let Staged::Assembling(room) = slot else {
+        return Err(Refusal::Busy);
+    };
+    let mut segments = heapless::Vec::<Segment, MAX_SEGMENTS>::new();
+    // The room holds at most MAX_SEGMENTS: it fits.
+    let _ = segments.extend_from_slice(room.first(committed.summary.segment_count));
+    *slot = Staged::PATH_PLACEHOLDER;
+    let Staged::Path(staged) = slot else {
+        return Err(Refusal::Busy);
+    };
+    config::stage_path(staged, committed, &segments, active)
+}
+
 /// The room the open path upload is assembled in: the staging area, while it is empty
 /// (what was installed last is no longer needed there, and its room becomes the
 /// upload's). None while a staged item waits for the control side or for its reply.
 fn upload_room<'s>(staging: &'s mut Sender<'_, Staged>) -> Option<&'s mut UploadSegments> {
     let slot = staging.item_mut()?;
     if !matches!(slot, Staged::Assembling(_)) {
-        *slot = Staged::Assembling(UploadSegments::new());
+        *slot = Staged::ASSEMBLING;
     }
     match slot {
         Staged::Assembling(segments) => Some(segments),

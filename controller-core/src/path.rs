@@ -1322,6 +1322,29 @@ mod tests {
     }
 
     #[test]
+    fn a_segment_whose_nearest_point_is_outside_the_window_offers_the_window_edge() {
+        // An L: 1 m along +x, then 1 m along +y. The window [0.9, 2.9] m starts near the
+        // end of the first leg. (0.3, 0.45) is 0.45 m from the first leg, but at 0.3 m,
+        // outside the window: that leg offers its point at the window's edge, (0.9, 0),
+        // 0.75 m away, and the second leg's (1, 0.45), 0.7 m away, wins.
+        let l = Path::polyline(
+            &[
+                Point::new(0.0, 0.0),
+                Point::new(1.0, 0.0),
+                Point::new(1.0, 1.0),
+            ],
+            0.0,
+            false,
+        )
+        .unwrap();
+        let s = l.project(Point::new(0.3, 0.45), 0.9, 0.0, 2.0);
+        assert!(close(s, 1.45, 1e-6), "{s}");
+        // Nearer the first leg's edge point, that point wins.
+        let s = l.project(Point::new(0.8, 0.1), 0.9, 0.0, 2.0);
+        assert!(close(s, 0.9, 1e-6), "{s}");
+    }
+
+    #[test]
     fn a_point_as_near_two_legs_projects_onto_the_earlier_one() {
         // An L: 2 m along +x, then 2 m along +y. (1.5, 0.5) is 0.5 m from both legs.
         let l = Path::polyline(

@@ -676,15 +676,15 @@ impl Path {
     }
 
     /// The point at arc length `s_m` (m), which the caller has already brought into
-    /// [0, length] ([`Path::normalize_m`]), from the segment that holds it
-    /// ([`Path::segment_index`]).
+    /// [0, length] ([`Path::normalize_m`]), from the segment that holds it (found by
+    /// binary search: the cost does not grow with the path).
     pub fn sample_normalized(&self, s_m: f32) -> PathSample {
         let i = self.segment_index(s_m);
-        match (self.segments.get(i), self.starts_m.get(i)) {
+        match self.segments.get(i).zip(self.starts_m.get(i)) {
             // Before the first segment (only for s < 0, which normalising excludes) the
             // segment clamps to its start.
-            (Some(segment), Some(&start)) => segment.sample(s_m - start),
-            _ => PathSample::default(),
+            Some((segment, &start)) => segment.sample(s_m - start),
+            None => PathSample::default(),
         }
     }
 
@@ -693,16 +693,20 @@ impl Path {
     /// segments' starts, which never decrease: log₂ [`MAX_SEGMENTS`] steps at most, so
     /// the control step's cost does not grow with the path.
     fn segment_index(&self, s_m: f32) -> usize {
+        // "Not before `start`", which a NaN is too: one comparison per step of the search.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        let not_before = |start: &f32| !(s_m < *start);
+        // The first segment starts at 0: the search is over the others' starts, and the
+        // count of those not after s is the index.
         self.starts_m
-            .partition_point(|&start| start <= s_m || s_m.is_nan())
-            .saturating_sub(1)
+            .get(1..)
+            .map_or(0, |others| others.partition_point(not_before))
     }
 
     /// Arc length (m) of the point of the path closest to `p`, looked for within
     /// [`hint_m` − `behind_m`, `hint_m` + `ahead_m`] of arc length (wrapping on a closed
     /// path). Pass infinite bounds for a global search. The result is not normalised.
-    /// Of points as near as rounding can tell apart ([`PROJECTION_TIE_M`]), the earlier
-    /// segment's.
+    /// Of points as near as rounding can tell apart (within 1 µm), the earlier segment's.
     pub fn project(&self, p: Point, hint_m: f32, behind_m: f32, ahead_m: f32) -> f32 {
         let mut best_s = hint_m;
         let mut best_d = f32::INFINITY;

@@ -19,12 +19,14 @@ use crate::steps::{build_target_executables, Context};
 /// The flash target for the firmware with the runtime link, bytes. Not met yet:
 /// see [`FLASH_BUDGET`].
 pub const FLASH_TARGET: u64 = 32 * 1024;
-/// The flash budget this check enforces, bytes: the measured size (68 352 B with the
-/// `firmware` profile, STM32F411 build, with the link service and the self-tune) plus a
-/// small margin, because [`FLASH_TARGET`] is out of reach with the features the firmware
-/// carries (`controller-core` alone is about 23 KB; see README.md, "Budgets"); the check
-/// prints the measured size against the target too, and the largest symbols.
-pub const FLASH_BUDGET: u64 = 68 * 1024;
+/// The flash budget this check enforces, bytes: the measured size (69 948 B with the
+/// `firmware` profile, STM32F411 build, with the link service and the self-tune; 1.6 KB
+/// of it are the constant placeholders a committed path is built over in place, which
+/// took 4.7 KB off the stack) plus a small margin, because [`FLASH_TARGET`] is out of
+/// reach with the features the firmware carries (`controller-core` alone is about 23 KB;
+/// see README.md, "Budgets"); the check prints the measured size against the target too,
+/// and the largest symbols.
+pub const FLASH_BUDGET: u64 = 70 * 1024;
 /// The static RAM target, bytes (no heap); met.
 pub const RAM_TARGET: u64 = 8 * 1024;
 /// The static RAM budget this check enforces, bytes: the target. Measured 7 604 B (control

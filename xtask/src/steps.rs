@@ -346,7 +346,7 @@ pub fn link_qemu() -> Step {
 /// link loss (see `crate::pil`).
 pub fn pil() -> Step {
     Step::new(
-        "pil: the firmware on an emulated Cortex-M4F against host-sim's plant (paper-circle, encoder disconnect, link loss)",
+        "pil: the firmware on an emulated Cortex-M4F against host-sim's plant (paper-circle, longest-path, encoder disconnect, link loss)",
         crate::pil::check,
     )
 }

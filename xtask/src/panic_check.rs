@@ -31,12 +31,19 @@
 //! The CI step also builds the firmware with the test-only feature `panic-canary`, which
 //! adds one bounds-checked indexing in a function the control task calls, and requires
 //! the check to find it: a check that cannot see that panic path would pass anything.
+//!
+//! The same call graph bounds the firmware's stack ([`stack_bound`]): each function's
+//! frame is what its instructions push or subtract from SP, each task's worst case its
+//! deepest chain, and tasks of different priorities add up, each with an exception
+//! frame. Unlike the high-water mark that processor in the loop measures, the bound does
+//! not depend on when interrupts happen to arrive.
 
 mod call_graph;
 mod image;
 mod panic_names;
 mod report;
 mod source_lines;
+mod stack_bound;
 #[cfg(test)]
 mod test_support;
 mod thumb;
@@ -46,9 +53,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, ensure, Context as _, Result};
 
-use self::image::Image;
+use self::image::{FunctionId, Image};
 use self::report::Findings;
 use self::source_lines::SourceLines;
+use crate::pil::STACK_TARGET;
 use crate::steps::{build_target_executables, Context};
 
 /// Vector table entry of IRQ 0: the 16 system exception entries come first.
@@ -121,6 +129,60 @@ impl fmt::Display for Root {
     }
 }
 
+/// The limit [`check_firmware`] enforces on the stack's worst case, bytes: the bound of
+/// this build (6 216 B: the link task reading the parameter record from flash, 4 432 B,
+/// under the control interrupt ending a tune, 1 436 B) plus a margin; the issue's 4 KiB
+/// target is not met (see the firmware's README).
+pub const STACK_BOUND_LIMIT: u32 = 6 * 1024 + 512;
+
+/// The firmware's tasks for the stack bound, with their RTIC priorities: tasks of
+/// different priorities can preempt one another, so their stacks add up.
+pub fn firmware_tasks() -> Vec<(Root, u8)> {
+    vec![
+        (
+            Root {
+                role: "link task".into(),
+                name: "EXTI4".into(),
+                irq: 10,
+            },
+            1,
+        ),
+        (Root::link_usart_interrupt(), 2),
+        (Root::control_interrupt(), 3),
+    ]
+}
+
+/// Bytes the Cortex-M4F stacks on exception entry with an active floating-point
+/// context (26 words: R0–R3, R12, LR, PC, xPSR, S0–S15, FPSCR and a reserved word),
+/// plus 4 for the 8-byte alignment (ARMv7-M B1.5.7).
+pub const EXCEPTION_FRAME_BYTES: u32 = 108;
+
+/// The firmware's worst-case stack from its call graph, bytes: for each priority level
+/// the deepest task's chain plus an exception frame, summed over the levels (each can
+/// preempt the one below at its deepest). Prints each task's bound and chain. Fails if
+/// a task's stack has no bound.
+pub fn stack_bound(image: &Image, tasks: &[(Root, u8)]) -> Result<u32> {
+    let mut by_priority: std::collections::BTreeMap<u8, u32> = Default::default();
+    for (root, priority) in tasks {
+        let id = handler(image, root)?;
+        let is_panic = |f: &image::Function| panic_names::is_panic_function(&f.name);
+        let exploration = call_graph::explore(image, id, is_panic);
+        let (bytes, chain) = stack_bound::worst_case(&exploration, |f| is_panic(image.function(f)))
+            .map_err(|why| anyhow::anyhow!("{root}: no stack bound: {why:?}"))?;
+        println!("stack bound of the {root}, priority {priority}: {bytes} bytes, deepest through");
+        for f in chain {
+            let frame = exploration.frames.get(&f).map_or(0, |fr| fr.bytes);
+            println!("    {frame:>5} B  {}", image.function(f).name);
+        }
+        let level = by_priority.entry(*priority).or_default();
+        *level = (*level).max(bytes);
+    }
+    Ok(by_priority
+        .values()
+        .map(|bytes| bytes + EXCEPTION_FRAME_BYTES)
+        .sum())
+}
+
 /// The roots `cargo xtask panic-check` checks when none are given.
 pub fn default_roots() -> Vec<Root> {
     vec![Root::control_interrupt(), Root::link_usart_interrupt()]
@@ -140,26 +202,7 @@ fn analyze<'a>(
     roots
         .iter()
         .map(|root| {
-            let entry = root.vector_entry();
-            let handler = image
-                .vector(entry)
-                .with_context(|| format!("{root}: vector table entry {entry}"))?;
-            let id = image
-                .function_containing(handler)
-                .filter(|&id| image.function(id).addr == handler)
-                .with_context(|| {
-                    format!(
-                        "{root}: vector entry {entry} is {handler:#010x}, where no function starts"
-                    )
-                })?;
-            let function = image.function(id);
-            ensure!(
-                function.name == root.name,
-                "{root}: vector entry {entry} points at {function}, not at a handler named {}: \
-                 is the task still bound to {}?",
-                root.name,
-                root.name
-            );
+            let id = handler(image, root)?;
             let exploration =
                 call_graph::explore(image, id, |f| panic_names::is_panic_function(&f.name));
             Ok(Findings {
@@ -170,6 +213,30 @@ fn analyze<'a>(
             })
         })
         .collect()
+}
+
+/// The handler function of `root`: the one its vector table entry points at, which must
+/// be named after the interrupt.
+fn handler(image: &Image, root: &Root) -> Result<FunctionId> {
+    let entry = root.vector_entry();
+    let handler = image
+        .vector(entry)
+        .with_context(|| format!("{root}: vector table entry {entry}"))?;
+    let id = image
+        .function_containing(handler)
+        .filter(|&id| image.function(id).addr == handler)
+        .with_context(|| {
+            format!("{root}: vector entry {entry} is {handler:#010x}, where no function starts")
+        })?;
+    let function = image.function(id);
+    ensure!(
+        function.name == root.name,
+        "{root}: vector entry {entry} points at {function}, not at a handler named {}: \
+         is the task still bound to {}?",
+        root.name,
+        root.name
+    );
+    Ok(id)
 }
 
 /// Checks the ELF at `path` from every root: prints the reachable functions, every panic
@@ -231,7 +298,26 @@ pub fn check_firmware(ctx: &Context) -> Result<()> {
     println!("the canary's panic path in {CANARY_FUNCTION} was found, as it must be\n");
 
     let firmware = build_firmware(ctx, &[])?;
-    check_elf(&firmware, &roots, &ctx.root)
+    check_elf(&firmware, &roots, &ctx.root)?;
+
+    println!();
+    let image = Image::load(&firmware)?;
+    let bound = stack_bound(&image, &firmware_tasks())?;
+    println!(
+        "stack worst case (call graph): {bound} bytes (each priority's deepest task, nested, \
+         with a {EXCEPTION_FRAME_BYTES}-byte exception frame each); the issue's target \
+         {STACK_TARGET} bytes ({}), enforced limit {STACK_BOUND_LIMIT}",
+        if u64::from(bound) <= STACK_TARGET {
+            "within"
+        } else {
+            "NOT met"
+        }
+    );
+    ensure!(
+        bound <= STACK_BOUND_LIMIT,
+        "the stack's worst case is {bound} bytes > {STACK_BOUND_LIMIT}"
+    );
+    Ok(())
 }
 
 /// Release-builds the firmware with `features` (cargo arguments) and returns its ELF.

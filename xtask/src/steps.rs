@@ -318,10 +318,11 @@ pub fn firmware_size() -> Step {
 }
 
 /// The control interrupt of the release firmware cannot reach a panic (and the check does
-/// see the one the `panic-canary` build adds).
+/// see the one the `panic-canary` build adds); the firmware's worst-case stack, bounded
+/// from the same call graph, is within its limit.
 pub fn panic_check() -> Step {
     Step::new(
-        "firmware: no panic path from the control and link-USART interrupts (firmware ELF, with a canary)",
+        "firmware: no panic path from the control and link-USART interrupts (firmware ELF, with a canary), and the stack's worst case",
         panic_check::check_firmware,
     )
 }

@@ -5,7 +5,7 @@
 use std::collections::{HashMap, VecDeque};
 
 use super::image::{Function, FunctionId, Image, Mapping};
-use super::thumb::{self, DecodeError, Flow, Indirect};
+use super::thumb::{self, DecodeError, Flow, Indirect, StackEffect};
 
 /// How a function passes control to another.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -100,6 +100,20 @@ pub struct Exploration {
     pub panic_sites: Vec<PanicSite>,
     /// Every problem in a reachable function, in the order found.
     pub problems: Vec<Problem>,
+    /// Each explored function's frame (panic functions are not explored).
+    pub frames: HashMap<FunctionId, Frame>,
+    /// The functions each explored function calls or branches to, each once.
+    pub callees: HashMap<FunctionId, Vec<FunctionId>>,
+}
+
+/// What a function's instructions take from the stack, summed over all of them (a
+/// function that lowers SP twice is counted twice: an upper bound).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Frame {
+    /// Bytes pushed or subtracted from SP by immediates.
+    pub bytes: u32,
+    /// SP is lowered by a register's value somewhere: the frame's size is unknown.
+    pub dynamic: bool,
 }
 
 impl Exploration {
@@ -137,13 +151,17 @@ pub fn explore(
         first_reached_by: HashMap::new(),
         panic_sites: Vec::new(),
         problems: Vec::new(),
+        frames: HashMap::new(),
+        callees: HashMap::new(),
     };
     let mut queue = VecDeque::from([root]);
     while let Some(caller) = queue.pop_front() {
         if is_panic(image.function(caller)) {
             continue;
         }
-        for (site, target) in scan(image, caller, &mut exploration.problems) {
+        let (exits, frame) = scan(image, caller, &mut exploration.problems);
+        exploration.frames.insert(caller, frame);
+        for (site, target) in exits {
             let Some(callee) = image.function_containing(target) else {
                 exploration.problems.push(Problem::UnknownTarget {
                     function: caller,
@@ -154,6 +172,10 @@ pub fn explore(
             };
             if is_panic(image.function(callee)) {
                 exploration.panic_sites.push(PanicSite { site, callee });
+            }
+            let callees = exploration.callees.entry(caller).or_default();
+            if !callees.contains(&callee) {
+                callees.push(callee);
             }
             if callee != root && !exploration.first_reached_by.contains_key(&callee) {
                 exploration.first_reached_by.insert(callee, site);
@@ -167,10 +189,15 @@ pub fn explore(
 
 /// Decodes every Thumb instruction of `function` (skipping the data the mapping symbols
 /// mark), records its problems, and returns the call sites that leave it with their
-/// destinations.
-fn scan(image: &Image, function: FunctionId, problems: &mut Vec<Problem>) -> Vec<(CallSite, u32)> {
+/// destinations, and its frame.
+fn scan(
+    image: &Image,
+    function: FunctionId,
+    problems: &mut Vec<Problem>,
+) -> (Vec<(CallSite, u32)>, Frame) {
     let f = image.function(function);
     let mut exits = Vec::new();
+    let mut frame = Frame::default();
     let mut addr = f.addr;
     while addr < f.end() {
         let region_end = image
@@ -191,12 +218,17 @@ fn scan(image: &Image, function: FunctionId, problems: &mut Vec<Problem>) -> Vec
         while addr < region_end {
             let Some(first) = image.halfword(addr) else {
                 problems.push(Problem::NoThumbCode { function, addr });
-                return exits;
+                return (exits, frame);
             };
             let second_addr = addr.wrapping_add(2);
             let second = (second_addr < region_end)
                 .then(|| image.halfword(second_addr))
                 .flatten();
+            match thumb::stack_effect(first, second) {
+                StackEffect::Down(bytes) => frame.bytes = frame.bytes.saturating_add(bytes),
+                StackEffect::Dynamic => frame.dynamic = true,
+                StackEffect::None => {}
+            }
             let insn = match thumb::decode(addr, first, second) {
                 Ok(insn) => insn,
                 Err(error) => {
@@ -229,7 +261,7 @@ fn scan(image: &Image, function: FunctionId, problems: &mut Vec<Problem>) -> Vec
             addr = addr.wrapping_add(insn.len);
         }
     }
-    exits
+    (exits, frame)
 }
 
 fn site(caller: FunctionId, addr: u32, kind: EdgeKind) -> CallSite {

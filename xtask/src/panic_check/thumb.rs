@@ -171,6 +171,79 @@ pub fn decode(addr: u32, first: u16, second: Option<u16>) -> Result<Instruction,
     })
 }
 
+/// How an instruction moves the stack pointer down (what a function's frame is made of).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StackEffect {
+    /// It does not lower SP (loads, stores, pops, arithmetic on other registers).
+    None,
+    /// It lowers SP by this many bytes: `PUSH`, `VPUSH`, `STR Rt, [SP, #-4]!`,
+    /// `SUB SP, SP, #imm` (every immediate form).
+    Down(u32),
+    /// It lowers SP by a register's value (`SUB SP, SP, Rm`): a frame of unknown size.
+    Dynamic,
+}
+
+/// The stack effect of the instruction `first` (and `second`, for a 32-bit one): the
+/// prologue forms of ARMv7-M (A7.7.99 PUSH, A7.7.175 SUB (SP minus immediate),
+/// A7.7.176 SUB (SP minus register), A7.7.251 VPUSH).
+pub fn stack_effect(first: u16, second: Option<u16>) -> StackEffect {
+    if !is_32bit(first) {
+        return match first {
+            // PUSH (T1): 1011 010 M register_list; M = LR.
+            _ if first & 0xfe00 == 0xb400 => {
+                StackEffect::Down(4 * (u32::from(first & 0xff).count_ones() + bits(first, 8, 8)))
+            }
+            // SUB SP, SP, #imm7:'00' (T1): 1011 0000 1 imm7.
+            _ if first & 0xff80 == 0xb080 => StackEffect::Down(bits(first, 6, 0) << 2),
+            _ => StackEffect::None,
+        };
+    }
+    let Some(second) = second else {
+        return StackEffect::None;
+    };
+    match (first, second) {
+        // PUSH (T2) = STMDB SP!, {list}: 1110 1001 0010 1101 / 0 M 0 register_list.
+        (0xe92d, _) => StackEffect::Down(4 * u32::from(second & 0x5fff).count_ones()),
+        // PUSH (T3) = STR Rt, [SP, #-4]!: 1111 1000 0100 1101 / Rt 1101 0000 0100.
+        (0xf84d, _) if second & 0x0fff == 0x0d04 => StackEffect::Down(4),
+        // VPUSH: 1110 1101 0D10 1101 / Vd 101x imm8, imm8 = words to push.
+        _ if first & 0xffbf == 0xed2d && second & 0x0e00 == 0x0a00 => {
+            StackEffect::Down(4 * bits(second, 7, 0))
+        }
+        // SUB{S}.W SP, SP, #const (T2): 11110 i 0 1101 S 1101 / 0 imm3 1101 imm8.
+        _ if first & 0xfbef == 0xf1ad && second & 0x8f00 == 0x0d00 => {
+            StackEffect::Down(thumb_expand_imm(immediate12(first, second)))
+        }
+        // SUBW SP, SP, #imm12 (T3): 11110 i 1 0101 0 1101 / 0 imm3 1101 imm8.
+        _ if first & 0xfbff == 0xf2ad && second & 0x8f00 == 0x0d00 => {
+            StackEffect::Down(immediate12(first, second))
+        }
+        // SUB{S}.W SP, SP, Rm{, shift} (T1): 1110 1011 101S 1101 / 0 imm3 1101 imm2 type Rm.
+        _ if first & 0xffef == 0xebad && second & 0x8f00 == 0x0d00 => StackEffect::Dynamic,
+        _ => StackEffect::None,
+    }
+}
+
+/// i:imm3:imm8 of the 32-bit data-processing (immediate) encodings.
+fn immediate12(first: u16, second: u16) -> u32 {
+    (bits(first, 10, 10) << 11) | (bits(second, 14, 12) << 8) | bits(second, 7, 0)
+}
+
+/// ThumbExpandImm (A5.3.2): a modified immediate's value.
+fn thumb_expand_imm(imm12: u32) -> u32 {
+    let byte = imm12 & 0xff;
+    if imm12 >> 10 == 0 {
+        match (imm12 >> 8) & 0b11 {
+            0b00 => byte,
+            0b01 => byte << 16 | byte,
+            0b10 => byte << 24 | byte << 8,
+            _ => byte << 24 | byte << 16 | byte << 8 | byte,
+        }
+    } else {
+        (0x80 | (imm12 & 0x7f)).rotate_right(imm12 >> 7)
+    }
+}
+
 /// The value of the PC as an instruction at `addr` reads it: its address plus 4.
 fn pc(addr: u32) -> u32 {
     addr.wrapping_add(4)

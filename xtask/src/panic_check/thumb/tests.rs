@@ -209,3 +209,54 @@ fn undecodable_encodings_are_reported_not_guessed() {
         Err(DecodeError::Truncated { first: 0xf000 })
     );
 }
+
+/// The stack effect of the little-endian bytes `bytes` (2 or 4).
+fn effect(bytes: &[u8]) -> StackEffect {
+    let halfword = |i: usize| u16::from_le_bytes([bytes[i], bytes[i + 1]]);
+    let second = (bytes.len() == 4).then(|| halfword(2));
+    stack_effect(halfword(0), second)
+}
+
+#[test]
+fn the_prologue_forms_lower_the_stack_by_what_they_push_or_subtract() {
+    // Encodings from `llvm-mc -triple=thumbv7em-none-eabihf -show-encoding`.
+    // push {r4, r5, r7, lr}; push {r7}
+    assert_eq!(effect(&[0xb0, 0xb5]), StackEffect::Down(16));
+    assert_eq!(effect(&[0x80, 0xb4]), StackEffect::Down(4));
+    // push.w {r4-r11, lr}
+    assert_eq!(effect(&[0x2d, 0xe9, 0xf0, 0x4f]), StackEffect::Down(36));
+    // str lr, [sp, #-4]!
+    assert_eq!(effect(&[0x4d, 0xf8, 0x04, 0xed]), StackEffect::Down(4));
+    // vpush {d8-d15}; vpush {s16-s18}
+    assert_eq!(effect(&[0x2d, 0xed, 0x10, 0x8b]), StackEffect::Down(64));
+    assert_eq!(effect(&[0x2d, 0xed, 0x03, 0x8a]), StackEffect::Down(12));
+    // sub sp, #432; sub.w sp, sp, #1848; sub.w sp, sp, #15360; subw sp, sp, #1001
+    assert_eq!(effect(&[0xec, 0xb0]), StackEffect::Down(432));
+    assert_eq!(effect(&[0xad, 0xf5, 0xe7, 0x6d]), StackEffect::Down(1848));
+    assert_eq!(effect(&[0xad, 0xf5, 0x70, 0x5d]), StackEffect::Down(15360));
+    assert_eq!(effect(&[0xad, 0xf2, 0xe9, 0x3d]), StackEffect::Down(1001));
+    // sub.w sp, sp, r3: unknown size.
+    assert_eq!(effect(&[0xad, 0xeb, 0x03, 0x0d]), StackEffect::Dynamic);
+}
+
+#[test]
+fn other_uses_of_sp_leave_the_frame_alone() {
+    // sub.w r0, sp, #16 (SP is the source, not the destination); add sp, #432;
+    // pop {r4, r5, r7, pc}; str r0, [sp, #12]; sub.w r0, r0, #16
+    assert_eq!(effect(&[0xad, 0xf1, 0x10, 0x00]), StackEffect::None);
+    assert_eq!(effect(&[0x6c, 0xb0]), StackEffect::None);
+    assert_eq!(effect(&[0xb0, 0xbd]), StackEffect::None);
+    assert_eq!(effect(&[0x03, 0x90]), StackEffect::None);
+    assert_eq!(effect(&[0xa0, 0xf1, 0x10, 0x00]), StackEffect::None);
+}
+
+#[test]
+fn modified_immediates_expand_as_the_manual_says() {
+    // A5.3.2: the four byte patterns, and a rotation.
+    assert_eq!(thumb_expand_imm(0x0ab), 0xab);
+    assert_eq!(thumb_expand_imm(0x1ab), 0x00ab_00ab);
+    assert_eq!(thumb_expand_imm(0x2ab), 0xab00_ab00);
+    assert_eq!(thumb_expand_imm(0x3ab), 0xabab_abab);
+    // 1848 = 0xe7 << 3: the rotation 29 of 0x80 | 0x67.
+    assert_eq!(thumb_expand_imm(0xee7), 1848);
+}

@@ -813,8 +813,16 @@ impl Path {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+
+    /// The corners of a 2 m square from the origin, counter-clockwise (world frame, m).
+    pub(crate) const SQUARE_2M: [Point; 4] = [
+        Point::new(0.0, 0.0),
+        Point::new(2.0, 0.0),
+        Point::new(2.0, 2.0),
+        Point::new(0.0, 2.0),
+    ];
 
     fn close(a: f32, b: f32, tol: f32) -> bool {
         (a - b).abs() <= tol
@@ -888,12 +896,7 @@ mod tests {
 
     #[test]
     fn rounded_square_is_continuous_with_expected_length() {
-        let square = [
-            Point::new(0.0, 0.0),
-            Point::new(2.0, 0.0),
-            Point::new(2.0, 2.0),
-            Point::new(0.0, 2.0),
-        ];
+        let square = SQUARE_2M;
         let r = 0.3;
         let path = Path::polyline(&square, r, true).unwrap();
         assert_eq!(path.segments().len(), 8);
@@ -963,12 +966,7 @@ mod tests {
 
     #[test]
     fn from_segments_rebuilds_every_kind_of_path() {
-        let square = [
-            Point::new(0.0, 0.0),
-            Point::new(2.0, 0.0),
-            Point::new(2.0, 2.0),
-            Point::new(0.0, 2.0),
-        ];
+        let square = SQUARE_2M;
         let paths = [
             Path::polyline(&square, 0.3, true).unwrap(),
             Path::polyline(&square, 0.3, false).unwrap(),
@@ -1393,12 +1391,7 @@ mod tests {
 
     #[test]
     fn windowed_projection_on_a_closed_path_continues_across_the_seam() {
-        let square = [
-            Point::new(0.0, 0.0),
-            Point::new(2.0, 0.0),
-            Point::new(2.0, 2.0),
-            Point::new(0.0, 2.0),
-        ];
+        let square = SQUARE_2M;
         let path = Path::polyline(&square, 0.3, true).unwrap();
         let length = path.length_m();
         // Hint just before the end of the lap, robot just after the start: the result is
@@ -1904,12 +1897,7 @@ mod tests {
 
     #[test]
     fn a_path_checked_or_rebuilt_in_place_is_the_one_from_segments_builds() {
-        let square = [
-            Point::new(0.0, 0.0),
-            Point::new(2.0, 0.0),
-            Point::new(2.0, 2.0),
-            Point::new(0.0, 2.0),
-        ];
+        let square = SQUARE_2M;
         let closed = Path::polyline(&square, 0.3, true).unwrap();
         let open = Path::polyline(&square, 0.3, false).unwrap();
         for path in [&closed, &open] {

@@ -341,12 +341,7 @@ mod tests {
 
     #[test]
     fn a_reference_rebuilt_in_place_is_the_one_new_builds() {
-        let square = [
-            Point::new(0.0, 0.0),
-            Point::new(2.0, 0.0),
-            Point::new(2.0, 2.0),
-            Point::new(0.0, 2.0),
-        ];
+        let square = crate::path::tests::SQUARE_2M;
         let path = Path::polyline(&square, 0.3, true).unwrap();
         let robot = Pose {
             x_m: 0.4,

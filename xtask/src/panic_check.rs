@@ -32,7 +32,7 @@
 //! adds one bounds-checked indexing in a function the control task calls, and requires
 //! the check to find it: a check that cannot see that panic path would pass anything.
 //!
-//! The same call graph bounds the firmware's stack ([`stack_bound`]): each function's
+//! The same call graph bounds the firmware's stack ([`mod@stack_bound`]): each function's
 //! frame is what its instructions push or subtract from SP, each task's worst case its
 //! deepest chain, and tasks of different priorities add up, each with an exception
 //! frame. Unlike the high-water mark that processor in the loop measures, the bound does

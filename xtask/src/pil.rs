@@ -30,8 +30,8 @@ use crate::steps::{build_target_executables, display_command, Context};
 
 /// The target for the control interrupt on the Cortex-M4F, instructions.
 pub const CONTROL_INTERRUPT_TARGET: u64 = 1500;
-/// The limit this step enforces, instructions: the measured figure (3 798–3 988 in the
-/// armed steps of `longest-path`, 2 333–2 375 in `paper-circle`'s, depending on where
+/// The limit this step enforces, instructions: the measured figure (3 726–3 988 in the
+/// armed steps of `longest-path`, 2 333–2 464 in `paper-circle`'s, depending on where
 /// link requests and telemetry samples fall against the steering steps) plus a margin,
 /// because the target is not met yet: a steering step on a path of many segments
 /// projects the robot onto the few segments near it (an `atan2` for each arc, a
@@ -40,7 +40,7 @@ pub const CONTROL_INTERRUPT_TARGET: u64 = 1500;
 pub const CONTROL_INTERRUPT_LIMIT: u64 = 4500;
 /// The target for the stack's high-water mark, bytes.
 pub const STACK_TARGET: u64 = 4096;
-/// The limit this step enforces, bytes: the measured figure (4 232–4 408 after start-up,
+/// The limit this step enforces, bytes: the measured figure (3 544–4 408 after start-up,
 /// depending on how the link task's requests fall against the control steps; the
 /// deepest path is the link task committing an uploaded path, which copies the segments
 /// out of the staging area, under 1 KiB, and builds the path in place, with a control

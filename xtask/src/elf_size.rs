@@ -19,7 +19,7 @@ use crate::steps::{build_target_executables, Context};
 /// The flash target for the firmware with the runtime link, bytes. Not met yet:
 /// see [`FLASH_BUDGET`].
 pub const FLASH_TARGET: u64 = 32 * 1024;
-/// The flash budget this check enforces, bytes: the measured size (69 948 B with the
+/// The flash budget this check enforces, bytes: the measured size (70 348 B with the
 /// `firmware` profile, STM32F411 build, with the link service and the self-tune; 1.6 KB
 /// of it are the constant placeholders a committed path is built over in place, which
 /// took 4.7 KB off the stack) plus a small margin, because [`FLASH_TARGET`] is out of

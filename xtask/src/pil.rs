@@ -40,7 +40,7 @@ pub const CONTROL_INTERRUPT_TARGET: u64 = 1500;
 pub const CONTROL_INTERRUPT_LIMIT: u64 = 4500;
 /// The target for the stack's high-water mark, bytes.
 pub const STACK_TARGET: u64 = 4096;
-/// The limit this step enforces, bytes: the measured figure (3 544–4 408 after start-up,
+/// The limit this step enforces, bytes: the measured figure (3 544–4 536 after start-up,
 /// depending on how the link task's requests fall against the control steps; the
 /// deepest path is the link task committing an uploaded path, which copies the segments
 /// out of the staging area, under 1 KiB, and builds the path in place, with a control

@@ -168,7 +168,23 @@ pub fn stack_bound(image: &Image, tasks: &[(Root, u8)]) -> Result<u32> {
         let is_panic = |f: &image::Function| panic_names::is_panic_function(&f.name);
         let exploration = call_graph::explore(image, id, is_panic);
         let (bytes, chain) = stack_bound::worst_case(&exploration, |f| is_panic(image.function(f)))
-            .map_err(|why| anyhow::anyhow!("{root}: no stack bound: {why:?}"))?;
+            .map_err(|why| {
+                let name = |f: FunctionId| image.function(f).name.clone();
+                let why = match why {
+                    stack_bound::Unbounded::Dynamic(f) => {
+                        format!("{} lowers SP by a register's value", name(f))
+                    }
+                    stack_bound::Unbounded::Recursion(cycle) => format!(
+                        "recursion: {}",
+                        cycle.into_iter().map(name).collect::<Vec<_>>().join(" -> ")
+                    ),
+                    stack_bound::Unbounded::LeavesAnalysis => {
+                        "a transfer the analysis cannot follow (run the panic check on it)"
+                            .to_string()
+                    }
+                };
+                anyhow::anyhow!("{root}: no stack bound: {why}")
+            })?;
         println!("stack bound of the {root}, priority {priority}: {bytes} bytes, deepest through");
         for f in chain {
             let frame = exploration.frames.get(&f).map_or(0, |fr| fr.bytes);
@@ -335,6 +351,41 @@ mod tests {
 
     fn root(spec: &str) -> Root {
         Root::parse(spec).unwrap()
+    }
+
+    #[test]
+    fn tasks_of_different_priorities_add_up_and_of_one_priority_do_not() {
+        // Three handlers: TIM5 (IRQ 50) 8 + 100 bytes, USART2 (IRQ 38) 8 + 40, EXTI4
+        // (IRQ 10) 8 + 20; each `push {r7, lr}` then `sub sp, #n`.
+        let mut asm = Assembler::default();
+        for (name, irq, at, bytes) in [
+            ("TIM5", 50u32, BASE + 0x100, 100u16),
+            ("USART2", 38, BASE + 0x200, 40),
+            ("EXTI4", 10, BASE + 0x300, 20),
+        ] {
+            asm.function(name, at, &[PUSH_R7_LR, 0xb080 | (bytes / 4), POP_R7_PC]);
+            asm.vector(FIRST_IRQ_ENTRY + irq, at);
+        }
+        asm.function("rust_begin_unwind", BASE + 0x400, &[BX_LR]);
+        let image = asm.image();
+        let tasks = |priorities: [u8; 3]| {
+            let roots = [
+                root("EXTI4:10"),
+                Root::link_usart_interrupt(),
+                Root::control_interrupt(),
+            ];
+            roots.into_iter().zip(priorities).collect::<Vec<_>>()
+        };
+        let frame = EXCEPTION_FRAME_BYTES;
+        assert_eq!(
+            stack_bound(&image, &tasks([1, 2, 3])).unwrap(),
+            (28 + frame) + (48 + frame) + (108 + frame)
+        );
+        // USART2 and TIM5 at one priority cannot preempt each other: the deeper counts.
+        assert_eq!(
+            stack_bound(&image, &tasks([1, 2, 2])).unwrap(),
+            (28 + frame) + (108 + frame)
+        );
     }
 
     #[test]

@@ -679,13 +679,17 @@ impl Path {
     /// [0, length] ([`Path::normalize_m`]), from the segment that holds it (found by
     /// binary search: the cost does not grow with the path).
     pub fn sample_normalized(&self, s_m: f32) -> PathSample {
-        let i = self.segment_index(s_m);
-        match self.segments.get(i).zip(self.starts_m.get(i)) {
+        match self.segment_at(self.segment_index(s_m)) {
             // Before the first segment (only for s < 0, which normalising excludes) the
             // segment clamps to its start.
-            Some((segment, &start)) => segment.sample(s_m - start),
+            Some((segment, start)) => segment.sample(s_m - start),
             None => PathSample::default(),
         }
+    }
+
+    /// Segment `i` and the arc length at which it starts (m); None past the last.
+    fn segment_at(&self, i: usize) -> Option<(&Segment, f32)> {
+        self.segments.get(i).zip(self.starts_m.get(i).copied())
     }
 
     /// Index of the segment that holds arc length `s_m` (m): the last that starts at or
@@ -716,7 +720,7 @@ impl Path {
         while near != 0 {
             let i = near.trailing_zeros() as usize;
             near &= near - 1;
-            let (Some(segment), Some(&start)) = (self.segments.get(i), self.starts_m.get(i)) else {
+            let Some((segment, start)) = self.segment_at(i) else {
                 break;
             };
             let (s, d) = self.candidate(segment, start, p, hint_m, behind_m, ahead_m);
@@ -775,7 +779,7 @@ impl Path {
         for step in 0..n {
             let i = from + step;
             let i = if i >= n && self.closed { i - n } else { i };
-            let (Some(segment), Some(&start)) = (self.segments.get(i), self.starts_m.get(i)) else {
+            let Some((segment, start)) = self.segment_at(i) else {
                 break;
             };
             if self.overlaps_window(start, start + segment.length_m(), hint_m, behind_m, ahead_m) {

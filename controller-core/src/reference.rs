@@ -179,14 +179,9 @@ impl Reference {
         check_motion(speed_m_s, mode)?;
         let mut reference = Self {
             path,
-            speed_m_s,
-            mode,
-            progress: PathFraction::START,
-            per_period: PathFraction::START,
-            per_period_rate_hz: 0,
-            projection_m: None,
+            ..Self::PLACEHOLDER
         };
-        reference.restart();
+        reference.start_moving(speed_m_s, mode);
         Ok(reference)
     }
 
@@ -217,12 +212,18 @@ impl Reference {
         self.path
             .rebuild_from_segments(segments)
             .map_err(RebuildError::Path)?;
+        self.start_moving(speed_m_s, mode);
+        Ok(())
+    }
+
+    /// Sets the (checked) speed and mode on the path it has, forgets the cached
+    /// per-period progress, and goes back to the start.
+    fn start_moving(&mut self, speed_m_s: f32, mode: ReferenceMode) {
         self.speed_m_s = speed_m_s;
         self.mode = mode;
         self.per_period = PathFraction::START;
         self.per_period_rate_hz = 0;
         self.restart();
-        Ok(())
     }
 
     /// The path being followed.

@@ -19,7 +19,7 @@
 //!    configuration.
 
 use link::ParamSet;
-use robot_app::persist::{self, Slots, MAX_RECORD_LEN};
+use robot_app::persist::{self, Slots, WritePlan, MAX_RECORD_LEN};
 use robot_app::service::PersistJob;
 use rtic::Mutex;
 
@@ -65,12 +65,11 @@ pub fn write(
     watchdog: &mut impl Mutex<T = Watchdog>,
 ) -> bool {
     let rate = job.params.robot.control_rate_hz;
-    let plan = Slots::scan(
+    let plan = WritePlan::for_pages(
         storage.page(persist::Slot::A),
         storage.page(persist::Slot::B),
         rate,
-    )
-    .next_write();
+    );
     let mut record = [0xFF; MAX_RECORD_LEN];
     let len = match persist::encode(&job.params, plan.sequence, &mut record) {
         Ok(len) => len,

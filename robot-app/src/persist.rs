@@ -25,14 +25,15 @@
 //! A write erases a page, and an erase or write cut short by a reset leaves it invalid.
 //! So the board keeps two pages (two flash sectors), A and B: [`Slots::scan`] reads
 //! both and picks the valid record with the newest sequence number; [`Slots::next_write`]
-//! names the *other* page and the next sequence number. If a write is cut short, the
-//! previous record is still there. The firmware only erases, writes and reads flash;
+//! (or [`WritePlan::for_pages`], which keeps only the sequence numbers) names the *other*
+//! page and the next sequence number. If a write is cut short, the previous record is
+//! still there. The firmware only erases, writes and reads flash;
 //! every decision is here.
 
 use core::fmt;
 
-use controller_core::params::{ParamError, Params};
-use controller_core::supervisor::SupervisorConfigError;
+use controller_core::params::{ParamError, Params, RobotConfig};
+use controller_core::supervisor::{SupervisorConfig, SupervisorConfigError};
 use link::protocol::schema_hash_of;
 use link::{crc32, ParamSet};
 
@@ -239,21 +240,29 @@ pub fn decode(page: &[u8], control_rate_hz: u32) -> Result<Loaded, LoadError> {
         return Err(LoadError::ForeignSchema { found: schema });
     }
     let body = covered.get(HEADER_LEN..).unwrap_or_default();
-    let params = match postcard::take_from_bytes::<ParamSet>(body) {
-        Ok((params, [])) => params,
-        _ => return Err(LoadError::Undecodable),
+    // The body is a `ParamSet`, which postcard writes as its two fields one after the
+    // other. Read as two halves, it is not moved whole through the deserializer's
+    // results: that took four copies of it, 1.5 KB of the link task's stack when it
+    // writes flash.
+    let Ok((robot, rest)) = postcard::take_from_bytes::<RobotConfig>(body) else {
+        return Err(LoadError::Undecodable);
     };
-    let robot = Params::new(params.robot).map_err(LoadError::InvalidRobot)?;
-    if params.robot.control_rate_hz != control_rate_hz {
+    let Ok((supervisor, [])) = postcard::take_from_bytes::<SupervisorConfig>(rest) else {
+        return Err(LoadError::Undecodable);
+    };
+    let checked = Params::new(robot).map_err(LoadError::InvalidRobot)?;
+    if robot.control_rate_hz != control_rate_hz {
         return Err(LoadError::WrongControlRate {
-            found: params.robot.control_rate_hz,
+            found: robot.control_rate_hz,
         });
     }
-    params
-        .supervisor
-        .validate(&robot)
+    supervisor
+        .validate(&checked)
         .map_err(LoadError::InvalidSupervisor)?;
-    Ok(Loaded { params, sequence })
+    Ok(Loaded {
+        params: ParamSet { robot, supervisor },
+        sequence,
+    })
 }
 
 /// One of the two pages.
@@ -284,6 +293,55 @@ pub struct WritePlan {
     pub sequence: u32,
 }
 
+impl WritePlan {
+    /// The plan after the newest valid record, given as its page and sequence number:
+    /// the other page and the next number (page A and 1 when there is none).
+    fn after(newest: Option<(Slot, u32)>) -> Self {
+        match newest {
+            Some((slot, sequence)) => WritePlan {
+                slot: slot.other(),
+                sequence: sequence.wrapping_add(1),
+            },
+            None => WritePlan {
+                slot: Slot::A,
+                sequence: 1,
+            },
+        }
+    }
+
+    /// The plan for pages `a` and `b` (as [`Slots::next_write`] makes it from
+    /// [`Slots::scan`]), reading one page at a time and keeping only its sequence number:
+    /// the link task writes flash with it, and two decoded records would cost its stack
+    /// 600 bytes.
+    #[inline(always)]
+    pub fn for_pages(a: &[u8], b: &[u8], control_rate_hz: u32) -> Self {
+        let a = valid_sequence(a, control_rate_hz);
+        let b = valid_sequence(b, control_rate_hz);
+        Self::after(newest_sequence(a, b))
+    }
+}
+
+/// The sequence number of the valid record on `page` ([`decode`]), if it holds one.
+/// Inlined, so that the decoded record's room is the caller's, shared with its other
+/// temporaries, rather than a frame of its own on top of [`decode`]'s.
+#[inline(always)]
+fn valid_sequence(page: &[u8], control_rate_hz: u32) -> Option<u32> {
+    decode(page, control_rate_hz)
+        .ok()
+        .map(|loaded| loaded.sequence)
+}
+
+/// Of two pages' valid records, given by their sequence numbers, the newest (A when both
+/// are equally new): its page and number.
+fn newest_sequence(a: Option<u32>, b: Option<u32>) -> Option<(Slot, u32)> {
+    match (a, b) {
+        (Some(a), Some(b)) if is_newer(b, a) => Some((Slot::B, b)),
+        (Some(a), _) => Some((Slot::A, a)),
+        (None, Some(b)) => Some((Slot::B, b)),
+        (None, None) => None,
+    }
+}
+
 /// What the two pages hold.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Slots {
@@ -305,27 +363,19 @@ impl Slots {
     /// The valid record with the newest sequence number (A when both are equally new),
     /// or `None` when neither page has one: then use the defaults.
     pub fn newest(&self) -> Option<(Slot, &Loaded)> {
-        match (&self.a, &self.b) {
-            (Ok(a), Ok(b)) if is_newer(b.sequence, a.sequence) => Some((Slot::B, b)),
-            (Ok(a), _) => Some((Slot::A, a)),
-            (Err(_), Ok(b)) => Some((Slot::B, b)),
-            (Err(_), Err(_)) => None,
-        }
+        let sequence = |page: &Result<Loaded, LoadError>| page.as_ref().ok().map(|l| l.sequence);
+        let (slot, _) = newest_sequence(sequence(&self.a), sequence(&self.b))?;
+        let page = match slot {
+            Slot::A => &self.a,
+            Slot::B => &self.b,
+        };
+        page.as_ref().ok().map(|loaded| (slot, loaded))
     }
 
     /// The page that does not hold the newest record, and the sequence number after it
     /// (page A and 1 when there is none).
     pub fn next_write(&self) -> WritePlan {
-        match self.newest() {
-            Some((slot, loaded)) => WritePlan {
-                slot: slot.other(),
-                sequence: loaded.sequence.wrapping_add(1),
-            },
-            None => WritePlan {
-                slot: Slot::A,
-                sequence: 1,
-            },
-        }
+        WritePlan::after(self.newest().map(|(slot, loaded)| (slot, loaded.sequence)))
     }
 }
 
@@ -473,6 +523,17 @@ mod tests {
         junk[12..16].copy_from_slice(&3u32.to_le_bytes());
         reseal(&mut junk);
         assert_eq!(decode(&junk, RATE), Err(LoadError::Undecodable));
+        // A whole ParamSet and one byte more; a ParamSet one byte short (the two halves
+        // are read one after the other: the second must end the body exactly).
+        let whole = page(&params(), 1);
+        let body = u32::from_le_bytes([whole[12], whole[13], whole[14], whole[15]]);
+        for length in [body + 1, body - 1] {
+            let mut cut = whole;
+            cut[HEADER_LEN + body as usize] = 0;
+            cut[12..16].copy_from_slice(&length.to_le_bytes());
+            reseal(&mut cut);
+            assert_eq!(decode(&cut, RATE), Err(LoadError::Undecodable), "{length}");
+        }
     }
 
     #[test]
@@ -528,6 +589,10 @@ mod tests {
         let slots = Slots::scan(&erased, &erased, RATE);
         assert_eq!(slots.newest(), None);
         assert_eq!(
+            WritePlan::for_pages(&erased, &erased, RATE),
+            slots.next_write()
+        );
+        assert_eq!(
             slots.next_write(),
             WritePlan {
                 slot: Slot::A,
@@ -537,6 +602,7 @@ mod tests {
 
         let (a, b) = (page(&old, 1), page(&new, 2));
         let slots = Slots::scan(&a, &b, RATE);
+        assert_eq!(WritePlan::for_pages(&a, &b, RATE), slots.next_write());
         assert_eq!(
             slots.newest().map(|(s, l)| (s, l.params)),
             Some((Slot::B, new))
@@ -552,6 +618,15 @@ mod tests {
         // The sequence wraps: 0 is newer than u32::MAX.
         let (a, b) = (page(&new, 0), page(&old, u32::MAX));
         let slots = Slots::scan(&a, &b, RATE);
+        assert_eq!(WritePlan::for_pages(&a, &b, RATE), slots.next_write());
+        assert_eq!(
+            WritePlan::for_pages(&b, &a, RATE),
+            WritePlan {
+                slot: Slot::A,
+                sequence: 1
+            },
+            "the same records the other way round"
+        );
         assert_eq!(slots.newest().map(|(s, _)| s), Some(Slot::A));
         assert_eq!(slots.next_write().slot, Slot::B);
         assert_eq!(slots.next_write().sequence, 1);
@@ -579,6 +654,15 @@ mod tests {
                 slot: Slot::B,
                 sequence: 6
             }
+        );
+        assert_eq!(WritePlan::for_pages(&a, &b, RATE), slots.next_write());
+        assert_eq!(
+            WritePlan::for_pages(&b, &a, RATE),
+            WritePlan {
+                slot: Slot::A,
+                sequence: 6
+            },
+            "only the intact page counts, whichever it is"
         );
     }
 }

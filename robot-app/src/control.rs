@@ -366,6 +366,7 @@ impl<'a> ControlSide<'a> {
 
     /// The run ended: its report goes to the link side (dropped if the previous one is
     /// still there, which takes two runs ending between two link polls). Returns true.
+    #[inline(never)]
     fn end_run(&mut self) -> bool {
         self.in_run = false;
         self.runs_ended = self.runs_ended.wrapping_add(1);
@@ -384,11 +385,19 @@ impl<'a> ControlSide<'a> {
         if !self.in_tune || (out.state == State::Armed && out.run_mode == RunMode::Tune) {
             return false;
         }
+        self.end_tune();
+        true
+    }
+
+    /// The tune ended: its report goes to the link side (as a run's does). Out of line,
+    /// like [`ControlSide::end_run`]: the report is built once per tune, and its room
+    /// should not be in the frame of every control step.
+    #[inline(never)]
+    fn end_tune(&mut self) {
         self.in_tune = false;
         self.tunes_ended = self.tunes_ended.wrapping_add(1);
         let report = self.tune_report();
         let _ = self.end.reports.push(Report::Tune(report));
-        true
     }
 
     /// The outcome of the last wheel-loop tune ([`TuneReport::NONE`] before any).

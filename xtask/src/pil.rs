@@ -31,7 +31,7 @@ use crate::steps::{build_target_executables, display_command, Context};
 /// The target for the control interrupt on the Cortex-M4F, instructions.
 pub const CONTROL_INTERRUPT_TARGET: u64 = 1500;
 /// The limit this step enforces, instructions: the measured figure (3 589–3 821 in the
-/// armed steps of `longest-path`, 2 190–2 315 in `paper-circle`'s, depending on where
+/// armed steps of `longest-path`, 2 161–2 315 in `paper-circle`'s, depending on where
 /// link requests and telemetry samples fall against the steering steps) plus a margin,
 /// because the target is not met yet: a steering step on a path of many segments
 /// projects the robot onto the few segments near it (an `atan2` for each arc, a

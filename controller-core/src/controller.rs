@@ -5,9 +5,15 @@
 //! ticks ─► odometry ─► pose ─┐                                 every step (inner loop, T)
 //!      └─► speed estimate ───┼────────────────────────────────────────────┐
 //! reference ─► steering law ─► limits ─► inverse kinematics ─► set-point ramp
-//!                every `steering_divider` steps                  every step │ set-points
+//!    every `steering_divider` steps, applied one step later     every step │ set-points
 //! supply ─► filter ──────────────────────────────────────────► wheel loops (volts) ─► duty
 //! ```
+//!
+//! The outer loop ([`crate::steering`]) runs on a job the inner loop hands over at a step
+//! where the law is due, and its outcome starts the set-point ramp at the next step: a
+//! one-period hand-over, so that on the robot the outer loop can run outside the control
+//! interrupt and still do exactly what it does here. The first step of path following
+//! holds the wheels at their measured speeds while the law runs.
 //!
 //! [`Controller::step`] is the whole of it: call it once per control period with a
 //! [`StepInput`] (the signed tick deltas since the last call, how many periods they span,
@@ -25,16 +31,15 @@ use core::num::NonZeroU32;
 
 use crate::drive::{SupplyFilter, WheelDrive, WheelLoopReport, WheelVolts};
 use crate::encoder::SpeedEstimator;
-use crate::kinematics::{
-    tracking_error_with_heading, BodyVelocity, Pose, TrackingError, WheelSpeeds,
-};
-use crate::law::{self, LawKind, LawOutput};
-use crate::limits::{CommandLimiter, LimitFlags};
+use crate::kinematics::{BodyVelocity, Pose, TrackingError, WheelSpeeds};
+use crate::law::{LawKind, LawOutput};
+use crate::limits::LimitFlags;
 use crate::math;
 use crate::odometry::Odometry;
 use crate::params::Params;
 use crate::pid::PidParts;
 use crate::reference::{Reference, ReferenceState};
+use crate::steering::{Steering, SteeringJob, SteeringOutcome};
 
 /// Signed encoder ticks counted during one step, forward positive.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -156,7 +161,8 @@ pub struct Telemetry {
     pub step: u32,
     /// Control periods this step covered (1 on time).
     pub periods: u32,
-    /// True when the steering law ran in this step.
+    /// True when this step applied a steering outcome (the law ran on the previous
+    /// step's pose: the one-period hand-over of [`crate::steering`]).
     pub steering_updated: bool,
     /// Odometry pose estimate, world frame.
     pub pose: Pose,
@@ -216,11 +222,18 @@ pub struct Controller {
     /// Steps since the controller was built.
     steps: u32,
     mode: Mode,
-    law: LawKind,
-    limiter: CommandLimiter,
+    /// What the steering law needs from a step where it was due, until it has run.
+    job: Option<SteeringJob>,
+    /// The steering law's outcome, applied at the next step.
+    handed_over: Option<SteeringOutcome>,
+    /// Path following restarted: the next job restarts the reference.
+    restart_reference: bool,
+    /// The wheel loops restarted at this body velocity: the next job restarts the
+    /// command limiter from it.
+    restart_limiter_from: Option<BodyVelocity>,
     speed: [SpeedEstimator; 2],
     params: Params,
-    reference: Reference,
+    steering: Steering,
 }
 
 impl Controller {
@@ -235,13 +248,15 @@ impl Controller {
             speed: [estimator.clone(), estimator],
             drive: WheelDrive::new(&params),
             supply: SupplyFilter::new(params.config().drive.supply_filter_tau_s, params.period_s()),
-            limiter: CommandLimiter::new(params.config().limits),
+            steering: Steering::new(&params, reference, law),
             ramp: SetpointRamp::default(),
-            reference,
-            law,
             mode: Mode::Idle,
             steps: 0,
             schedule: Schedule::default(),
+            job: None,
+            handed_over: None,
+            restart_reference: false,
+            restart_limiter_from: None,
             telemetry: Telemetry {
                 pose: start,
                 rim_speed_cap_m_s: params.config().limits.max_rim_speed_m_s,
@@ -263,7 +278,7 @@ impl Controller {
     /// Rebuilds the controller in place as [`Controller::new`] would with its parameters,
     /// a copy of `reference`, `law` and `start` (world frame); see [`Controller::rebuild`].
     pub fn follow(&mut self, reference: &Reference, law: LawKind, start: Pose) {
-        self.reference.clone_from(reference);
+        self.steering.follow(reference);
         self.restart_from_params(law, start);
     }
 
@@ -279,17 +294,20 @@ impl Controller {
         self.drive = WheelDrive::new(params);
         self.supply =
             SupplyFilter::new(params.config().drive.supply_filter_tau_s, params.period_s());
-        self.limiter = CommandLimiter::new(params.config().limits);
+        self.steering.restart(params, law);
         self.telemetry = Telemetry {
             pose: start,
             rim_speed_cap_m_s: params.config().limits.max_rim_speed_m_s,
             ..Telemetry::default()
         };
         self.ramp = SetpointRamp::default();
-        self.law = law;
         self.mode = Mode::Idle;
         self.steps = 0;
         self.schedule = Schedule::default();
+        self.job = None;
+        self.handed_over = None;
+        self.restart_reference = false;
+        self.restart_limiter_from = None;
     }
 
     /// The parameters in use.
@@ -304,12 +322,12 @@ impl Controller {
 
     /// The steering law in use.
     pub const fn law(&self) -> LawKind {
-        self.law
+        self.steering.law()
     }
 
     /// The reference being followed.
     pub const fn reference(&self) -> &Reference {
-        &self.reference
+        self.steering.reference()
     }
 
     /// Odometry pose estimate, world frame.
@@ -350,7 +368,7 @@ impl Controller {
         // all the same: an equivalent mutant (.cargo/mutants.toml).
         if mode == Mode::FollowPath {
             self.schedule = Schedule::default();
-            self.reference.restart();
+            self.restart_reference = true;
         }
         let was_driving = self.mode != Mode::Idle;
         self.mode = mode;
@@ -359,7 +377,7 @@ impl Controller {
 
     /// Selects another steering law (takes effect at the next steering step).
     pub fn set_law(&mut self, law: LawKind) {
-        self.law = law;
+        self.steering.set_law(law);
     }
 
     /// Overwrites the odometry pose (world frame), e.g. from an external fix.
@@ -395,17 +413,17 @@ impl Controller {
     /// each wheel's applied voltage (a switch between driving modes).
     fn restart_loops(&mut self, was_driving: bool) {
         let measured = self.telemetry.wheel_speed;
-        self.limiter.reset(self.params.geometry().forward(measured));
+        self.restart_limiter_from = Some(self.params.geometry().forward(measured));
+        // A command computed before the restart is stale.
+        self.handed_over = None;
         self.telemetry.wheel_setpoint = match self.mode {
             Mode::HoldWheelSpeeds(speeds) => self.capped_wheel_speeds(speeds),
             // Until the first steering step, hold the wheels where they are.
             Mode::FollowPath => measured,
             Mode::Idle | Mode::ApplyVolts(_) => WheelSpeeds::default(),
         };
-        // The ramp's target is read only between steering steps: path following steers
-        // on its first step, and after `clear_faults` the set-point is 0, the default. So
-        // leaving `target` out is an equivalent mutant (.cargo/mutants.toml says why it
-        // still shows as missed); it is set so the ramp stays right if that changes.
+        // The ramp holds the set-points at its target until the first steering outcome
+        // starts a new one, a step after path following starts.
         self.ramp = SetpointRamp {
             target: self.telemetry.wheel_setpoint,
             ..SetpointRamp::default()
@@ -524,12 +542,20 @@ impl Controller {
         }
 
         self.steps = self.steps.wrapping_add(1);
+        // The outer loop, for the next step (see the module doc).
+        if let Some(job) = self.job.take() {
+            self.handed_over = Some(self.steering.run(&self.params, &job));
+        }
         self.telemetry.duty
     }
 
-    /// The outer loop of one path-following step: the steering law when it is due, and
-    /// the wheel set-points interpolated towards its (limited) command.
+    /// The inner loop's part of one path-following step: apply the steering outcome
+    /// handed over since the last step, hand over a job when the law is due, and move the
+    /// wheel set-points along the ramp.
     fn follow_path(&mut self, periods: NonZeroU32) {
+        if let Some(outcome) = self.handed_over.take() {
+            self.apply_steering(&outcome);
+        }
         let s = &mut self.schedule;
         if s.started {
             s.since_sample = s.since_sample.saturating_add(periods.get());
@@ -540,48 +566,40 @@ impl Controller {
             let elapsed_periods = s.since_sample;
             s.since_sample = 0;
             s.until_steering = self.params.steering_divider().get();
-            self.steer(elapsed_periods);
+            self.job = Some(self.steering_job(elapsed_periods));
         }
         self.ramp
             .advance(periods.get(), &mut self.telemetry.wheel_setpoint);
     }
 
-    /// The steering law, its limits, and a new set-point ramp to the command's wheel
-    /// speeds over the next steering period. `elapsed_periods` is the time since the last
-    /// steering update, in control periods.
-    fn steer(&mut self, elapsed_periods: u32) {
-        let cap = self.rim_speed_cap_m_s();
-        let geometry = self.params.geometry();
+    /// The job for the steering law, from this step's pose; `elapsed_periods` is the time
+    /// since the reference was last sampled, in control periods.
+    fn steering_job(&mut self, elapsed_periods: u32) -> SteeringJob {
+        SteeringJob {
+            pose: self.telemetry.pose,
+            heading_sin_cos: self.odometry.heading_sin_cos(),
+            elapsed_periods,
+            rim_speed_cap_m_s: self.rim_speed_cap_m_s(),
+            restart_reference: core::mem::take(&mut self.restart_reference),
+            restart_limiter_from: self.restart_limiter_from.take(),
+        }
+    }
+
+    /// A steering outcome, one step after its job: into telemetry, and a new set-point
+    /// ramp from where the set-points are to the command's wheel speeds, over one
+    /// steering period.
+    fn apply_steering(&mut self, outcome: &SteeringOutcome) {
         let t = &mut self.telemetry;
         t.steering_updated = true;
-        t.rim_speed_cap_m_s = cap;
-        t.reference = self
-            .reference
-            .sample(elapsed_periods, self.params.control_rate(), &t.pose);
-        let error = tracking_error_with_heading(
-            &t.pose,
-            self.odometry.heading_sin_cos(),
-            &t.reference.pose,
-        );
-        t.law = law::steer_with_error(
-            self.law,
-            &self.params.config().law,
-            &t.pose,
-            &t.reference,
-            error,
-        );
-        t.error = error;
-        let (command, flags) = self.limiter.apply(
-            t.law.command,
-            self.params.steering_period_s(),
-            geometry.track_width_m(),
-            cap,
-        );
-        t.command = command;
-        t.limit_flags = flags;
+        t.rim_speed_cap_m_s = outcome.rim_speed_cap_m_s;
+        t.reference = outcome.reference;
+        t.error = outcome.error;
+        t.law = outcome.law;
+        t.command = outcome.command;
+        t.limit_flags = outcome.limit_flags;
         self.ramp.start(
             t.wheel_setpoint,
-            geometry.inverse(command),
+            self.params.geometry().inverse(outcome.command),
             self.params.steering_divider(),
         );
     }
@@ -732,6 +750,12 @@ pub(crate) mod tests {
     fn follow_path_drives_forward() {
         let mut c = controller();
         c.set_mode(Mode::FollowPath);
+        // The first step hands the law its job and holds the wheels where they are (at
+        // rest); the next one applies the law's command.
+        let duty = step(&mut c, ticks(0, 0));
+        assert!(!c.telemetry().steering_updated);
+        assert_eq!(c.telemetry().wheel_setpoint, WheelSpeeds::default());
+        assert_eq!(duty, MotorCommand::STOP);
         let duty = step(&mut c, ticks(0, 0));
         assert!(c.telemetry().steering_updated);
         assert!(duty.left > 0.0 && duty.right > 0.0);
@@ -748,17 +772,68 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn the_steering_outcome_of_a_step_is_applied_at_the_next() {
+        // The law's job carries this step's pose; its outcome, applied one step later, is
+        // exactly what the outer loop computes from that job.
+        let mut c = on_a_line(5.0);
+        c.set_pose(Pose::new(0.0, 0.05, 0.1));
+        c.set_mode(Mode::FollowPath);
+        let mut outer = Steering::new(c.params(), c.reference().clone(), c.law());
+        step(&mut c, ticks(3, 5));
+        let job = SteeringJob {
+            pose: c.pose(),
+            heading_sin_cos: c.odometry.heading_sin_cos(),
+            elapsed_periods: 0,
+            rim_speed_cap_m_s: c.telemetry().rim_speed_cap_m_s,
+            restart_reference: true,
+            restart_limiter_from: Some(BodyVelocity::new(0.0, 0.0)),
+        };
+        let expected = outer.run(c.params(), &job);
+        let setpoint_before = c.telemetry().wheel_setpoint;
+        step(&mut c, ticks(4, 4));
+        let t = c.telemetry();
+        assert!(t.steering_updated);
+        assert_eq!(t.command, expected.command);
+        assert_eq!(t.error, expected.error);
+        assert_eq!(t.reference, expected.reference);
+        // The ramp starts at this step, one tenth of the way to the command's wheels.
+        let target = c.params().geometry().inverse(expected.command);
+        let tenth =
+            setpoint_before.left_rad_s + (target.left_rad_s - setpoint_before.left_rad_s) / 10.0;
+        assert!((t.wheel_setpoint.left_rad_s - tenth).abs() < 1e-5, "{t:?}");
+    }
+
+    #[test]
+    fn a_restart_drops_a_steering_outcome_not_yet_applied() {
+        // Following, then idle and following again before the outcome of the first step
+        // was applied: the new run starts from its own first job, not the stale command.
+        let mut c = controller();
+        c.set_mode(Mode::FollowPath);
+        step(&mut c, ticks(0, 0));
+        c.set_mode(Mode::Idle);
+        c.set_mode(Mode::FollowPath);
+        step(&mut c, ticks(0, 0));
+        assert!(!c.telemetry().steering_updated);
+        assert_eq!(c.telemetry().wheel_setpoint, WheelSpeeds::default());
+        step(&mut c, ticks(0, 0));
+        assert!(c.telemetry().steering_updated);
+    }
+
+    #[test]
     fn entering_follow_path_restarts_the_reference_and_the_steering_phase() {
-        // Idle for 7 steps, then following: the law runs on the first step and the
-        // reference starts at its beginning, as in a controller that followed at once.
+        // Idle for 7 steps, then following: the law runs on the first step (its outcome
+        // applied on the second) and the reference starts at its beginning, as in a
+        // controller that followed at once.
         let mut fresh = controller();
         fresh.set_mode(Mode::FollowPath);
+        step(&mut fresh, ticks(0, 0));
         step(&mut fresh, ticks(0, 0));
         let mut late = controller();
         for _ in 0..7 {
             step(&mut late, ticks(0, 0));
         }
         late.set_mode(Mode::FollowPath);
+        step(&mut late, ticks(0, 0));
         step(&mut late, ticks(0, 0));
         assert!(late.telemetry().steering_updated);
         assert_eq!(
@@ -774,6 +849,7 @@ pub(crate) mod tests {
         step(&mut late, ticks(0, 0));
         late.set_mode(Mode::FollowPath);
         step(&mut late, ticks(0, 0));
+        step(&mut late, ticks(0, 0));
         assert!(late.telemetry().steering_updated);
         assert_eq!(
             late.telemetry().reference.progress_m,
@@ -787,6 +863,7 @@ pub(crate) mod tests {
         // wheel's proportional and feed-forward parts push forward.
         let mut c = controller();
         c.set_mode(Mode::FollowPath);
+        step(&mut c, ticks(0, 0));
         step(&mut c, ticks(0, 0));
         for part in c.wheel_pid_parts() {
             assert!(part.p > 0.0, "{part:?}");
@@ -890,7 +967,8 @@ pub(crate) mod tests {
     fn a_late_step_moves_the_reference_by_the_time_that_passed() {
         // Two controllers, one stepped 21 times on time (steps at 0…20 ms), the other 10
         // times on time (0…9 ms) and then once covering 11 periods (at 20 ms): at that
-        // steering step both references must be at 20 ms · 0.2 m/s = 4 mm.
+        // steering step both references must be at 20 ms · 0.2 m/s = 4 mm. The outcome
+        // shows one step later.
         let mut on_time = controller();
         let mut late = controller();
         on_time.set_mode(Mode::FollowPath);
@@ -907,8 +985,11 @@ pub(crate) mod tests {
             periods: NonZeroU32::new(11).unwrap(),
             supply_v: SUPPLY_V,
         });
-        assert!(late.telemetry().steering_updated);
         assert_eq!(late.telemetry().periods, 11);
+        step(&mut on_time, ticks(0, 0));
+        step(&mut late, ticks(0, 0));
+        assert!(on_time.telemetry().steering_updated);
+        assert!(late.telemetry().steering_updated);
         let (a, b) = (
             on_time.telemetry().reference.progress_m,
             late.telemetry().reference.progress_m,
@@ -967,6 +1048,9 @@ pub(crate) mod tests {
         let mut c = on_a_line(5.0);
         c.set_pose(Pose::new(-0.5, 0.0, 0.0));
         c.set_mode(Mode::FollowPath);
+        // The first step holds the wheels at rest while the law runs.
+        step(&mut c, ticks(0, 0));
+        assert_eq!(c.telemetry().wheel_setpoint, WheelSpeeds::default());
         let mut previous = 0.0;
         for k in 0..40 {
             step(&mut c, ticks(0, 0));
@@ -997,11 +1081,13 @@ pub(crate) mod tests {
         let mut c = controller();
         c.set_mode(Mode::FollowPath);
         c.step(StepInput::on_time(ticks(0, 0), 4.8));
+        c.step(StepInput::on_time(ticks(0, 0), 4.8));
         // 0.85 · 4.8 V → 23.9 rad/s → 0.776 m/s at 32.5 mm, below the 1 m/s configured.
         let cap = c.telemetry().rim_speed_cap_m_s;
         assert!((cap - 0.7764).abs() < 1e-3, "{cap}");
         let mut strong = controller();
         strong.set_mode(Mode::FollowPath);
+        strong.step(StepInput::on_time(ticks(0, 0), 12.0));
         strong.step(StepInput::on_time(ticks(0, 0), 12.0));
         // 0.85 · 6 V (the rated voltage caps a 12 V supply) → 30.4 rad/s → 0.987 m/s.
         let cap = strong.telemetry().rim_speed_cap_m_s;
@@ -1092,6 +1178,7 @@ pub(crate) mod tests {
         assert_eq!(c.law(), LawKind::Kanayama);
         c.set_mode(Mode::FollowPath);
         assert_eq!(c.mode(), Mode::FollowPath);
+        step(&mut c, ticks(0, 0));
         step(&mut c, ticks(0, 0));
         // Kanayama's law reports no polar error; the paper's does.
         assert!(c.telemetry().law.polar.is_none());

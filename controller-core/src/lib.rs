@@ -65,8 +65,11 @@
 //! let mut controller =
 //!     Controller::new(params, reference, LawKind::Tracking, Pose::new(1.25, 0.0, 1.57));
 //! controller.set_mode(Mode::FollowPath);
-//! // No ticks yet, on time, on a 6 V supply.
-//! let duty = controller.step(StepInput::on_time(TickDeltas { left: 0, right: 0 }, 6.0));
+//! // No ticks yet, on time, on a 6 V supply. The first step hands the steering law its
+//! // job and holds the wheels where they are; the next applies the law's command.
+//! let input = StepInput::on_time(TickDeltas { left: 0, right: 0 }, 6.0);
+//! assert_eq!(controller.step(input), MotorCommand::STOP);
+//! let duty = controller.step(input);
 //! assert!(duty.left > 0.0 && duty.right > 0.0);
 //! assert!(!controller.telemetry().faults.any());
 //! ```
@@ -89,6 +92,7 @@ pub mod params;
 pub mod path;
 pub mod pid;
 pub mod reference;
+pub mod steering;
 pub mod supervisor;
 pub mod time;
 pub mod tune;

@@ -349,7 +349,7 @@ pub struct Estimate {
     pub pose: Pose,
     /// Tracking error at the last steering update, robot frame (m, rad).
     pub error: TrackingError,
-    /// The steering law ran in this step.
+    /// This step applied a steering outcome (the law ran on the previous step's pose).
     pub steering_updated: bool,
 }
 

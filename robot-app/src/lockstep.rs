@@ -97,7 +97,7 @@ pub struct BoardStep {
     pub pose: Pose,
     /// The controller's tracking error at its last steering update, robot frame (m, rad).
     pub error: TrackingError,
-    /// The steering law ran in this step.
+    /// This step applied a steering outcome (the law ran on the previous step's pose).
     pub steering_updated: bool,
 }
 

@@ -108,6 +108,11 @@
 //! let out = supervisor.step(&mut controller, input);
 //! assert_eq!(out.state, State::Armed);
 //! assert_eq!(out.command_result, Some(Ok(())));
+//! assert!(out.bridge == Bridge::Drive);
+//!
+//! // The steering law's command reaches the wheels one step later.
+//! input.command = Some(Command::Heartbeat);
+//! let out = supervisor.step(&mut controller, input);
 //! assert!(out.duty.left > 0.0 && out.bridge == Bridge::Drive);
 //! ```
 

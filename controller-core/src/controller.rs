@@ -39,7 +39,7 @@ use crate::odometry::Odometry;
 use crate::params::Params;
 use crate::pid::PidParts;
 use crate::reference::{Reference, ReferenceState};
-use crate::steering::{Steering, SteeringJob, SteeringOutcome};
+use crate::steering::{Steering, SteeringAway, SteeringJob, SteeringOutcome, SteeringSeat};
 
 /// Signed encoder ticks counted during one step, forward positive.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -209,7 +209,7 @@ struct Schedule {
 /// The whole control stack for one robot (see the module doc).
 #[derive(Clone, Debug)]
 #[repr(C)]
-pub struct Controller {
+pub struct Controller<S = Steering> {
     // Laid out by hand: the state every step touches first, the large path last, so the
     // hot fields sit within the M4F's short load offsets (`repr(C)` keeps this order).
     /// Latest telemetry; the state carried between steps (set-points, last law output).
@@ -222,10 +222,17 @@ pub struct Controller {
     /// Steps since the controller was built.
     steps: u32,
     mode: Mode,
-    /// What the steering law needs from a step where it was due, until it has run.
-    job: Option<SteeringJob>,
+    /// What the steering law needs from a step where it was due.
+    job: SteeringJob,
+    /// `job` waits for the outer loop.
+    job_due: bool,
     /// The steering law's outcome, applied at the next step.
-    handed_over: Option<SteeringOutcome>,
+    handed_over: SteeringOutcome,
+    /// `handed_over` waits to be applied.
+    outcome_ready: bool,
+    /// Counts restarts of the loops: an outcome of a job from before the last restart is
+    /// stale.
+    epoch: u32,
     /// Path following restarted: the next job restarts the reference.
     restart_reference: bool,
     /// The wheel loops restarted at this body velocity: the next job restarts the
@@ -233,13 +240,34 @@ pub struct Controller {
     restart_limiter_from: Option<BodyVelocity>,
     speed: [SpeedEstimator; 2],
     params: Params,
-    steering: Steering,
+    /// The outer loop, or where it is when lent.
+    steering: S,
 }
 
-impl Controller {
+impl Controller<Steering> {
     /// A controller for `params`, following `reference` with `law`, believing the robot
-    /// starts at `start` (world frame). It starts in [`Mode::Idle`] (motors off).
+    /// starts at `start` (world frame). It starts in [`Mode::Idle`] (motors off). It owns
+    /// its outer loop and runs it itself (see [`crate::steering`]).
     pub fn new(params: Params, reference: Reference, law: LawKind, start: Pose) -> Self {
+        let steering = Steering::new(&params, reference, law);
+        Self::with_seat(params, steering, start)
+    }
+
+    /// The steering law in use.
+    pub const fn law(&self) -> LawKind {
+        self.steering.law()
+    }
+
+    /// The reference being followed.
+    pub const fn reference(&self) -> &Reference {
+        self.steering.reference()
+    }
+}
+
+impl<S: SteeringSeat> Controller<S> {
+    /// A controller for `params` whose outer loop is `steering` (built for the same
+    /// `params`), believing the robot starts at `start` (world frame), in [`Mode::Idle`].
+    pub fn with_seat(params: Params, steering: S, start: Pose) -> Self {
         let steps_per_s = params.control_rate().get() as f32;
         let window = params.config().speed_window_steps as usize;
         let estimator = SpeedEstimator::new(window, params.rad_per_tick(), steps_per_s);
@@ -248,13 +276,16 @@ impl Controller {
             speed: [estimator.clone(), estimator],
             drive: WheelDrive::new(&params),
             supply: SupplyFilter::new(params.config().drive.supply_filter_tau_s, params.period_s()),
-            steering: Steering::new(&params, reference, law),
+            steering,
             ramp: SetpointRamp::default(),
             mode: Mode::Idle,
             steps: 0,
             schedule: Schedule::default(),
-            job: None,
-            handed_over: None,
+            job: SteeringJob::default(),
+            job_due: false,
+            handed_over: SteeringOutcome::default(),
+            outcome_ready: false,
+            epoch: 0,
             restart_reference: false,
             restart_limiter_from: None,
             telemetry: Telemetry {
@@ -269,21 +300,38 @@ impl Controller {
     /// Rebuilds the controller in place as [`Controller::new`] would with `params`, `law`
     /// and `start` (world frame), keeping its reference as it is. Unlike assigning a new
     /// controller, it moves no whole controller through the stack: it is meant for small
-    /// stacks (an interrupt installing a new configuration).
-    pub fn rebuild(&mut self, params: &Params, law: LawKind, start: Pose) {
+    /// stacks (an interrupt installing a new configuration). Refused, with nothing
+    /// changed, while the outer loop is lent.
+    pub fn rebuild(
+        &mut self,
+        params: &Params,
+        law: LawKind,
+        start: Pose,
+    ) -> Result<(), SteeringAway> {
+        let steering = self.steering.seated_mut().ok_or(SteeringAway)?;
+        steering.restart(params, law);
         self.params = *params;
-        self.restart_from_params(law, start);
+        self.restart_from_params(start);
+        Ok(())
     }
 
     /// Rebuilds the controller in place as [`Controller::new`] would with its parameters,
     /// a copy of `reference`, `law` and `start` (world frame); see [`Controller::rebuild`].
-    pub fn follow(&mut self, reference: &Reference, law: LawKind, start: Pose) {
-        self.steering.follow(reference);
-        self.restart_from_params(law, start);
+    pub fn follow(
+        &mut self,
+        reference: &Reference,
+        law: LawKind,
+        start: Pose,
+    ) -> Result<(), SteeringAway> {
+        let steering = self.steering.seated_mut().ok_or(SteeringAway)?;
+        steering.follow(reference);
+        steering.restart(&self.params, law);
+        self.restart_from_params(start);
+        Ok(())
     }
 
-    /// Everything but the parameters and the reference as [`Controller::new`] builds it.
-    fn restart_from_params(&mut self, law: LawKind, start: Pose) {
+    /// Everything but the parameters and the outer loop as [`Controller::new`] builds it.
+    fn restart_from_params(&mut self, start: Pose) {
         let params = &self.params;
         let steps_per_s = params.control_rate().get() as f32;
         let window = params.config().speed_window_steps as usize;
@@ -294,7 +342,6 @@ impl Controller {
         self.drive = WheelDrive::new(params);
         self.supply =
             SupplyFilter::new(params.config().drive.supply_filter_tau_s, params.period_s());
-        self.steering.restart(params, law);
         self.telemetry = Telemetry {
             pose: start,
             rim_speed_cap_m_s: params.config().limits.max_rim_speed_m_s,
@@ -304,8 +351,12 @@ impl Controller {
         self.mode = Mode::Idle;
         self.steps = 0;
         self.schedule = Schedule::default();
-        self.job = None;
-        self.handed_over = None;
+        // No job is out: rebuilding needs the outer loop seated.
+        self.job = SteeringJob::default();
+        self.job_due = false;
+        self.handed_over = SteeringOutcome::default();
+        self.outcome_ready = false;
+        self.epoch = 0;
         self.restart_reference = false;
         self.restart_limiter_from = None;
     }
@@ -320,14 +371,40 @@ impl Controller {
         self.mode
     }
 
-    /// The steering law in use.
-    pub const fn law(&self) -> LawKind {
-        self.steering.law()
+    /// The outer loop, unless it is lent.
+    pub fn steering(&self) -> Option<&Steering> {
+        self.steering.seated()
     }
 
-    /// The reference being followed.
-    pub const fn reference(&self) -> &Reference {
-        self.steering.reference()
+    /// Where the outer loop is.
+    pub const fn seat(&self) -> &S {
+        &self.steering
+    }
+
+    /// Where the outer loop is: to lend it and to seat it again.
+    pub fn seat_mut(&mut self) -> &mut S {
+        &mut self.steering
+    }
+
+    /// Lends the outer loop out with the job the last step handed over, when its seat
+    /// lends it (see [`crate::steering`]); true if it did. Call it after the step.
+    pub fn lend_steering(&mut self) -> bool {
+        if self.job_due && self.steering.lend(&self.job) {
+            self.job_due = false;
+            return true;
+        }
+        false
+    }
+
+    /// Seats a lent outer loop again if it has come back; its outcome is applied at the
+    /// next step, unless the loops restarted since its job (a mode change, cleared
+    /// faults: then it is stale and dropped). Call it before the step. False when the
+    /// outer loop is still away.
+    pub fn collect_steering(&mut self) -> bool {
+        if self.steering.collect(&mut self.handed_over) {
+            self.outcome_ready = self.handed_over.epoch == self.epoch;
+        }
+        self.steering.seated().is_some()
     }
 
     /// Odometry pose estimate, world frame.
@@ -375,9 +452,11 @@ impl Controller {
         self.restart_loops(was_driving);
     }
 
-    /// Selects another steering law (takes effect at the next steering step).
-    pub fn set_law(&mut self, law: LawKind) {
-        self.steering.set_law(law);
+    /// Selects another steering law (takes effect at the next steering step). Refused
+    /// while the outer loop is lent.
+    pub fn set_law(&mut self, law: LawKind) -> Result<(), SteeringAway> {
+        self.steering.seated_mut().ok_or(SteeringAway)?.set_law(law);
+        Ok(())
     }
 
     /// Overwrites the odometry pose (world frame), e.g. from an external fix.
@@ -414,8 +493,9 @@ impl Controller {
     fn restart_loops(&mut self, was_driving: bool) {
         let measured = self.telemetry.wheel_speed;
         self.restart_limiter_from = Some(self.params.geometry().forward(measured));
-        // A command computed before the restart is stale.
-        self.handed_over = None;
+        // A command computed before the restart is stale, and so is one still running.
+        self.outcome_ready = false;
+        self.epoch = self.epoch.wrapping_add(1);
         self.telemetry.wheel_setpoint = match self.mode {
             Mode::HoldWheelSpeeds(speeds) => self.capped_wheel_speeds(speeds),
             // Until the first steering step, hold the wheels where they are.
@@ -542,9 +622,13 @@ impl Controller {
         }
 
         self.steps = self.steps.wrapping_add(1);
-        // The outer loop, for the next step (see the module doc).
-        if let Some(job) = self.job.take() {
-            self.handed_over = Some(self.steering.run(&self.params, &job));
+        // The outer loop, for the next step, if it runs here (see the module doc).
+        if self.job_due && self.steering.runs_jobs() {
+            if let Some(steering) = self.steering.seated_mut() {
+                steering.run(&self.job, &mut self.handed_over);
+                self.job_due = false;
+                self.outcome_ready = true;
+            }
         }
         self.telemetry.duty
     }
@@ -553,8 +637,9 @@ impl Controller {
     /// handed over since the last step, hand over a job when the law is due, and move the
     /// wheel set-points along the ramp.
     fn follow_path(&mut self, periods: NonZeroU32) {
-        if let Some(outcome) = self.handed_over.take() {
-            self.apply_steering(&outcome);
+        if self.outcome_ready {
+            self.outcome_ready = false;
+            self.apply_steering();
         }
         let s = &mut self.schedule;
         if s.started {
@@ -566,29 +651,32 @@ impl Controller {
             let elapsed_periods = s.since_sample;
             s.since_sample = 0;
             s.until_steering = self.params.steering_divider().get();
-            self.job = Some(self.steering_job(elapsed_periods));
+            self.write_steering_job(elapsed_periods);
         }
         self.ramp
             .advance(periods.get(), &mut self.telemetry.wheel_setpoint);
     }
 
-    /// The job for the steering law, from this step's pose; `elapsed_periods` is the time
-    /// since the reference was last sampled, in control periods.
-    fn steering_job(&mut self, elapsed_periods: u32) -> SteeringJob {
-        SteeringJob {
+    /// Hands the steering law its job, from this step's pose; `elapsed_periods` is the
+    /// time since the reference was last sampled, in control periods.
+    fn write_steering_job(&mut self, elapsed_periods: u32) {
+        self.job = SteeringJob {
             pose: self.telemetry.pose,
             heading_sin_cos: self.odometry.heading_sin_cos(),
             elapsed_periods,
             rim_speed_cap_m_s: self.rim_speed_cap_m_s(),
             restart_reference: core::mem::take(&mut self.restart_reference),
             restart_limiter_from: self.restart_limiter_from.take(),
-        }
+            epoch: self.epoch,
+        };
+        self.job_due = true;
     }
 
     /// A steering outcome, one step after its job: into telemetry, and a new set-point
     /// ramp from where the set-points are to the command's wheel speeds, over one
     /// steering period.
-    fn apply_steering(&mut self, outcome: &SteeringOutcome) {
+    fn apply_steering(&mut self) {
+        let outcome = &self.handed_over;
         let t = &mut self.telemetry;
         t.steering_updated = true;
         t.rim_speed_cap_m_s = outcome.rim_speed_cap_m_s;
@@ -684,7 +772,7 @@ pub(crate) mod tests {
     const SUPPLY_V: f32 = 6.0;
 
     /// One on-time step with `ticks` on the test supply.
-    fn step(c: &mut Controller, ticks: TickDeltas) -> MotorCommand {
+    fn step<S: SteeringSeat>(c: &mut Controller<S>, ticks: TickDeltas) -> MotorCommand {
         c.step(StepInput::on_time(ticks, SUPPLY_V))
     }
 
@@ -720,12 +808,16 @@ pub(crate) mod tests {
 
         let mut rebuilt = driven();
         let reference = rebuilt.reference().clone();
-        rebuilt.rebuild(&other_params, LawKind::Kanayama, start);
+        rebuilt
+            .rebuild(&other_params, LawKind::Kanayama, start)
+            .expect("owned outer loop");
         let fresh = Controller::new(other_params, reference, LawKind::Kanayama, start);
         assert_eq!(format!("{rebuilt:?}"), format!("{fresh:?}"));
 
         let mut followed = driven();
-        followed.follow(&other_reference, LawKind::Kanayama, start);
+        followed
+            .follow(&other_reference, LawKind::Kanayama, start)
+            .expect("owned outer loop");
         let fresh = Controller::new(
             *controller().params(),
             other_reference.clone(),
@@ -784,11 +876,15 @@ pub(crate) mod tests {
             pose: c.pose(),
             heading_sin_cos: c.odometry.heading_sin_cos(),
             elapsed_periods: 0,
-            rim_speed_cap_m_s: c.telemetry().rim_speed_cap_m_s,
+            // 0.85 · 6 V → 30.4 rad/s → 0.987 m/s (see the weak-supply test).
+            rim_speed_cap_m_s: 0.987_420_4,
             restart_reference: true,
             restart_limiter_from: Some(BodyVelocity::new(0.0, 0.0)),
+            epoch: c.epoch,
         };
-        let expected = outer.run(c.params(), &job);
+        assert_eq!(c.job, job);
+        let mut expected = SteeringOutcome::default();
+        outer.run(&job, &mut expected);
         let setpoint_before = c.telemetry().wheel_setpoint;
         step(&mut c, ticks(4, 4));
         let t = c.telemetry();
@@ -801,6 +897,127 @@ pub(crate) mod tests {
         let tenth =
             setpoint_before.left_rad_s + (target.left_rad_s - setpoint_before.left_rad_s) / 10.0;
         assert!((t.wheel_setpoint.left_rad_s - tenth).abs() < 1e-5, "{t:?}");
+    }
+
+    /// A seat that lends its outer loop, and runs what it lent when the test says so (as
+    /// the firmware's lower-priority task does).
+    #[derive(Clone, Debug)]
+    struct Lending {
+        home: Option<Steering>,
+        /// Lent: the outer loop, its job, its outcome, and whether it ran.
+        away: Option<(Steering, SteeringJob, SteeringOutcome, bool)>,
+    }
+
+    impl Lending {
+        /// Runs the lent job.
+        fn run_away(&mut self) {
+            let (steering, job, outcome, ran) = self.away.as_mut().expect("lent");
+            steering.run(job, outcome);
+            *ran = true;
+        }
+    }
+
+    impl SteeringSeat for Lending {
+        fn seated(&self) -> Option<&Steering> {
+            self.home.as_ref()
+        }
+
+        fn seated_mut(&mut self) -> Option<&mut Steering> {
+            self.home.as_mut()
+        }
+
+        fn runs_jobs(&self) -> bool {
+            false
+        }
+
+        fn lend(&mut self, job: &SteeringJob) -> bool {
+            let Some(steering) = self.home.take() else {
+                return false;
+            };
+            self.away = Some((steering, *job, SteeringOutcome::default(), false));
+            true
+        }
+
+        fn collect(&mut self, outcome: &mut SteeringOutcome) -> bool {
+            match self.away.take() {
+                Some((steering, _, ran, true)) => {
+                    self.home = Some(steering);
+                    *outcome = ran;
+                    true
+                }
+                still_away => {
+                    self.away = still_away;
+                    false
+                }
+            }
+        }
+    }
+
+    /// `owned` as it was built, with a lending seat.
+    fn lending(owned: &Controller) -> Controller<Lending> {
+        let steering = Steering::new(owned.params(), owned.reference().clone(), owned.law());
+        let seat = Lending {
+            home: Some(steering),
+            away: None,
+        };
+        Controller::with_seat(*owned.params(), seat, Pose::default())
+    }
+
+    #[test]
+    fn a_lent_outer_loop_does_what_an_owned_one_does() {
+        let mut owned = on_a_line(5.0);
+        let mut lent = lending(&owned);
+        owned.set_pose(Pose::new(0.0, 0.05, 0.1));
+        lent.set_pose(Pose::new(0.0, 0.05, 0.1));
+        owned.set_mode(Mode::FollowPath);
+        lent.set_mode(Mode::FollowPath);
+        let mut jobs = 0;
+        for k in 0..300 {
+            assert!(lent.collect_steering(), "step {k}: the outer loop is back");
+            let t = ticks(2 + k % 3, 3);
+            let duty = step(&mut owned, t);
+            assert_eq!(lent.step(StepInput::on_time(t, SUPPLY_V)), duty, "step {k}");
+            assert_eq!(lent.telemetry(), owned.telemetry(), "step {k}");
+            // The lending seat runs no job itself: each waits to be lent.
+            if lent.lend_steering() {
+                jobs += 1;
+                // Away: what needs the outer loop waits.
+                let params = *lent.params();
+                assert!(!lent.collect_steering());
+                assert!(lent.steering().is_none());
+                assert_eq!(lent.set_law(LawKind::Paper), Err(SteeringAway));
+                assert_eq!(
+                    lent.rebuild(&params, LawKind::Paper, Pose::default()),
+                    Err(SteeringAway)
+                );
+                lent.seat_mut().run_away();
+            }
+            assert!(!lent.lend_steering(), "one job per due step");
+        }
+        // One job every 10 steps.
+        assert_eq!(jobs, 30);
+        assert!(owned.telemetry().pose.x_m > 0.1);
+    }
+
+    #[test]
+    fn an_outcome_from_before_a_restart_is_ignored() {
+        let mut c = lending(&controller());
+        c.set_mode(Mode::FollowPath);
+        step(&mut c, ticks(0, 0));
+        assert!(c.lend_steering());
+        c.seat_mut().run_away();
+        // Disarmed and armed again while the job ran.
+        c.set_mode(Mode::Idle);
+        c.set_mode(Mode::FollowPath);
+        assert!(c.collect_steering());
+        step(&mut c, ticks(0, 0));
+        assert!(!c.telemetry().steering_updated);
+        // The new run's own first job is lent, and its outcome applied.
+        assert!(c.lend_steering());
+        c.seat_mut().run_away();
+        assert!(c.collect_steering());
+        step(&mut c, ticks(0, 0));
+        assert!(c.telemetry().steering_updated);
     }
 
     #[test]
@@ -1174,7 +1391,7 @@ pub(crate) mod tests {
     #[test]
     fn set_law_and_set_mode_take_effect() {
         let mut c = controller();
-        c.set_law(LawKind::Kanayama);
+        c.set_law(LawKind::Kanayama).expect("owned outer loop");
         assert_eq!(c.law(), LawKind::Kanayama);
         c.set_mode(Mode::FollowPath);
         assert_eq!(c.mode(), Mode::FollowPath);
@@ -1182,7 +1399,7 @@ pub(crate) mod tests {
         step(&mut c, ticks(0, 0));
         // Kanayama's law reports no polar error; the paper's does.
         assert!(c.telemetry().law.polar.is_none());
-        c.set_law(LawKind::Paper);
+        c.set_law(LawKind::Paper).expect("owned outer loop");
         for _ in 0..10 {
             step(&mut c, ticks(0, 0));
         }
@@ -1214,7 +1431,7 @@ pub(crate) mod tests {
             )),
         ) {
             let mut c = controller();
-            c.set_law(law);
+            c.set_law(law).expect("owned outer loop");
             c.set_mode(Mode::FollowPath);
             // Also a pose fix that is NaN, infinite or huge.
             if let Some((x, y, th)) = pose {

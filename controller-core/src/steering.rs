@@ -12,15 +12,23 @@
 //! and the law's trigonometry, run anywhere between two control steps, not inside the
 //! control interrupt; and the robot still does exactly what the simulator does.
 //!
+//! Where the outer loop lives is the controller's [`SteeringSeat`]. A
+//! `Controller<Steering>` owns it and runs each job itself at the end of the step that
+//! handed it over (the simulator, the tests). A seat that lends it (the firmware's) leaves
+//! the job for its owner, which moves the `&mut Steering` and the job to a lower-priority
+//! task and seats it again, with the outcome, before the next step.
+//!
 //! ```text
 //!  step k (inner loop)          between k and k+1           step k+1 (inner loop)
 //!  odometry ─► pose ─► SteeringJob ─► Steering::run ─► SteeringOutcome ─► ramp starts
 //! ```
 
+use core::num::NonZeroU32;
+
 use crate::kinematics::{tracking_error_with_heading, BodyVelocity, Pose, TrackingError};
-use crate::law::{self, LawKind, LawOutput};
+use crate::law::{self, LawGains, LawKind, LawOutput};
 use crate::limits::{CommandLimiter, LimitFlags};
-use crate::params::Params;
+use crate::params::{Params, RobotConfig};
 use crate::reference::{Reference, ReferenceState};
 
 /// What the inner loop hands to the outer loop at a step where the steering law is due.
@@ -40,7 +48,40 @@ pub struct SteeringJob {
     /// The wheel loops restarted since the last job, at this body velocity (v m/s,
     /// ω rad/s, robot frame): the command limiter continues from it.
     pub restart_limiter_from: Option<BodyVelocity>,
+    /// The inner loop's restart count when it handed the job over (its outcome is stale
+    /// after another restart).
+    pub epoch: u32,
 }
+
+impl SteeringJob {
+    /// No job: all zeros, heading along +x (room to write a job in, `const`).
+    pub const NONE: SteeringJob = SteeringJob {
+        pose: ZERO_POSE,
+        heading_sin_cos: (0.0, 1.0),
+        elapsed_periods: 0,
+        rim_speed_cap_m_s: 0.0,
+        restart_reference: false,
+        restart_limiter_from: None,
+        epoch: 0,
+    };
+}
+
+const ZERO_POSE: Pose = Pose {
+    x_m: 0.0,
+    y_m: 0.0,
+    theta_rad: 0.0,
+};
+
+const ZERO_ERROR: TrackingError = TrackingError {
+    x_e_m: 0.0,
+    y_e_m: 0.0,
+    theta_e_rad: 0.0,
+};
+
+const STOP: BodyVelocity = BodyVelocity {
+    v_m_s: 0.0,
+    omega_rad_s: 0.0,
+};
 
 /// What the outer loop hands back: the steering law's command after its limits, and how
 /// it got there (for telemetry).
@@ -58,22 +99,135 @@ pub struct SteeringOutcome {
     pub limit_flags: LimitFlags,
     /// The rim-speed cap the limiter used, m/s.
     pub rim_speed_cap_m_s: f32,
+    /// The job's `epoch`.
+    pub epoch: u32,
 }
 
-/// The outer loop's state: the reference being followed, the law, the limiter's last
-/// command.
+/// The outer loop was lent out (it is running a job elsewhere): what needs it must wait
+/// for it to be seated again, one control period at most.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SteeringAway;
+
+/// Where a controller's outer loop is (see the module doc).
+pub trait SteeringSeat {
+    /// The outer loop, if it is seated.
+    fn seated(&self) -> Option<&Steering>;
+    /// The outer loop, if it is seated.
+    fn seated_mut(&mut self) -> Option<&mut Steering>;
+    /// True when `Controller::step` runs a due job itself before it returns; false when
+    /// the job waits for `Controller::lend_steering`.
+    fn runs_jobs(&self) -> bool;
+    /// Lends the outer loop out with `job`, to run elsewhere; false (nothing done) when
+    /// this seat does not lend or the outer loop is away.
+    fn lend(&mut self, job: &SteeringJob) -> bool {
+        let _ = job;
+        false
+    }
+    /// Seats the outer loop again if it has come back, writing the outcome of the job it
+    /// ran to `outcome`; false when it has not come back (or was never lent).
+    fn collect(&mut self, outcome: &mut SteeringOutcome) -> bool {
+        let _ = outcome;
+        false
+    }
+}
+
+/// Owned: always seated, and runs each job at once.
+impl SteeringSeat for Steering {
+    fn seated(&self) -> Option<&Steering> {
+        Some(self)
+    }
+
+    fn seated_mut(&mut self) -> Option<&mut Steering> {
+        Some(self)
+    }
+
+    fn runs_jobs(&self) -> bool {
+        true
+    }
+}
+
+/// What the outer loop takes from the parameters, kept with it so that it can run where
+/// the parameters are not.
+#[derive(Clone, Copy, Debug)]
+struct SteeringParams {
+    gains: LawGains,
+    control_rate: NonZeroU32,
+    steering_period_s: f32,
+    track_width_m: f32,
+}
+
+impl SteeringParams {
+    /// The reference robot's (see [`Steering::PLACEHOLDER`]).
+    const PLACEHOLDER: Self = Self {
+        gains: RobotConfig::REFERENCE_ROBOT.law,
+        control_rate: NonZeroU32::MIN.saturating_mul(NonZeroU32::MIN.saturating_add(999)),
+        steering_period_s: 0.01,
+        track_width_m: RobotConfig::REFERENCE_ROBOT.track_width_m,
+    };
+
+    fn of(params: &Params) -> Self {
+        Self {
+            gains: params.config().law,
+            control_rate: params.control_rate(),
+            steering_period_s: params.steering_period_s(),
+            track_width_m: params.geometry().track_width_m(),
+        }
+    }
+}
+
+/// The outer loop's state: the reference being followed, the law and its gains, the
+/// limiter's last command.
 #[derive(Clone, Debug)]
 pub struct Steering {
     law: LawKind,
+    params: SteeringParams,
     limiter: CommandLimiter,
     reference: Reference,
 }
 
+impl SteeringOutcome {
+    /// No outcome: all zeros (the same as `Default`, `const`).
+    pub const ZERO: SteeringOutcome = SteeringOutcome {
+        reference: ReferenceState {
+            pose: ZERO_POSE,
+            v_m_s: 0.0,
+            omega_rad_s: 0.0,
+            progress_m: 0.0,
+            finished: false,
+        },
+        error: ZERO_ERROR,
+        law: LawOutput {
+            command: STOP,
+            lyapunov: 0.0,
+            lyapunov_rate: 0.0,
+            error: ZERO_ERROR,
+            polar: None,
+        },
+        command: STOP,
+        limit_flags: LimitFlags {
+            rim_speed_capped: false,
+            accel_limited: false,
+        },
+        rim_speed_cap_m_s: 0.0,
+        epoch: 0,
+    };
+}
+
 impl Steering {
+    /// An outer loop with the reference robot's gains on [`Reference::PLACEHOLDER`]: room
+    /// to build the real one in place ([`Steering::restart`], [`Steering::follow`]).
+    pub const PLACEHOLDER: Steering = Steering {
+        law: LawKind::Tracking,
+        params: SteeringParams::PLACEHOLDER,
+        limiter: CommandLimiter::new(RobotConfig::REFERENCE_ROBOT.limits),
+        reference: Reference::PLACEHOLDER,
+    };
+
     /// The outer loop for `params`, following `reference` with `law`, its limiter at rest.
     pub fn new(params: &Params, reference: Reference, law: LawKind) -> Self {
         Self {
             law,
+            params: SteeringParams::of(params),
             limiter: CommandLimiter::new(params.config().limits),
             reference,
         }
@@ -83,6 +237,7 @@ impl Steering {
     /// reference.
     pub fn restart(&mut self, params: &Params, law: LawKind) {
         self.law = law;
+        self.params = SteeringParams::of(params);
         self.limiter = CommandLimiter::new(params.config().limits);
     }
 
@@ -107,35 +262,37 @@ impl Steering {
         &self.reference
     }
 
-    /// One steering update for `job`, with the geometry, rates, gains and limits of
-    /// `params`. Never panics; a non-finite input gives a non-finite command, which the
-    /// inner loop latches as a fault when it applies it.
-    pub fn run(&mut self, params: &Params, job: &SteeringJob) -> SteeringOutcome {
+    /// One steering update for `job`, written to `outcome` (in place: it is 100 bytes),
+    /// with the geometry, rates, gains and limits of the parameters it was built or
+    /// restarted with. Never panics; a non-finite input gives a non-finite command, which
+    /// the inner loop latches as a fault when it applies it.
+    pub fn run(&mut self, job: &SteeringJob, outcome: &mut SteeringOutcome) {
         if job.restart_reference {
             self.reference.restart();
         }
         if let Some(from) = job.restart_limiter_from {
             self.limiter.reset(from);
         }
-        let reference =
-            self.reference
-                .sample(job.elapsed_periods, params.control_rate(), &job.pose);
-        let error = tracking_error_with_heading(&job.pose, job.heading_sin_cos, &reference.pose);
-        let law =
-            law::steer_with_error(self.law, &params.config().law, &job.pose, &reference, error);
-        let (command, limit_flags) = self.limiter.apply(
-            law.command,
-            params.steering_period_s(),
-            params.geometry().track_width_m(),
+        let p = &self.params;
+        outcome.reference = self
+            .reference
+            .sample(job.elapsed_periods, p.control_rate, &job.pose);
+        outcome.error =
+            tracking_error_with_heading(&job.pose, job.heading_sin_cos, &outcome.reference.pose);
+        outcome.law = law::steer_with_error(
+            self.law,
+            &p.gains,
+            &job.pose,
+            &outcome.reference,
+            outcome.error,
+        );
+        (outcome.command, outcome.limit_flags) = self.limiter.apply(
+            outcome.law.command,
+            p.steering_period_s,
+            p.track_width_m,
             job.rim_speed_cap_m_s,
         );
-        SteeringOutcome {
-            reference,
-            error,
-            law,
-            command,
-            limit_flags,
-            rim_speed_cap_m_s: job.rim_speed_cap_m_s,
-        }
+        outcome.rim_speed_cap_m_s = job.rim_speed_cap_m_s;
+        outcome.epoch = job.epoch;
     }
 }

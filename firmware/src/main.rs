@@ -18,25 +18,31 @@
 //!    (`robot_app::start`: the control side and the link service, joined by lock-free
 //!    channels), starts the tick and, last, shortens the watchdog to 10 ms.
 //! 2. [`app::control`] runs every control period (TIM5): the board's sensors, one
-//!    `ControlSide::step` (supervisor and controller, the link's commands, telemetry
-//!    sampling), the board's actuators, the watchdog feed, and a pend of the link task
-//!    when the step queued something for it. It never waits, logs, allocates or panics
-//!    (`cargo xtask panic-check` proves the last from the release binary).
-//! 3. [`app::link_uart`] (USART2) moves bytes between the line and two rings
+//!    `ControlSide::step` (supervisor and the controller's inner loop, the link's
+//!    commands, telemetry sampling), the board's actuators, the watchdog feed, and a pend
+//!    of the link task when the step queued something for it. It never waits, logs,
+//!    allocates or panics (`cargo xtask panic-check` proves the last from the release
+//!    binary).
+//! 3. [`app::steering`] runs the steering law (the outer loop) when a control step lent
+//!    it a job, below the control task and before the next step, which applies its
+//!    outcome (`robot_app::outer`). Same rules as the control task.
+//! 4. [`app::link_uart`] (USART2) moves bytes between the line and two rings
 //!    ([`link_uart`]); [`app::link`] runs the link service between those rings
 //!    ([`link_task`]), and writes flash when asked.
-//! 4. [`app::idle`] counts a heartbeat that proves the background runs, and sleeps.
+//! 5. [`app::idle`] counts a heartbeat that proves the background runs, and sleeps.
 //!
 //! | task | bound to | priority | shares |
 //! |---|---|---|---|
 //! | `control` | TIM5 | 3 | the watchdog (with `link`, locked only to change its timeout, in Persisting) |
 //! | `plant_port` (`qemu` only) | USART1 | 3 | — |
+//! | `steering` | [`app::STEERING_TASK_INTERRUPT`] (pended by the control task) | 2 | — |
 //! | `link_uart` | USART2 | 2 | — |
 //! | `link` | [`app::LINK_TASK_INTERRUPT`] (pended by software) | 1 | the watchdog |
 //! | `idle` | — | 0 | — |
 //!
-//! Between the control task and the link task nothing is locked: they talk through
-//! `robot_app`'s single-producer single-consumer queues and atomics. The link task is a
+//! Between the control task, the steering task and the link task nothing is locked:
+//! they talk through `robot_app`'s single-producer single-consumer queues, mailboxes and
+//! atomics. The link task is a
 //! hardware task on an interrupt no peripheral raises, pended by software: a pend while
 //! it runs makes it run again, so no wake-up is lost.
 //!
@@ -67,6 +73,7 @@ mod app {
 
     use controller_core::supervisor::State;
     use robot_app::channel::ring::Ring;
+    use robot_app::outer::SteeringWorker;
     use robot_app::panic_record::PanicRecord;
     use robot_app::{start, Channels, ControlSide};
     use stm32f4xx_hal::pac;
@@ -79,6 +86,10 @@ mod app {
     /// The interrupt the link task is bound to: EXTI line 4, which no peripheral raises
     /// here (no pin is routed to it, EXTI_IMR stays 0), so only software pends it.
     pub const LINK_TASK_INTERRUPT: pac::Interrupt = pac::Interrupt::EXTI4;
+
+    /// The interrupt the steering task is bound to: EXTI line 3, which no peripheral
+    /// raises either, pended by the control task when it lends the outer loop.
+    pub const STEERING_TASK_INTERRUPT: pac::Interrupt = pac::Interrupt::EXTI3;
 
     /// Incremented by the idle loop: proof for the supervisor that the background runs.
     static HEARTBEAT: AtomicU32 = AtomicU32::new(0);
@@ -94,6 +105,7 @@ mod app {
     struct Local {
         io: board::ControlIo,
         control: ControlSide<'static>,
+        steering: SteeringWorker<'static>,
         uart: LinkUart,
         link: LinkWorker,
         #[cfg(feature = "qemu")]
@@ -120,15 +132,23 @@ mod app {
                 Ok(config) => config,
                 Err(e) => defmt::panic!("built-in path {}: {}", robot::PATH, e),
             };
-        let (control, service) = match start(cx.local.channels, config) {
+        let (mut control, service) = match start(cx.local.channels, config) {
             Ok(sides) => sides,
             Err(_) => defmt::panic!("the configuration in force is invalid"),
         };
+        // The steering law runs in its own task, below the control task.
+        let Some(steering) = control.lend_outer_loop() else {
+            defmt::panic!("the outer loop was lent already");
+        };
+        let law = control
+            .controller()
+            .steering()
+            .map_or("(lent)", |s| s.law().name());
         defmt::info!(
             "boot: reset cause {}, path {}, law {=str}, {} when armed, link {=u32} Bd, tasks timed in {=str}",
             board.reset,
             robot::PATH,
-            control.controller().law().name(),
+            law,
             control.supervisor().run_mode(),
             board::LINK_BAUD,
             board::WORK_UNIT,
@@ -150,6 +170,7 @@ mod app {
         let local = Local {
             io: board.io,
             control,
+            steering,
             uart,
             link,
             #[cfg(feature = "qemu")]
@@ -178,6 +199,9 @@ mod app {
         if out.feed_watchdog {
             cx.shared.watchdog.lock(|watchdog| watchdog.feed());
         }
+        if out.steering_lent {
+            rtic::pend(STEERING_TASK_INTERRUPT);
+        }
         if out.link_has_work {
             rtic::pend(LINK_TASK_INTERRUPT);
         }
@@ -189,6 +213,16 @@ mod app {
         if out.state == State::Armed && out.event.is_none() {
             stats::CONTROL_ARMED.record_since(started);
         }
+    }
+
+    /// The steering law, on the job the last control step lent (see `robot_app::outer`).
+    #[task(binds = EXTI3, priority = 2, local = [steering])]
+    fn steering(cx: steering::Context) {
+        let started = board::work_counter();
+        if cx.local.steering.run() {
+            stats::STEERING.record_since(started);
+        }
+        board::outer_loop_done();
     }
 
     /// The plant port of the emulated board (see `board::PlantPort`).

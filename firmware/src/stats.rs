@@ -59,6 +59,8 @@ pub static CONTROL: TaskTiming = TaskTiming::new();
 pub static CONTROL_ARMED: TaskTiming = TaskTiming::new();
 /// The link task, each run.
 pub static LINK: TaskTiming = TaskTiming::new();
+/// The steering task: the outer loop the control task lends it.
+pub static STEERING: TaskTiming = TaskTiming::new();
 
 /// The painted stack region: its lowest word (`_stack_end`) and its word count, up to
 /// `_stack_start` (cortex-m-rt's `paint-stack`; flip-link moves the region below the

@@ -642,6 +642,7 @@ fn cmd_pil(
     let pil = serde_json::json!({
         "control_interrupt_max_instructions": outcome.board.control_max_instructions,
         "link_service_max_instructions": outcome.board.link_max_instructions,
+        "steering_task_max_instructions": outcome.board.steering_max_instructions,
         "stack_high_water_bytes": outcome.board.stack_high_water_bytes,
         "start_stack_bytes": outcome.board.start_stack_bytes,
         "control_armed_max_instructions": outcome.board.control_armed_max_instructions,

@@ -8,11 +8,16 @@
 //! panics, and its work per step is bounded: one request, one reply, one event, one
 //! telemetry sample; installing a staged configuration or path (only while disarmed)
 //! rebuilds the controller in place.
+//!
+//! The steering law (the outer loop) runs one period behind the step that hands it its
+//! job: in the step itself by default, or, once [`ControlSide::lend_outer_loop`] was
+//! called, in a lower-priority task between this step and the next (`crate::outer`).
 
 use core::num::NonZeroU32;
 
 use controller_core::controller::{Controller, MotorCommand, TickDeltas};
 use controller_core::pid::PidParts as CorePidParts;
+use controller_core::steering::{Steering, SteeringAway};
 use controller_core::supervisor::{
     Bridge, Command, Event, Faults, Inputs, Refusal as SupervisorRefusal, RunMode, State,
     Supervised, Supervisor, SupervisorSetError,
@@ -21,6 +26,7 @@ use link::{PidParts, RunReport, TelemetryFrame, TuneReport};
 
 use crate::channel::{ControlEnd, Op, Published, Refused, Report, Staged, ToLink};
 use crate::metrics::{ErrorSample, ErrorStats, ErrorSummary};
+use crate::outer::{OuterLoopSeat, SteeringWorker};
 
 /// What the board read for this control step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -80,6 +86,9 @@ pub struct Actuation {
     pub event: Option<Event>,
     /// Something was queued for the link side in this step: wake its task.
     pub link_has_work: bool,
+    /// The outer loop was lent with a job in this step: run the
+    /// [`SteeringWorker`](crate::outer::SteeringWorker) before the next step.
+    pub steering_lent: bool,
 }
 
 /// The status LED at control step `step` of a loop at `rate` steps per second: off while
@@ -141,7 +150,9 @@ impl TelemetryClock {
 /// The control side (see the module doc). Owned by the control interrupt.
 pub struct ControlSide<'a> {
     end: ControlEnd<'a>,
-    controller: Controller,
+    controller: Controller<OuterLoopSeat<'a>>,
+    /// The outer loop's other end, until [`ControlSide::lend_outer_loop`] hands it out.
+    worker: Option<SteeringWorker<'a>>,
     supervisor: Supervisor,
     metrics: ErrorStats,
     rate: NonZeroU32,
@@ -165,12 +176,19 @@ pub struct ControlSide<'a> {
 
 impl<'a> ControlSide<'a> {
     /// The control side around `controller` and `supervisor`, talking to the link side
-    /// through `end`. [`crate::start`] builds both sides from one configuration.
-    pub fn new(end: ControlEnd<'a>, controller: Controller, supervisor: Supervisor) -> Self {
+    /// through `end`; `worker` is the other end of the controller's outer-loop seat.
+    /// [`crate::start`] builds both sides from one configuration.
+    pub(crate) fn new(
+        end: ControlEnd<'a>,
+        controller: Controller<OuterLoopSeat<'a>>,
+        supervisor: Supervisor,
+        worker: SteeringWorker<'a>,
+    ) -> Self {
         let rate = controller.params().control_rate();
         Self {
             end,
             controller,
+            worker: Some(worker),
             supervisor,
             metrics: ErrorStats::new(rate),
             rate,
@@ -190,9 +208,18 @@ impl<'a> ControlSide<'a> {
         }
     }
 
-    /// The controller (its telemetry, parameters, reference).
-    pub const fn controller(&self) -> &Controller {
+    /// The controller (its telemetry, parameters, and its outer loop while seated).
+    pub const fn controller(&self) -> &Controller<OuterLoopSeat<'a>> {
         &self.controller
+    }
+
+    /// From now on, lends the outer loop with each job to the returned worker, to run in
+    /// a lower-priority task between two steps (`crate::outer`), instead of running it
+    /// in the step. `None` if it was handed out already.
+    pub fn lend_outer_loop(&mut self) -> Option<SteeringWorker<'a>> {
+        let worker = self.worker.take()?;
+        self.controller.seat_mut().lend_from_now_on();
+        Some(worker)
     }
 
     /// The supervisor (its state, settings, faults).
@@ -217,11 +244,16 @@ impl<'a> ControlSide<'a> {
         self.step = self.step.wrapping_add(1);
         let mut link_has_work = false;
 
+        // 0. The outer loop comes back with its outcome. Not back yet: it overran the
+        //    period, which the supervisor counts as an overrun of this step.
+        let outer_loop_seated = self.controller.collect_steering();
+
         // 1. At most one request from the link, and only when its reply and this step's
-        //    event both have room: replies are never dropped.
+        //    event both have room: replies are never dropped. Not while the outer loop
+        //    is away (an installation needs it).
         let mut command = None;
         let mut answered = None;
-        if self.end.uplink.free() >= 2 {
+        if outer_loop_seated && self.end.uplink.free() >= 2 {
             if let Some(request) = self.end.commands.pop() {
                 let kind = request.op.kind();
                 let result = match request.op {
@@ -251,11 +283,14 @@ impl<'a> ControlSide<'a> {
                 periods: sensors.periods,
                 supply_v: sensors.supply_v,
                 button_pressed: sensors.button_pressed,
-                overrun: sensors.overrun,
+                overrun: sensors.overrun || !outer_loop_seated,
                 background_heartbeat: sensors.background_heartbeat,
                 command,
             },
         );
+
+        // The outer loop's job, if this step handed one over and it is lent out.
+        let steering_lent = self.controller.lend_steering();
 
         // 3. Reply and event.
         if let Some((seq, op, result)) = answered {
@@ -313,6 +348,7 @@ impl<'a> ControlSide<'a> {
             faults: out.faults,
             event: out.event,
             link_has_work,
+            steering_lent,
         }
     }
 
@@ -476,9 +512,14 @@ pub fn pid_parts(parts: CorePidParts) -> PidParts {
 #[inline(never)]
 fn install(
     staged: &Staged,
-    controller: &mut Controller,
+    controller: &mut Controller<OuterLoopSeat<'_>>,
     supervisor: &mut Supervisor,
 ) -> Result<(), Refused> {
+    // The step takes no request while the outer loop is away; checked first all the same,
+    // so that the supervisor and the controller both change or neither does.
+    let Some(law) = controller.steering().map(Steering::law) else {
+        return Err(Refused::Busy);
+    };
     match staged {
         Staged::Params {
             params,
@@ -488,14 +529,18 @@ fn install(
                 .set_config(*config, params)
                 .map_err(set_refusal)?;
             // Same path, law and pose; new geometry, gains and limits.
-            let (law, pose) = (controller.law(), controller.pose());
-            controller.rebuild(params, law, pose);
+            let pose = controller.pose();
+            controller
+                .rebuild(params, law, pose)
+                .map_err(|SteeringAway| Refused::Busy)?;
         }
         Staged::Path(path) => {
             supervisor
                 .set_config(path.supervisor, controller.params())
                 .map_err(set_refusal)?;
-            controller.follow(&path.reference, path.law, path.supervisor.start_pose);
+            controller
+                .follow(&path.reference, path.law, path.supervisor.start_pose)
+                .map_err(|SteeringAway| Refused::Busy)?;
         }
         // The link side never publishes an upload being assembled.
         Staged::Assembling(_) => return Err(Refused::Busy),

@@ -15,7 +15,7 @@
 //!  board ─► BoardStep   ('A' 10 bytes, or 'D' 40 bytes or more with the details)    ┘ step
 //!  …
 //!  plant ─► FINISH ('F')
-//!  board ─► BoardReport ('F' + 24 bytes), then the emulator exits
+//!  board ─► BoardReport ('F' + 28 bytes), then the emulator exits
 //! ```
 //!
 //! Messages are short because the emulated USART is slow: QEMU hands the guest one byte
@@ -57,7 +57,7 @@ pub const PLANT_STEP_MAX_LEN: usize = 1 + 3 * 5 + 4;
 /// details (faults, event, two varint counters, six `f32`).
 pub const BOARD_STEP_MAX_LEN: usize = 1 + 8 + 1 + 2 + 2 + 2 * 5 + 24;
 /// Bytes of a [`BoardReport`] on the wire, tag included.
-pub const BOARD_REPORT_LEN: usize = 25;
+pub const BOARD_REPORT_LEN: usize = 29;
 
 /// What the board's sensors read for one control step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -111,6 +111,9 @@ pub struct BoardReport {
     pub control_armed_max_instructions: u32,
     /// The longest run of the link task, instructions.
     pub link_max_instructions: u32,
+    /// The longest run of the steering task (the outer loop lent by the control
+    /// interrupt), instructions.
+    pub steering_max_instructions: u32,
     /// The stack's high-water mark while the application ran (after start-up), bytes.
     pub stack_high_water_bytes: u32,
     /// The stack start-up (`init`) used, bytes.
@@ -499,6 +502,7 @@ impl BoardReport {
         w.u32(self.control_max_instructions);
         w.u32(self.control_armed_max_instructions);
         w.u32(self.link_max_instructions);
+        w.u32(self.steering_max_instructions);
         w.u32(self.stack_high_water_bytes);
         w.u32(self.start_stack_bytes);
         w.u32(self.control_steps);
@@ -512,6 +516,7 @@ impl BoardReport {
                 control_max_instructions: r.u32()?,
                 control_armed_max_instructions: r.u32()?,
                 link_max_instructions: r.u32()?,
+                steering_max_instructions: r.u32()?,
                 stack_high_water_bytes: r.u32()?,
                 start_stack_bytes: r.u32()?,
                 control_steps: r.u32()?,
@@ -993,6 +998,7 @@ mod tests {
             control_max_instructions: 11_234,
             control_armed_max_instructions: 1234,
             link_max_instructions: 98_765,
+            steering_max_instructions: 13_579,
             stack_high_water_bytes: 2048,
             start_stack_bytes: 9000,
             control_steps: 30_001,

@@ -6,11 +6,13 @@ use controller_core::controller::Controller;
 use controller_core::law::LawKind;
 use controller_core::params::{ParamError, Params};
 use controller_core::reference::Reference;
+use controller_core::steering::SteeringSeat;
 use controller_core::supervisor::{ResetCause, Supervisor, SupervisorConfigError};
 use link::{FieldProblem, ParamSet};
 
 use crate::channel::Channels;
 use crate::control::ControlSide;
+use crate::outer::{OuterLoopSeat, SteeringWorker};
 use crate::service::{Identity, LinkOptions, LinkService};
 
 /// Everything the board decides at start.
@@ -62,15 +64,21 @@ pub fn start(
     let supervisor_config = config.params.supervisor;
     let supervisor = Supervisor::new(supervisor_config, &params, config.reset)
         .map_err(StartError::Supervisor)?;
-    let controller = Controller::new(
-        params,
-        config.reference,
-        config.law,
-        supervisor_config.start_pose,
-    );
-    let (link_end, control_end) = channels.split();
+    let (link_end, control_end, (outer_sender, outer_receiver)) = channels.split_all();
+    // The outer loop is built in place, in its mailbox (just split, so empty: seated).
+    let mut seat = OuterLoopSeat::new(outer_sender);
+    if let Some(steering) = seat.seated_mut() {
+        steering.follow(&config.reference);
+        steering.restart(&params, config.law);
+    }
+    let controller = Controller::with_seat(params, seat, supervisor_config.start_pose);
     Ok((
-        ControlSide::new(control_end, controller, supervisor),
+        ControlSide::new(
+            control_end,
+            controller,
+            supervisor,
+            SteeringWorker::new(outer_receiver),
+        ),
         LinkService::new(link_end, config.identity, config.params, config.link),
     ))
 }

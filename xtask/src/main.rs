@@ -11,8 +11,8 @@
 //! | `docs` | `cargo doc --no-deps` with warnings denied, for the host crates and the firmware |
 //! | `pil` | processor in the loop: the firmware (emulated `qemu` board) under QEMU against host-sim's plant, driven over its link: `paper-circle` and `longest-path` identical to `host-sim run`, the control interrupt's instructions and the stack, an encoder disconnect and a link loss stopping the motors in time |
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
-//! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt reaches no panic and no indirect call; then bounds the firmware's worst-case stack from the same call graph |
-//! | `panic-check ELF [--root NAME:IRQ]…` | the same proof on a given ELF (no build), from the given interrupts (default `TIM5:50`) |
+//! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt, the steering task and the link USART's interrupt reach no panic and no indirect call; then bounds the firmware's worst-case stack from the same call graph |
+//! | `panic-check ELF [--root NAME:IRQ]…` | the same proof on a given ELF (no build), from the given interrupts (default `TIM5:50`, `EXTI3:9`, `USART2:38`) |
 //! | `mutants [ARGS…]` | mutation testing of `controller-core` (and `link`) with cargo-mutants: score, missed list, wall time. Slow; not part of `ci` |
 //!
 //! Every step runs even if an earlier one failed, so one CI log shows every problem.
@@ -51,11 +51,12 @@ commands:
   size-of ELF
           flash and static RAM of an ARM ELF against the firmware budget (no build)
   panic-check
-          build the firmware and prove that its control (TIM5) and link USART (USART2)
-          interrupts cannot reach a panic or an indirect call; the `panic-canary` build
-          must fail the same check
+          build the firmware and prove that its control (TIM5), steering (EXTI3) and link
+          USART (USART2) interrupts cannot reach a panic or an indirect call; the
+          `panic-canary` build must fail the same check
   panic-check ELF [--root NAME:IRQ]...
-          the same proof on an ELF (no build), from the given interrupts (default TIM5:50)
+          the same proof on an ELF (no build), from the given interrupts (default TIM5:50,
+          EXTI3:9, USART2:38)
   mutants [ARGS...]
           mutation testing of controller-core (and link, when the workspace has it) with
           cargo-mutants: prints the score, the missed mutants and the wall time; ARGS go to

@@ -101,6 +101,18 @@ impl Root {
         }
     }
 
+    /// The steering task: the outer loop the control task lends it, run below the control
+    /// task between two steps. Bound to EXTI line 3, IRQ 9 on the STM32F4 (RM0383, table
+    /// 37), which only software pends. It ran in the control interrupt before it was
+    /// lent, and must not panic either.
+    pub fn steering_task() -> Self {
+        Self {
+            role: "steering task".into(),
+            name: "EXTI3".into(),
+            irq: 9,
+        }
+    }
+
     /// A root from `NAME:IRQ` (`USART2:38`).
     pub fn parse(spec: &str) -> Result<Self> {
         let (name, irq) = spec
@@ -148,6 +160,7 @@ pub fn firmware_tasks() -> Vec<(Root, u8)> {
             1,
         ),
         (Root::link_usart_interrupt(), 2),
+        (Root::steering_task(), 2),
         (Root::control_interrupt(), 3),
     ]
 }
@@ -201,7 +214,11 @@ pub fn stack_bound(image: &Image, tasks: &[(Root, u8)]) -> Result<u32> {
 
 /// The roots `cargo xtask panic-check` checks when none are given.
 pub fn default_roots() -> Vec<Root> {
-    vec![Root::control_interrupt(), Root::link_usart_interrupt()]
+    vec![
+        Root::control_interrupt(),
+        Root::steering_task(),
+        Root::link_usart_interrupt(),
+    ]
 }
 
 /// Explores the image from each root; `lines` adds source lines to the report.

@@ -132,6 +132,7 @@ use crate::drive::WheelVolts;
 use crate::kinematics::{BodyVelocity, WheelSpeeds};
 use crate::math;
 use crate::params::Params;
+use crate::steering::SteeringSeat;
 use crate::tune::{TuneAbort, TuneConfig, TuneConfigError, TuneResult, TuneStep, Tuner};
 
 use button::{Debouncer, Press};
@@ -680,7 +681,11 @@ impl Supervisor {
 
     /// One control period: processes `input`, sets `controller`'s mode, steps it, checks
     /// the result and returns what the motors, the bridge and the watchdog get.
-    pub fn step(&mut self, controller: &mut Controller, input: Inputs) -> Supervised {
+    pub fn step<S: SteeringSeat>(
+        &mut self,
+        controller: &mut Controller<S>,
+        input: Inputs,
+    ) -> Supervised {
         self.steps_since_boot = self.steps_since_boot.saturating_add(1);
         self.track_liveness(&input);
 
@@ -762,7 +767,11 @@ impl Supervisor {
 
     /// One step of the tune while armed in [`RunMode::Tune`]: the voltages for the next
     /// step, or the end (brake and disarm).
-    fn tune_step(&mut self, controller: &mut Controller, periods: NonZeroU32) -> Option<Event> {
+    fn tune_step<S: SteeringSeat>(
+        &mut self,
+        controller: &mut Controller<S>,
+        periods: NonZeroU32,
+    ) -> Option<Event> {
         match self.tuner.step(controller.telemetry(), periods.get()) {
             TuneStep::Drive(volts) => {
                 self.tune_volts = volts;
@@ -780,9 +789,9 @@ impl Supervisor {
     /// link (a bench script, the simulator's timeline): like the button, it needs no
     /// heartbeat. Only from Disarmed, and not while the button is held. The controller
     /// runs in the new mode from the next [`Supervisor::step`].
-    pub fn arm_locally(
+    pub fn arm_locally<S: SteeringSeat>(
         &mut self,
-        controller: &mut Controller,
+        controller: &mut Controller<S>,
         request: ArmRequest,
     ) -> Result<Event, Refusal> {
         if self.state != State::Disarmed {
@@ -818,7 +827,12 @@ impl Supervisor {
     }
 
     /// Every check of step 3; sets the latched flags.
-    fn check_faults(&mut self, controller: &Controller, duty: MotorCommand, periods: NonZeroU32) {
+    fn check_faults<S: SteeringSeat>(
+        &mut self,
+        controller: &Controller<S>,
+        duty: MotorCommand,
+        periods: NonZeroU32,
+    ) {
         let t = controller.telemetry();
         self.faults.core = self.faults.core.union(controller.faults());
         // A second line of defence: the controller already clamps its duties to [−1, 1], so
@@ -884,7 +898,11 @@ impl Supervisor {
         Some(Event::BatteryLow)
     }
 
-    fn handle_button(&mut self, raw: bool, controller: &mut Controller) -> Option<Event> {
+    fn handle_button<S: SteeringSeat>(
+        &mut self,
+        raw: bool,
+        controller: &mut Controller<S>,
+    ) -> Option<Event> {
         let press = self.button.update(
             raw,
             self.config.debounce_steps,
@@ -921,10 +939,10 @@ impl Supervisor {
         }
     }
 
-    fn handle_command(
+    fn handle_command<S: SteeringSeat>(
         &mut self,
         command: Command,
-        controller: &mut Controller,
+        controller: &mut Controller<S>,
     ) -> (Result<(), Refusal>, Option<Event>) {
         let wrong_state = Err(Refusal::WrongState(self.state));
         match (command, self.state) {
@@ -965,7 +983,7 @@ impl Supervisor {
         }
     }
 
-    fn handle_timers(&mut self, controller: &mut Controller) -> Option<Event> {
+    fn handle_timers<S: SteeringSeat>(&mut self, controller: &mut Controller<S>) -> Option<Event> {
         match self.state {
             State::Disarmed if self.auto_arm_pending => {
                 let due = self.config.auto_arm_after_steps.unwrap_or(u32::MAX);
@@ -1004,7 +1022,12 @@ impl Supervisor {
         }
     }
 
-    fn arm(&mut self, controller: &mut Controller, request: ArmRequest, by_link: bool) -> Event {
+    fn arm<S: SteeringSeat>(
+        &mut self,
+        controller: &mut Controller<S>,
+        request: ArmRequest,
+        by_link: bool,
+    ) -> Event {
         self.auto_arm_pending = false;
         self.state = State::Armed;
         self.run_mode = request.mode;
@@ -1034,7 +1057,7 @@ impl Supervisor {
         Event::Armed(self.run_mode)
     }
 
-    fn disarm(&mut self, controller: &mut Controller) {
+    fn disarm<S: SteeringSeat>(&mut self, controller: &mut Controller<S>) {
         self.tuner.abort(TuneAbort::Stopped);
         self.state = State::Disarmed;
         self.armed_by_link = false;
@@ -1046,7 +1069,7 @@ impl Supervisor {
         self.brake_steps_left = self.config.brake_steps;
     }
 
-    fn clear_faults(&mut self, controller: &mut Controller) -> Event {
+    fn clear_faults<S: SteeringSeat>(&mut self, controller: &mut Controller<S>) -> Event {
         self.faults = Faults::default();
         self.consecutive_overruns = 0;
         self.missed.restart_window();

@@ -210,9 +210,13 @@ impl StepSums {
         let (a, b) = bracket(&q)?;
         let (qa, qb) = (*q.get(a)?, *q.get(b)?);
         let (sa, sb) = (bank_s(a), bank_s(b));
-        let target = -math::ln(qb) / sb + math::ln(qa) / sa;
+        // ln(q_a) once, and `solve_tau` out of line: at opt-level "z" LLVM's ARM back end
+        // makes three or more calls to one function in a basic block through a register
+        // (a shorter encoding), and the firmware's panic check cannot follow those.
+        let ln_qa = math::ln(qa);
+        let target = -math::ln(qb) / sb + ln_qa / sa;
         let tau = solve_tau(sa, sb, target)?;
-        let theta = -math::ln(qa) / sa - math::ln(1.0 + tau * sa) / sa;
+        let theta = -ln_qa / sa - math::ln(1.0 + tau * sa) / sa;
         let gain = delta / delta_u;
         (tau.is_finite() && theta.is_finite() && gain.is_finite()).then_some(Fopdt {
             gain,
@@ -231,7 +235,9 @@ fn bracket(q: &[f32; BANK]) -> Option<(usize, usize)> {
 }
 
 /// τ ≥ 0 with ln(1 + τ s_b)/s_b − ln(1 + τ s_a)/s_a = `target` (s_b > s_a; the left side
-/// falls from 0 as τ grows), by bisection; `None` if out of [0, 100 s].
+/// falls from 0 as τ grows), by bisection; `None` if out of [0, 100 s]. Out of line (see
+/// the caller).
+#[inline(never)]
 fn solve_tau(sa: f32, sb: f32, target: f32) -> Option<f32> {
     let f = |tau: f32| math::ln(1.0 + tau * sb) / sb - math::ln(1.0 + tau * sa) / sa - target;
     let (mut lo, mut hi) = (0.0f32, 100.0f32);

@@ -499,7 +499,9 @@ impl Tuner {
 
     /// One control step: `telemetry` is the controller's for this step (its speeds, the
     /// voltages it applied, its pose), covering `periods` control periods. Returns what to
-    /// apply next.
+    /// apply next. Out of line: the tune's working values (a few hundred bytes) belong in
+    /// its own frame, not in that of every control step that inlines the supervisor.
+    #[inline(never)]
     pub fn step(&mut self, telemetry: &Telemetry, periods: u32) -> TuneStep {
         if !self.running() {
             return TuneStep::Finished(self.outcome.unwrap_or(Err(TuneAbort::Stopped)));

@@ -132,6 +132,11 @@ pub fn judge(scenario: &Scenario, outcome: &PilOutcome, host: Option<&RunResult>
             board.control_max_instructions
         ),
         format!(
+            "steering task on Cortex-M4F (PIL): max {} instructions (the outer loop, lent by \
+             the control interrupt and run below it between two steps)",
+            board.steering_max_instructions
+        ),
+        format!(
             "link service on Cortex-M4F (PIL): max {} instructions",
             board.link_max_instructions
         ),

@@ -261,10 +261,12 @@ impl<'a> VirtualRobot<'a> {
                     self.hardware.start_moving(v, omega);
                 }
             }
-            if mode == RunMode::FollowPath {
+            // The virtual robot runs its outer loop in the step: it is always seated.
+            let steering = self.control.controller().steering();
+            if let (RunMode::FollowPath, Some(steering)) = (mode, steering) {
                 let params = self.control.controller().params();
                 self.truth = Some(TrueRun::new(
-                    self.control.controller().reference(),
+                    steering.reference(),
                     params.control_rate(),
                     params.steering_divider(),
                     &pose,

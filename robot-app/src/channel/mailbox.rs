@@ -51,8 +51,10 @@ impl<T> Mailbox<T> {
         }
     }
 
-    /// The two ends; each is the only one of its kind while it lives.
+    /// The two ends; each is the only one of its kind while it lives. The mailbox starts
+    /// empty again, its item as it was (no end of an earlier split can be alive).
     pub fn split(&mut self) -> (Sender<'_, T>, Receiver<'_, T>) {
+        *self.state.get_mut() = EMPTY;
         let mailbox: &Self = self;
         (Sender { mailbox }, Receiver { mailbox })
     }
@@ -74,6 +76,17 @@ impl<T> Sender<'_, T> {
         // Release store of Staged (by `publish`, which needs `&mut self` and so cannot
         // run while the returned borrow lives) publishes it.
         Some(unsafe { &mut *m.item.get() })
+    }
+
+    /// The item, to read, while the mailbox is empty; None otherwise.
+    pub fn item(&self) -> Option<&T> {
+        let m = self.mailbox;
+        if m.state.load(Ordering::Acquire) != EMPTY {
+            return None;
+        }
+        // SAFETY: Empty: the sender owns the item (see `item_mut`), and `publish` needs
+        // `&mut self`, so it cannot hand the item over while the returned borrow lives.
+        Some(unsafe { &*m.item.get() })
     }
 
     /// Hands the item, as prepared, to the receiver; false (nothing done) when the
@@ -141,6 +154,18 @@ impl<T> Receiver<'_, T> {
         // Acquire load above) and does not touch it until the receiver hands it back,
         // which only `finish` does, not while the returned borrow of `self` lives.
         Some(unsafe { &*m.item.get() })
+    }
+
+    /// The staged item, to use and change in place, if one is waiting.
+    pub fn staged_mut(&mut self) -> Option<&mut T> {
+        let m = self.mailbox;
+        if m.state.load(Ordering::Acquire) != STAGED {
+            return None;
+        }
+        // SAFETY: Staged: the receiver owns the item (see `staged`); the sender does not
+        // touch it until `finish`, which needs `&mut self` and so cannot run while the
+        // returned borrow lives.
+        Some(unsafe { &mut *m.item.get() })
     }
 
     /// Hands a staged item back to the sender; does nothing when none is staged.

@@ -38,6 +38,7 @@ use link::{CommitSummary, RunReport, TelemetryFrame, TuneReport, UploadSegments}
 
 use self::mailbox::{Mailbox, Receiver, Sender};
 use self::ring::{Consumer, Producer, Ring};
+use crate::outer::OuterLoop;
 
 /// Commands the link side may queue for the control side, which takes at most one per
 /// control step.
@@ -294,9 +295,10 @@ impl Status {
     }
 }
 
-/// Everything shared by the two sides (see the module doc). About 1.5 KiB, most of it
-/// the staging area's room for a path (where uploads are assembled too);
-/// `const`-constructible for a `static`.
+/// Everything shared by the two sides (see the module doc), and the control side's outer
+/// loop, which it may lend to a third context (`crate::outer`). About 3 KiB, most of it
+/// the staging area's room for a path (where uploads are assembled too) and the outer
+/// loop's reference; `const`-constructible for a `static`.
 pub struct Channels {
     commands: Ring<ToControl, COMMAND_CAPACITY>,
     uplink: Ring<ToLink, UPLINK_CAPACITY>,
@@ -304,6 +306,7 @@ pub struct Channels {
     reports: Ring<Report, REPORT_CAPACITY>,
     staging: Mailbox<Staged>,
     status: Status,
+    outer_loop: Mailbox<OuterLoop>,
 }
 
 impl Default for Channels {
@@ -322,11 +325,25 @@ impl Channels {
             reports: Ring::new(),
             staging: Mailbox::new(Staged::Assembling(UploadSegments::new())),
             status: Status::new(),
+            outer_loop: Mailbox::new(OuterLoop::PLACEHOLDER),
         }
     }
 
     /// The link side's end and the control side's end.
     pub fn split(&mut self) -> (LinkEnd<'_>, ControlEnd<'_>) {
+        let (link, control, _) = self.split_all();
+        (link, control)
+    }
+
+    /// The link side's end, the control side's end, and the two ends of the outer loop's
+    /// mailbox.
+    pub(crate) fn split_all(
+        &mut self,
+    ) -> (
+        LinkEnd<'_>,
+        ControlEnd<'_>,
+        (Sender<'_, OuterLoop>, Receiver<'_, OuterLoop>),
+    ) {
         let Channels {
             commands,
             uplink,
@@ -334,6 +351,7 @@ impl Channels {
             reports,
             staging,
             status,
+            outer_loop,
         } = self;
         let (command_tx, command_rx) = commands.split();
         let (uplink_tx, uplink_rx) = uplink.split();
@@ -358,6 +376,7 @@ impl Channels {
                 staging: staging_rx,
                 status,
             },
+            outer_loop.split(),
         )
     }
 }

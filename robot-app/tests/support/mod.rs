@@ -17,6 +17,7 @@ use link::{
     encode, Decoder, Downlink, ParamSet, Received, Refusal, Reply, Request, TelemetryFrame, Uplink,
     MAX_FRAME_LEN,
 };
+use robot_app::outer::SteeringWorker;
 use robot_app::{
     start, Actuation, AppConfig, Channels, ControlSide, Identity, LinkOptions, LinkService,
     NoBoardStats, Sensors,
@@ -164,6 +165,11 @@ pub struct Rig<'a> {
     pub heartbeat_every: Option<u32>,
     /// The last actuation.
     pub last: Option<Actuation>,
+    /// The outer loop's worker when the control side lends it (as the firmware does).
+    pub worker: Option<SteeringWorker<'a>>,
+    /// Leave the outer loop unrun after the next step that lends it (it overruns the
+    /// period).
+    pub stall_worker_once: bool,
     next_seq: u16,
     background: u32,
 }
@@ -185,6 +191,8 @@ impl<'a> Rig<'a> {
             periods: 1,
             heartbeat_every: None,
             last: None,
+            worker: None,
+            stall_worker_once: false,
             next_seq: 1000,
             background: 0,
         }
@@ -195,6 +203,15 @@ impl<'a> Rig<'a> {
         let mut frame = [0u8; MAX_FRAME_LEN];
         let len = encode(&Downlink { seq, request }, &mut frame).expect("encodable");
         self.to_robot.extend_from_slice(&frame[..len]);
+    }
+
+    /// The same robot lending its outer loop to a worker run between steps.
+    pub fn lending(channels: &'a mut Channels, baud: u32, storage: bool) -> Self {
+        let mut rig = Self::new(channels, baud, storage);
+        rig.worker = rig.control.lend_outer_loop();
+        assert!(rig.worker.is_some());
+        assert!(rig.control.lend_outer_loop().is_none(), "lent once");
+        rig
     }
 
     /// Sends `request` under a fresh `seq`; returns the seq.
@@ -246,6 +263,14 @@ impl<'a> Rig<'a> {
             background_heartbeat: self.background,
         });
         self.last = Some(out);
+        // The lower-priority task runs between this step and the next.
+        if let Some(worker) = &mut self.worker {
+            if self.stall_worker_once && out.steering_lent {
+                self.stall_worker_once = false;
+            } else {
+                worker.run();
+            }
+        }
         self.link.poll();
         if !self.tx_paused {
             self.drain_tx();

@@ -171,7 +171,8 @@ pub fn run_scenario_with(
     let mut ticks = TickDeltas::default();
     let mut index = 0u32;
     for segment in &scenario.segments {
-        controller.set_law(segment.law);
+        // An owned outer loop is always seated: this cannot be refused.
+        let _ = controller.set_law(segment.law);
         for _ in 0..segment.steps {
             let duty = controller.step(StepInput::on_time(ticks, scenario.supply_v));
             hash.write_f32(duty.left);

@@ -127,6 +127,13 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Board {
     }
 }
 
+/// The steering task has run the outer loop the step lent it: the step's answer may go.
+#[inline(always)]
+pub fn outer_loop_done() {
+    plant_port::hold_answer(false);
+    rtic::pend(pac::Interrupt::USART1);
+}
+
 /// Tells the plant that the firmware is up: both USARTs are enabled, so nothing it
 /// sends from now on is lost (`robot_app::lockstep::READY`).
 pub fn announce_ready() {
@@ -159,9 +166,13 @@ impl ControlIo {
     }
 
     /// Queues the step's answer for the plant port, which sends it once this task has
-    /// returned (same priority, so it never preempts the step).
+    /// returned (same priority, so it never preempts the step). When the step lent the
+    /// outer loop, the answer is held until the steering task has run it
+    /// ([`outer_loop_done`]): the plant's next step message then cannot start the next
+    /// step before the outer loop is back, however the host's bytes fall in virtual time.
     #[inline(always)]
     pub fn actuate(&mut self, out: &Actuation, telemetry: &Telemetry) {
+        plant_port::hold_answer(out.steering_lent);
         // The plant sends the next step only after this answer: the slot is free.
         let _ = self.replies.push(BoardStep {
             duty: out.duty,
@@ -177,7 +188,9 @@ impl ControlIo {
             error: telemetry.error,
             steering_updated: telemetry.steering_updated,
         });
-        rtic::pend(pac::Interrupt::USART1);
+        if !out.steering_lent {
+            rtic::pend(pac::Interrupt::USART1);
+        }
     }
 
     /// Nothing to check: see [`ControlIo::sense`].

@@ -8,9 +8,12 @@
 //!   lockstep trigger: one message, one control step.
 //! - **transmit** (TXE): the control task's answers, one message at a time; TXEIE stays
 //!   on while bytes wait (QEMU keeps TXE set, so in practice a message goes out in one
-//!   interrupt).
+//!   interrupt). An answer is not started while it is held ([`hold_answer`]: the step
+//!   lent the outer loop, and the steering task has not run it yet).
 //! - **finish**: answers with the run's figures ([`BoardReport`]) and ends the emulation
 //!   (semihosting `exit(0)`).
+
+use core::sync::atomic::{AtomicBool, Ordering};
 
 use robot_app::channel::ring::{Consumer, Producer};
 use robot_app::lockstep::{
@@ -35,6 +38,15 @@ pub struct PlantPort {
     sent: usize,
     /// Steps that found the queue full (the plant sent before its answer: a bug there).
     overflows: u32,
+}
+
+/// The last answer queued waits for the steering task (see the module doc).
+static ANSWER_HELD: AtomicBool = AtomicBool::new(false);
+
+/// Holds the answers queued from now on (`true`) or lets them go (`false`).
+#[inline(always)]
+pub fn hold_answer(held: bool) {
+    ANSWER_HELD.store(held, Ordering::Release);
 }
 
 /// Writes the ready byte (QEMU sends it at once).
@@ -88,6 +100,9 @@ impl PlantPort {
     fn transmit(&mut self) {
         loop {
             if self.sent == self.len {
+                if ANSWER_HELD.load(Ordering::Acquire) {
+                    break;
+                }
                 let Some(step) = self.replies.pop() else {
                     break;
                 };
@@ -114,6 +129,7 @@ impl PlantPort {
             control_max_instructions: stats::CONTROL.max_units(),
             control_armed_max_instructions: stats::CONTROL_ARMED.max_units(),
             link_max_instructions: stats::LINK.max_units(),
+            steering_max_instructions: stats::STEERING.max_units(),
             stack_high_water_bytes: stats::stack_high_water_bytes(),
             start_stack_bytes: stats::start_stack_bytes(),
             control_steps: stats::CONTROL.runs(),

@@ -39,7 +39,9 @@ use crate::odometry::Odometry;
 use crate::params::Params;
 use crate::pid::PidParts;
 use crate::reference::{Reference, ReferenceState};
-use crate::steering::{Steering, SteeringAway, SteeringJob, SteeringOutcome, SteeringSeat};
+use crate::steering::{
+    JobParts, Steering, SteeringAway, SteeringJob, SteeringOutcome, SteeringSeat,
+};
 
 /// Signed encoder ticks counted during one step, forward positive.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -222,12 +224,13 @@ pub struct Controller<S = Steering> {
     /// Steps since the controller was built.
     steps: u32,
     mode: Mode,
-    /// What the steering law needs from a step where it was due.
-    job: SteeringJob,
-    /// `job` waits for the outer loop.
+    /// The steering law was due at the last step and has not run: its job is that step's
+    /// state, still in place (see [`Controller::steering_job`]).
     job_due: bool,
-    /// The steering law's outcome, applied at the next step.
-    handed_over: SteeringOutcome,
+    /// The due job's time since the reference was last sampled, control periods.
+    job_elapsed_periods: u32,
+    /// The outcome in telemetry starts a new set-point ramp in this step.
+    outcome_in_telemetry: bool,
     /// `handed_over` waits to be applied.
     outcome_ready: bool,
     /// Counts restarts of the loops: an outcome of a job from before the last restart is
@@ -240,6 +243,9 @@ pub struct Controller<S = Steering> {
     restart_limiter_from: Option<BodyVelocity>,
     speed: [SpeedEstimator; 2],
     params: Params,
+    /// The steering law's outcome, applied at the next step (a lent outer loop's, or one
+    /// run aside). Last but the outer loop: it is not touched in most steps.
+    handed_over: SteeringOutcome,
     /// The outer loop, or where it is when lent.
     steering: S,
 }
@@ -281,8 +287,9 @@ impl<S: SteeringSeat> Controller<S> {
             mode: Mode::Idle,
             steps: 0,
             schedule: Schedule::default(),
-            job: SteeringJob::default(),
             job_due: false,
+            job_elapsed_periods: 0,
+            outcome_in_telemetry: false,
             handed_over: SteeringOutcome::default(),
             outcome_ready: false,
             epoch: 0,
@@ -308,6 +315,8 @@ impl<S: SteeringSeat> Controller<S> {
         law: LawKind,
         start: Pose,
     ) -> Result<(), SteeringAway> {
+        self.steering.seated().ok_or(SteeringAway)?;
+        self.run_due_job_aside();
         let steering = self.steering.seated_mut().ok_or(SteeringAway)?;
         steering.restart(params, law);
         self.params = *params;
@@ -323,6 +332,8 @@ impl<S: SteeringSeat> Controller<S> {
         law: LawKind,
         start: Pose,
     ) -> Result<(), SteeringAway> {
+        self.steering.seated().ok_or(SteeringAway)?;
+        self.run_due_job_aside();
         let steering = self.steering.seated_mut().ok_or(SteeringAway)?;
         steering.follow(reference);
         steering.restart(&self.params, law);
@@ -352,8 +363,9 @@ impl<S: SteeringSeat> Controller<S> {
         self.steps = 0;
         self.schedule = Schedule::default();
         // No job is out: rebuilding needs the outer loop seated.
-        self.job = SteeringJob::default();
         self.job_due = false;
+        self.job_elapsed_periods = 0;
+        self.outcome_in_telemetry = false;
         self.handed_over = SteeringOutcome::default();
         self.outcome_ready = false;
         self.epoch = 0;
@@ -389,11 +401,15 @@ impl<S: SteeringSeat> Controller<S> {
     /// Lends the outer loop out with the job the last step handed over, when its seat
     /// lends it (see [`crate::steering`]); true if it did. Call it after the step.
     pub fn lend_steering(&mut self) -> bool {
-        if self.job_due && self.steering.lend(&self.job) {
-            self.job_due = false;
-            return true;
+        if !self.job_due {
+            return false;
         }
-        false
+        let job = self.steering_job();
+        if !self.steering.lend(&job) {
+            return false;
+        }
+        self.job_taken();
+        true
     }
 
     /// Seats a lent outer loop again if it has come back; its outcome is applied at the
@@ -440,6 +456,8 @@ impl<S: SteeringSeat> Controller<S> {
             self.mode = mode;
             return;
         }
+        // A due job runs with the restarts it was due with, not this one's.
+        self.run_due_job_aside();
         // The schedule and the reference only move in path following, so restarting them
         // on entering every other mode instead (`!=`) would restart them before each use
         // all the same: an equivalent mutant (.cargo/mutants.toml).
@@ -455,12 +473,16 @@ impl<S: SteeringSeat> Controller<S> {
     /// Selects another steering law (takes effect at the next steering step). Refused
     /// while the outer loop is lent.
     pub fn set_law(&mut self, law: LawKind) -> Result<(), SteeringAway> {
+        self.steering.seated().ok_or(SteeringAway)?;
+        self.run_due_job_aside();
         self.steering.seated_mut().ok_or(SteeringAway)?.set_law(law);
         Ok(())
     }
 
-    /// Overwrites the odometry pose (world frame), e.g. from an external fix.
+    /// Overwrites the odometry pose (world frame), e.g. from an external fix. A due
+    /// steering job keeps the pose it was due with.
     pub fn set_pose(&mut self, pose: Pose) {
+        self.run_due_job_aside();
         self.odometry.set_pose(pose);
         self.telemetry.pose = self.odometry.pose();
     }
@@ -491,11 +513,14 @@ impl<S: SteeringSeat> Controller<S> {
     /// Restarts the ramp and the wheel loops from the measured state; `was_driving` keeps
     /// each wheel's applied voltage (a switch between driving modes).
     fn restart_loops(&mut self, was_driving: bool) {
-        let measured = self.telemetry.wheel_speed;
-        self.restart_limiter_from = Some(self.params.geometry().forward(measured));
-        // A command computed before the restart is stale, and so is one still running.
+        // A command computed before the restart is stale, and so is one still running
+        // (its job runs all the same, as a lent one would have: see `run_due_job_aside`).
+        self.run_due_job_aside();
+        self.job_due = false;
         self.outcome_ready = false;
         self.epoch = self.epoch.wrapping_add(1);
+        let measured = self.telemetry.wheel_speed;
+        self.restart_limiter_from = Some(self.params.geometry().forward(measured));
         self.telemetry.wheel_setpoint = match self.mode {
             Mode::HoldWheelSpeeds(speeds) => self.capped_wheel_speeds(speeds),
             // Until the first steering step, hold the wheels where they are.
@@ -551,6 +576,9 @@ impl<S: SteeringSeat> Controller<S> {
         self.telemetry.step = self.steps;
         self.telemetry.periods = periods.get();
         self.telemetry.steering_updated = false;
+        // Before anything of this step overwrites the last one's state: the outer loop's
+        // outcome of the job that step handed over goes into telemetry.
+        self.outcome_in_telemetry = self.steering_outcome_into_telemetry();
         self.telemetry.supply_v = self.supply.update(input.supply_v);
 
         // A delta beyond what the fastest plausible wheel turns in the elapsed time.
@@ -622,14 +650,6 @@ impl<S: SteeringSeat> Controller<S> {
         }
 
         self.steps = self.steps.wrapping_add(1);
-        // The outer loop, for the next step, if it runs here (see the module doc).
-        if self.job_due && self.steering.runs_jobs() {
-            if let Some(steering) = self.steering.seated_mut() {
-                steering.run(&self.job, &mut self.handed_over);
-                self.job_due = false;
-                self.outcome_ready = true;
-            }
-        }
         self.telemetry.duty
     }
 
@@ -637,9 +657,8 @@ impl<S: SteeringSeat> Controller<S> {
     /// handed over since the last step, hand over a job when the law is due, and move the
     /// wheel set-points along the ramp.
     fn follow_path(&mut self, periods: NonZeroU32) {
-        if self.outcome_ready {
-            self.outcome_ready = false;
-            self.apply_steering();
+        if self.outcome_in_telemetry {
+            self.start_ramp();
         }
         let s = &mut self.schedule;
         if s.started {
@@ -651,45 +670,113 @@ impl<S: SteeringSeat> Controller<S> {
             let elapsed_periods = s.since_sample;
             s.since_sample = 0;
             s.until_steering = self.params.steering_divider().get();
-            self.write_steering_job(elapsed_periods);
+            self.job_elapsed_periods = elapsed_periods;
+            self.job_due = true;
         }
         self.ramp
             .advance(periods.get(), &mut self.telemetry.wheel_setpoint);
     }
 
-    /// Hands the steering law its job, from this step's pose; `elapsed_periods` is the
-    /// time since the reference was last sampled, in control periods.
-    fn write_steering_job(&mut self, elapsed_periods: u32) {
-        self.job = SteeringJob {
+    /// The steering law's job, from the state of the step where it was due (still in
+    /// place until the next step begins: nothing else moves the pose, the heading or the
+    /// supply, and what could change the job first runs it, see
+    /// [`Controller::run_due_job_aside`]).
+    fn steering_job(&self) -> SteeringJob {
+        SteeringJob {
             pose: self.telemetry.pose,
             heading_sin_cos: self.odometry.heading_sin_cos(),
-            elapsed_periods,
+            elapsed_periods: self.job_elapsed_periods,
             rim_speed_cap_m_s: self.rim_speed_cap_m_s(),
-            restart_reference: core::mem::take(&mut self.restart_reference),
-            restart_limiter_from: self.restart_limiter_from.take(),
+            restart_reference: self.restart_reference,
+            restart_limiter_from: self.restart_limiter_from,
             epoch: self.epoch,
-        };
-        self.job_due = true;
+        }
     }
 
-    /// A steering outcome, one step after its job: into telemetry, and a new set-point
-    /// ramp from where the set-points are to the command's wheel speeds, over one
-    /// steering period.
+    /// The due job went to the outer loop, with the restarts it carried.
+    fn job_taken(&mut self) {
+        self.job_due = false;
+        self.restart_reference = false;
+        self.restart_limiter_from = None;
+    }
+
+    /// At the start of a step: the outcome of the last step's job into telemetry, run
+    /// here directly into it when this controller runs its jobs, or as handed over by a
+    /// lent outer loop. True if there was one.
+    fn steering_outcome_into_telemetry(&mut self) -> bool {
+        if self.job_due && self.steering.runs_jobs() {
+            let cap = self.rim_speed_cap_m_s();
+            let elapsed = self.job_elapsed_periods;
+            let (restart_reference, restart_limiter_from) =
+                (self.restart_reference, self.restart_limiter_from);
+            let heading = self.odometry.heading_sin_cos();
+            if let Some(steering) = self.steering.seated_mut() {
+                let t = &mut self.telemetry;
+                steering.run_parts(
+                    JobParts {
+                        pose: &t.pose,
+                        heading_sin_cos: heading,
+                        elapsed_periods: elapsed,
+                        rim_speed_cap_m_s: cap,
+                        restart_reference,
+                        restart_limiter_from,
+                    },
+                    (&mut t.reference, &mut t.error, &mut t.law),
+                    (&mut t.command, &mut t.limit_flags),
+                );
+                t.rim_speed_cap_m_s = cap;
+                self.job_taken();
+                return true;
+            }
+        }
+        if self.outcome_ready {
+            self.outcome_ready = false;
+            self.apply_steering();
+            return true;
+        }
+        false
+    }
+
+    /// The outcome a lent outer loop handed over (or one run aside), one step after its
+    /// job: into telemetry.
     fn apply_steering(&mut self) {
         let outcome = &self.handed_over;
         let t = &mut self.telemetry;
-        t.steering_updated = true;
         t.rim_speed_cap_m_s = outcome.rim_speed_cap_m_s;
         t.reference = outcome.reference;
         t.error = outcome.error;
         t.law = outcome.law;
         t.command = outcome.command;
         t.limit_flags = outcome.limit_flags;
+    }
+
+    /// A steering outcome is in telemetry: a new set-point ramp from where the set-points
+    /// are to its command's wheel speeds, over one steering period.
+    fn start_ramp(&mut self) {
+        let t = &mut self.telemetry;
+        t.steering_updated = true;
         self.ramp.start(
             t.wheel_setpoint,
-            self.params.geometry().inverse(outcome.command),
+            self.params.geometry().inverse(t.command),
             self.params.steering_divider(),
         );
+    }
+
+    /// Runs a due job that this controller would run at the next step now, into the
+    /// hand-over slot, before something changes what it would read (the pose, the law,
+    /// the parameters) or the loops restart: as a lent outer loop would have run it in
+    /// between. Its outcome is applied at the next step as a lent one's is, unless a
+    /// restart drops it.
+    fn run_due_job_aside(&mut self) {
+        if !(self.job_due && self.steering.runs_jobs()) {
+            return;
+        }
+        let job = self.steering_job();
+        if let Some(steering) = self.steering.seated_mut() {
+            steering.run(&job, &mut self.handed_over);
+            self.job_taken();
+            self.outcome_ready = true;
+        }
     }
 }
 
@@ -882,7 +969,7 @@ pub(crate) mod tests {
             restart_limiter_from: Some(BodyVelocity::new(0.0, 0.0)),
             epoch: c.epoch,
         };
-        assert_eq!(c.job, job);
+        assert_eq!(c.steering_job(), job);
         let mut expected = SteeringOutcome::default();
         outer.run(&job, &mut expected);
         let setpoint_before = c.telemetry().wheel_setpoint;

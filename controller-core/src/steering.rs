@@ -83,6 +83,16 @@ const STOP: BodyVelocity = BodyVelocity {
     omega_rad_s: 0.0,
 };
 
+/// A job's parts, borrowed where they are (see [`Steering::run`]).
+pub(crate) struct JobParts<'a> {
+    pub(crate) pose: &'a Pose,
+    pub(crate) heading_sin_cos: (f32, f32),
+    pub(crate) elapsed_periods: u32,
+    pub(crate) rim_speed_cap_m_s: f32,
+    pub(crate) restart_reference: bool,
+    pub(crate) restart_limiter_from: Option<BodyVelocity>,
+}
+
 /// What the outer loop hands back: the steering law's command after its limits, and how
 /// it got there (for telemetry).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -267,6 +277,31 @@ impl Steering {
     /// restarted with. Never panics; a non-finite input gives a non-finite command, which
     /// the inner loop latches as a fault when it applies it.
     pub fn run(&mut self, job: &SteeringJob, outcome: &mut SteeringOutcome) {
+        self.run_parts(
+            JobParts {
+                pose: &job.pose,
+                heading_sin_cos: job.heading_sin_cos,
+                elapsed_periods: job.elapsed_periods,
+                rim_speed_cap_m_s: job.rim_speed_cap_m_s,
+                restart_reference: job.restart_reference,
+                restart_limiter_from: job.restart_limiter_from,
+            },
+            (&mut outcome.reference, &mut outcome.error, &mut outcome.law),
+            (&mut outcome.command, &mut outcome.limit_flags),
+        );
+        outcome.rim_speed_cap_m_s = job.rim_speed_cap_m_s;
+        outcome.epoch = job.epoch;
+    }
+
+    /// [`Steering::run`] on a job's parts where they are, writing each part of the
+    /// outcome where it is wanted (the controller's telemetry, when it runs its jobs
+    /// itself: nothing copied either way).
+    pub(crate) fn run_parts(
+        &mut self,
+        job: JobParts<'_>,
+        (reference, error, law): (&mut ReferenceState, &mut TrackingError, &mut LawOutput),
+        (command, limit_flags): (&mut BodyVelocity, &mut LimitFlags),
+    ) {
         if job.restart_reference {
             self.reference.restart();
         }
@@ -274,25 +309,16 @@ impl Steering {
             self.limiter.reset(from);
         }
         let p = &self.params;
-        outcome.reference = self
+        *reference = self
             .reference
-            .sample(job.elapsed_periods, p.control_rate, &job.pose);
-        outcome.error =
-            tracking_error_with_heading(&job.pose, job.heading_sin_cos, &outcome.reference.pose);
-        outcome.law = law::steer_with_error(
-            self.law,
-            &p.gains,
-            &job.pose,
-            &outcome.reference,
-            outcome.error,
-        );
-        (outcome.command, outcome.limit_flags) = self.limiter.apply(
-            outcome.law.command,
+            .sample(job.elapsed_periods, p.control_rate, job.pose);
+        *error = tracking_error_with_heading(job.pose, job.heading_sin_cos, &reference.pose);
+        *law = law::steer_with_error(self.law, &p.gains, job.pose, reference, *error);
+        (*command, *limit_flags) = self.limiter.apply(
+            law.command,
             p.steering_period_s,
             p.track_width_m,
             job.rim_speed_cap_m_s,
         );
-        outcome.rim_speed_cap_m_s = job.rim_speed_cap_m_s;
-        outcome.epoch = job.epoch;
     }
 }

@@ -87,7 +87,7 @@ pub struct Actuation {
     /// Something was queued for the link side in this step: wake its task.
     pub link_has_work: bool,
     /// The outer loop was lent with a job in this step: run the
-    /// [`SteeringWorker`](crate::outer::SteeringWorker) before the next step.
+    /// [`SteeringWorker`] before the next step.
     pub steering_lent: bool,
 }
 

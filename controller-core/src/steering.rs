@@ -28,7 +28,7 @@ use core::num::NonZeroU32;
 use crate::kinematics::{tracking_error_with_heading, BodyVelocity, Pose, TrackingError};
 use crate::law::{self, LawGains, LawKind, LawOutput};
 use crate::limits::{CommandLimiter, LimitFlags};
-use crate::params::{Params, RobotConfig};
+use crate::params::Params;
 use crate::reference::{Reference, ReferenceState};
 
 /// What the inner loop hands to the outer loop at a step where the steering law is due.
@@ -52,36 +52,6 @@ pub struct SteeringJob {
     /// after another restart).
     pub epoch: u32,
 }
-
-impl SteeringJob {
-    /// No job: all zeros, heading along +x (room to write a job in, `const`).
-    pub const NONE: SteeringJob = SteeringJob {
-        pose: ZERO_POSE,
-        heading_sin_cos: (0.0, 1.0),
-        elapsed_periods: 0,
-        rim_speed_cap_m_s: 0.0,
-        restart_reference: false,
-        restart_limiter_from: None,
-        epoch: 0,
-    };
-}
-
-const ZERO_POSE: Pose = Pose {
-    x_m: 0.0,
-    y_m: 0.0,
-    theta_rad: 0.0,
-};
-
-const ZERO_ERROR: TrackingError = TrackingError {
-    x_e_m: 0.0,
-    y_e_m: 0.0,
-    theta_e_rad: 0.0,
-};
-
-const STOP: BodyVelocity = BodyVelocity {
-    v_m_s: 0.0,
-    omega_rad_s: 0.0,
-};
 
 /// A job's parts, borrowed where they are (see [`Steering::run`]).
 pub(crate) struct JobParts<'a> {
@@ -167,14 +137,6 @@ struct SteeringParams {
 }
 
 impl SteeringParams {
-    /// The reference robot's (see [`Steering::PLACEHOLDER`]).
-    const PLACEHOLDER: Self = Self {
-        gains: RobotConfig::REFERENCE_ROBOT.law,
-        control_rate: NonZeroU32::MIN.saturating_mul(NonZeroU32::MIN.saturating_add(999)),
-        steering_period_s: 0.01,
-        track_width_m: RobotConfig::REFERENCE_ROBOT.track_width_m,
-    };
-
     fn of(params: &Params) -> Self {
         Self {
             gains: params.config().law,
@@ -195,44 +157,7 @@ pub struct Steering {
     reference: Reference,
 }
 
-impl SteeringOutcome {
-    /// No outcome: all zeros (the same as `Default`, `const`).
-    pub const ZERO: SteeringOutcome = SteeringOutcome {
-        reference: ReferenceState {
-            pose: ZERO_POSE,
-            v_m_s: 0.0,
-            omega_rad_s: 0.0,
-            progress_m: 0.0,
-            finished: false,
-        },
-        error: ZERO_ERROR,
-        law: LawOutput {
-            command: STOP,
-            lyapunov: 0.0,
-            lyapunov_rate: 0.0,
-            error: ZERO_ERROR,
-            polar: None,
-        },
-        command: STOP,
-        limit_flags: LimitFlags {
-            rim_speed_capped: false,
-            accel_limited: false,
-        },
-        rim_speed_cap_m_s: 0.0,
-        epoch: 0,
-    };
-}
-
 impl Steering {
-    /// An outer loop with the reference robot's gains on [`Reference::PLACEHOLDER`]: room
-    /// to build the real one in place ([`Steering::restart`], [`Steering::follow`]).
-    pub const PLACEHOLDER: Steering = Steering {
-        law: LawKind::Tracking,
-        params: SteeringParams::PLACEHOLDER,
-        limiter: CommandLimiter::new(RobotConfig::REFERENCE_ROBOT.limits),
-        reference: Reference::PLACEHOLDER,
-    };
-
     /// The outer loop for `params`, following `reference` with `law`, its limiter at rest.
     pub fn new(params: &Params, reference: Reference, law: LawKind) -> Self {
         Self {

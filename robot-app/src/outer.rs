@@ -22,34 +22,69 @@ use crate::channel::mailbox::{Receiver, Sender};
 
 /// The outer loop with room for its job and its outcome.
 pub struct OuterLoop {
-    pub(crate) steering: Steering,
+    steering: Steering,
     job: SteeringJob,
     outcome: SteeringOutcome,
 }
 
-impl OuterLoop {
-    /// Room for the outer loop, to be built in place at start ([`Steering::PLACEHOLDER`]).
-    pub(crate) const PLACEHOLDER: OuterLoop = OuterLoop {
-        steering: Steering::PLACEHOLDER,
-        job: SteeringJob::NONE,
-        outcome: SteeringOutcome::ZERO,
-    };
+/// The outer loop's room in the [`Channels`](crate::Channels): empty until
+/// [`start`](crate::start) builds the outer loop in it. An explicit tag with `Empty`
+/// first (tag 0): the `Channels` static then starts as all zero bytes and stays in
+/// `.bss` instead of costing its initial value in flash.
+#[repr(u8)]
+// The room is the outer loop's only place; there is no heap to box it.
+#[allow(clippy::large_enum_variant)]
+pub enum OuterLoopRoom {
+    /// Nothing built yet (the seat behaves as if the outer loop were away).
+    Empty,
+    /// The outer loop.
+    Built(OuterLoop),
+}
+
+impl OuterLoopRoom {
+    /// The outer loop `steering` in the room, with nothing handed over yet.
+    pub(crate) fn built(steering: Steering) -> Self {
+        Self::Built(OuterLoop {
+            steering,
+            job: SteeringJob::default(),
+            outcome: SteeringOutcome::default(),
+        })
+    }
+
+    fn outer(&self) -> Option<&OuterLoop> {
+        match self {
+            Self::Built(outer) => Some(outer),
+            Self::Empty => None,
+        }
+    }
+
+    fn outer_mut(&mut self) -> Option<&mut OuterLoop> {
+        match self {
+            Self::Built(outer) => Some(outer),
+            Self::Empty => None,
+        }
+    }
 }
 
 /// The control side's controller's seat for the outer loop: the mailbox's sending end.
 /// Seated while the mailbox is empty; lent while it is published or not yet collected.
 pub struct OuterLoopSeat<'a> {
-    sender: Sender<'a, OuterLoop>,
+    sender: Sender<'a, OuterLoopRoom>,
     /// Jobs are lent to the [`SteeringWorker`] rather than run by the controller.
     lends: bool,
 }
 
 impl<'a> OuterLoopSeat<'a> {
-    pub(crate) fn new(sender: Sender<'a, OuterLoop>) -> Self {
+    pub(crate) fn new(sender: Sender<'a, OuterLoopRoom>) -> Self {
         Self {
             sender,
             lends: false,
         }
+    }
+
+    /// The room, while the outer loop is seated (or not built yet).
+    pub(crate) fn room_mut(&mut self) -> Option<&mut OuterLoopRoom> {
+        self.sender.item_mut()
     }
 
     pub(crate) fn lend_from_now_on(&mut self) {
@@ -59,11 +94,17 @@ impl<'a> OuterLoopSeat<'a> {
 
 impl SteeringSeat for OuterLoopSeat<'_> {
     fn seated(&self) -> Option<&Steering> {
-        self.sender.item().map(|o| &o.steering)
+        self.sender
+            .item()
+            .and_then(OuterLoopRoom::outer)
+            .map(|o| &o.steering)
     }
 
     fn seated_mut(&mut self) -> Option<&mut Steering> {
-        self.sender.item_mut().map(|o| &mut o.steering)
+        self.sender
+            .item_mut()
+            .and_then(OuterLoopRoom::outer_mut)
+            .map(|o| &mut o.steering)
     }
 
     fn runs_jobs(&self) -> bool {
@@ -74,10 +115,10 @@ impl SteeringSeat for OuterLoopSeat<'_> {
         if !self.lends {
             return false;
         }
-        let Some(room) = self.sender.item_mut() else {
+        let Some(outer) = self.sender.item_mut().and_then(OuterLoopRoom::outer_mut) else {
             return false;
         };
-        room.job = *job;
+        outer.job = *job;
         self.sender.publish()
     }
 
@@ -85,7 +126,9 @@ impl SteeringSeat for OuterLoopSeat<'_> {
         let Some(back) = self.sender.done() else {
             return false;
         };
-        *outcome = back.outcome;
+        if let Some(outer) = back.outer() {
+            *outcome = outer.outcome;
+        }
         self.sender.clear();
         true
     }
@@ -93,26 +136,28 @@ impl SteeringSeat for OuterLoopSeat<'_> {
 
 /// The outer loop's end in a lower-priority task (see the module doc).
 pub struct SteeringWorker<'a> {
-    receiver: Receiver<'a, OuterLoop>,
+    receiver: Receiver<'a, OuterLoopRoom>,
 }
 
 impl<'a> SteeringWorker<'a> {
-    pub(crate) fn new(receiver: Receiver<'a, OuterLoop>) -> Self {
+    pub(crate) fn new(receiver: Receiver<'a, OuterLoopRoom>) -> Self {
         Self { receiver }
     }
 
     /// Runs the job the control side lent, if one waits, and hands the outer loop back;
     /// true if it ran one. Never panics or waits.
     pub fn run(&mut self) -> bool {
-        let Some(lent) = self.receiver.staged_mut() else {
+        let Some(room) = self.receiver.staged_mut() else {
             return false;
         };
-        let OuterLoop {
+        if let Some(OuterLoop {
             steering,
             job,
             outcome,
-        } = lent;
-        steering.run(job, outcome);
+        }) = room.outer_mut()
+        {
+            steering.run(job, outcome);
+        }
         self.receiver.finish();
         true
     }

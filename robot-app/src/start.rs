@@ -6,13 +6,13 @@ use controller_core::controller::Controller;
 use controller_core::law::LawKind;
 use controller_core::params::{ParamError, Params};
 use controller_core::reference::Reference;
-use controller_core::steering::SteeringSeat;
+use controller_core::steering::Steering;
 use controller_core::supervisor::{ResetCause, Supervisor, SupervisorConfigError};
 use link::{FieldProblem, ParamSet};
 
 use crate::channel::Channels;
 use crate::control::ControlSide;
-use crate::outer::{OuterLoopSeat, SteeringWorker};
+use crate::outer::{OuterLoopRoom, OuterLoopSeat, SteeringWorker};
 use crate::service::{Identity, LinkOptions, LinkService};
 
 /// Everything the board decides at start.
@@ -65,11 +65,11 @@ pub fn start(
     let supervisor = Supervisor::new(supervisor_config, &params, config.reset)
         .map_err(StartError::Supervisor)?;
     let (link_end, control_end, (outer_sender, outer_receiver)) = channels.split_all();
-    // The outer loop is built in place, in its mailbox (just split, so empty: seated).
+    // The outer loop goes into its room in the channels (just split, so it is the
+    // seat's), built once, at start.
     let mut seat = OuterLoopSeat::new(outer_sender);
-    if let Some(steering) = seat.seated_mut() {
-        steering.follow(&config.reference);
-        steering.restart(&params, config.law);
+    if let Some(room) = seat.room_mut() {
+        *room = OuterLoopRoom::built(Steering::new(&params, config.reference, config.law));
     }
     let controller = Controller::with_seat(params, seat, supervisor_config.start_pose);
     Ok((

@@ -126,8 +126,7 @@ pub fn judge(scenario: &Scenario, outcome: &PilOutcome, host: Option<&RunResult>
         ),
         format!(
             "control interrupt on Cortex-M4F (PIL), any state: max {} instructions (with the \
-             step that arms, which restarts the run and, on a path followed by projection, \
-             searches the whole path once, and the disarmed steps that install a \
+             step that arms, which restarts the run, and the disarmed steps that install a \
              configuration or path)",
             board.control_max_instructions
         ),

@@ -1061,6 +1061,7 @@ pub(crate) mod tests {
         let mut jobs = 0;
         for k in 0..300 {
             assert!(lent.collect_steering(), "step {k}: the outer loop is back");
+            assert_eq!(lent.steering().map(Steering::law), Some(owned.law()));
             let t = ticks(2 + k % 3, 3);
             let duty = step(&mut owned, t);
             assert_eq!(lent.step(StepInput::on_time(t, SUPPLY_V)), duty, "step {k}");

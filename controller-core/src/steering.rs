@@ -13,10 +13,11 @@
 //! control interrupt; and the robot still does exactly what the simulator does.
 //!
 //! Where the outer loop lives is the controller's [`SteeringSeat`]. A
-//! `Controller<Steering>` owns it and runs each job itself at the end of the step that
-//! handed it over (the simulator, the tests). A seat that lends it (the firmware's) leaves
-//! the job for its owner, which moves the `&mut Steering` and the job to a lower-priority
-//! task and seats it again, with the outcome, before the next step.
+//! `Controller<Steering>` owns it and runs each job itself at the start of the next step,
+//! from the due step's state (still in place then) straight into its telemetry (the
+//! simulator, the tests). A seat that lends it (the firmware's) takes the job as a value
+//! and runs it elsewhere, in a lower-priority task, between the two steps; the next step
+//! collects the outcome and copies it into telemetry. Both give the same result.
 //!
 //! ```text
 //!  step k (inner loop)          between k and k+1           step k+1 (inner loop)

@@ -5,8 +5,8 @@
 //! its job and its outcome ([`OuterLoop`]). The control side's controller holds the
 //! mailbox's sending end as its seat ([`OuterLoopSeat`]):
 //!
-//! - By default the control side runs each job itself, at the end of the step that
-//!   handed it over (the virtual robot does this).
+//! - By default the controller runs each job itself, at the start of the next step,
+//!   straight into its telemetry (the virtual robot does this).
 //! - After [`ControlSide::lend_outer_loop`](crate::ControlSide::lend_outer_loop) (the
 //!   firmware does this), a step that hands over a job writes it into the mailbox and
 //!   publishes it; the [`SteeringWorker`], in a lower-priority task, runs it in place and

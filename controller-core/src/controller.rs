@@ -1062,6 +1062,12 @@ pub(crate) mod tests {
         for k in 0..300 {
             assert!(lent.collect_steering(), "step {k}: the outer loop is back");
             assert_eq!(lent.steering().map(Steering::law), Some(owned.law()));
+            if k == 151 {
+                // An external fix between a due step (150) and the next: the job keeps
+                // the pose it was due with, as the lent one did.
+                owned.set_pose(Pose::new(0.3, 0.04, 0.05));
+                lent.set_pose(Pose::new(0.3, 0.04, 0.05));
+            }
             let t = ticks(2 + k % 3, 3);
             let duty = step(&mut owned, t);
             assert_eq!(lent.step(StepInput::on_time(t, SUPPLY_V)), duty, "step {k}");
@@ -1085,6 +1091,29 @@ pub(crate) mod tests {
         // One job every 10 steps.
         assert_eq!(jobs, 30);
         assert!(owned.telemetry().pose.x_m > 0.1);
+    }
+
+    #[test]
+    fn an_owned_outer_loop_is_never_lent_and_never_collected() {
+        // Lending and collecting are for seats that lend: on an owned outer loop they do
+        // nothing, and the controller runs its own jobs.
+        let mut plain = on_a_line(5.0);
+        let mut asked = on_a_line(5.0);
+        plain.set_mode(Mode::FollowPath);
+        asked.set_mode(Mode::FollowPath);
+        for k in 0..50 {
+            assert!(asked.collect_steering(), "seated");
+            if k == 11 {
+                // The job due at step 10 runs aside here; its outcome is applied once.
+                plain.set_pose(Pose::new(0.02, 0.01, 0.0));
+                asked.set_pose(Pose::new(0.02, 0.01, 0.0));
+            }
+            step(&mut plain, ticks(3, 3));
+            step(&mut asked, ticks(3, 3));
+            assert!(!asked.lend_steering(), "step {k}");
+            assert_eq!(asked.telemetry(), plain.telemetry(), "step {k}");
+        }
+        assert!(plain.telemetry().steering_updated || plain.telemetry().command.v_m_s > 0.0);
     }
 
     #[test]

@@ -322,7 +322,7 @@ pub fn firmware_size() -> Step {
 /// from the same call graph, is within its limit.
 pub fn panic_check() -> Step {
     Step::new(
-        "firmware: no panic path from the control and link-USART interrupts (firmware ELF, with a canary), and the stack's worst case",
+        "firmware: no panic path from the control, steering and link-USART interrupts (firmware ELF, with a canary), and the stack's worst case",
         panic_check::check_firmware,
     )
 }

@@ -76,16 +76,7 @@ fn a_lost_and_a_repeated_chunk_then_a_commit_the_controller_follows() {
         })
     );
     // A half-sent path never becomes active.
-    assert_eq!(
-        rig.control
-            .controller()
-            .steering()
-            .expect("seated")
-            .reference()
-            .path()
-            .length_m(),
-        2.0
-    );
+    assert_eq!(rig.active_reference().path().length_m(), 2.0);
 
     // The missing chunk, twice (the host re-sent it after losing the reply).
     for _ in 0..2 {
@@ -112,43 +103,12 @@ fn a_lost_and_a_repeated_chunk_then_a_commit_the_controller_follows() {
 
     // Path, law and start pose reached the controller and the supervisor together.
     let controller = rig.control.controller();
-    assert!(
-        (controller
-            .steering()
-            .expect("seated")
-            .reference()
-            .path()
-            .length_m()
-            - 1.8)
-            .abs()
-            < 1e-5
-    );
+    assert!((rig.active_reference().path().length_m() - 1.8).abs() < 1e-5);
     // Built in the staging area in place, the very segments uploaded, speed and mode.
-    assert_eq!(
-        controller
-            .steering()
-            .expect("seated")
-            .reference()
-            .path()
-            .segments(),
-        &segments()[..]
-    );
-    assert_eq!(
-        controller
-            .steering()
-            .expect("seated")
-            .reference()
-            .speed_m_s(),
-        0.2
-    );
-    assert_eq!(
-        controller.steering().expect("seated").reference().mode(),
-        begin(7).mode
-    );
-    assert_eq!(
-        controller.steering().expect("seated").law(),
-        LawKind::Kanayama
-    );
+    assert_eq!(rig.active_reference().path().segments(), &segments()[..]);
+    assert_eq!(rig.active_reference().speed_m_s(), 0.2);
+    assert_eq!(rig.active_reference().mode(), begin(7).mode);
+    assert_eq!(rig.active_law(), LawKind::Kanayama);
     assert_eq!(controller.pose(), Pose::new(0.0, 0.0, FRAC_PI_2));
     let start = rig.control.supervisor().config().start_pose;
     assert_eq!(start, Pose::new(0.0, 0.0, FRAC_PI_2));
@@ -200,34 +160,14 @@ fn an_upload_is_refused_while_armed_and_completes_after_disarming() {
     assert_eq!(rig.ask(hold), Ok(Reply::Ack));
     assert_eq!(rig.ask(Request::PathBegin(begin(4))), Err(Refusal::Armed));
     assert_eq!(rig.ask(Request::PathCommit(commit(3))), Err(Refusal::Armed));
-    assert_eq!(
-        rig.control
-            .controller()
-            .steering()
-            .expect("seated")
-            .reference()
-            .path()
-            .length_m(),
-        2.0
-    );
+    assert_eq!(rig.active_reference().path().length_m(), 2.0);
     // The refused commit left the upload open.
     assert_eq!(rig.ask(Request::Disarm), Ok(Reply::Ack));
     assert!(matches!(
         rig.ask(Request::PathCommit(commit(3))),
         Ok(Reply::PathCommitted(CommitSummary { upload_id: 3, .. }))
     ));
-    assert!(
-        (rig.control
-            .controller()
-            .steering()
-            .expect("seated")
-            .reference()
-            .path()
-            .length_m()
-            - 1.8)
-            .abs()
-            < 1e-5
-    );
+    assert!((rig.active_reference().path().length_m() - 1.8).abs() < 1e-5);
 }
 
 #[test]
@@ -314,14 +254,7 @@ fn uploads_one_after_another_each_become_active() {
             panic!("upload {id} not committed");
         };
         assert_eq!(summary.segment_count, count as u8);
-        let length = rig
-            .control
-            .controller()
-            .steering()
-            .expect("seated")
-            .reference()
-            .path()
-            .length_m();
+        let length = rig.active_reference().path().length_m();
         assert!((length - 0.3 * count as f32).abs() < 1e-5, "{id}: {length}");
     }
 }
@@ -348,30 +281,10 @@ fn a_configuration_set_during_an_upload_discards_it() {
         rig.ask(Request::PathCommit(commit(9))),
         Err(Refusal::UnknownUpload { upload_id: 9 })
     );
-    assert_eq!(
-        rig.control
-            .controller()
-            .steering()
-            .expect("seated")
-            .reference()
-            .path()
-            .length_m(),
-        2.0
-    );
+    assert_eq!(rig.active_reference().path().length_m(), 2.0);
     assert!(matches!(
         upload(&mut rig, 9, &segments()),
         Ok(Reply::PathCommitted(_))
     ));
-    assert!(
-        (rig.control
-            .controller()
-            .steering()
-            .expect("seated")
-            .reference()
-            .path()
-            .length_m()
-            - 1.8)
-            .abs()
-            < 1e-5
-    );
+    assert!((rig.active_reference().path().length_m() - 1.8).abs() < 1e-5);
 }

@@ -214,6 +214,24 @@ impl<'a> Rig<'a> {
         rig
     }
 
+    /// The reference the controller follows (its outer loop is seated between steps).
+    pub fn active_reference(&self) -> &Reference {
+        self.control
+            .controller()
+            .steering()
+            .expect("the outer loop is seated between steps")
+            .reference()
+    }
+
+    /// The steering law the controller follows it with.
+    pub fn active_law(&self) -> LawKind {
+        self.control
+            .controller()
+            .steering()
+            .expect("the outer loop is seated between steps")
+            .law()
+    }
+
     /// Sends `request` under a fresh `seq`; returns the seq.
     pub fn send(&mut self, request: Request) -> u16 {
         let seq = self.fresh_seq();

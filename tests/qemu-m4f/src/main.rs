@@ -70,14 +70,14 @@ fn main() -> ! {
         ppm % 1_000_000
     );
 
-    // Every step a steering step: each runs the law and applies the outcome of the
-    // previous one's, so step 0 (which has none to apply) runs untimed.
+    // Every step a steering step: each runs the law on the job the previous step handed
+    // over and applies its outcome, so step 0 (which has none) runs untimed.
     let mut every_step = controller(&scenario, 1);
     timing::controller_step(&mut every_step, TickDeltas::default());
     expect_steering(&every_step, &recorded, true);
     let full = timing::per_call_tenths(&calibration, &every_step, &recorded);
-    // The law runs at step 0 only (then not for 2³² − 1 steps), and step 1 applies its
-    // outcome: run both untimed, then every timed step is a wheel step.
+    // The law is due at step 0 only (then not for 2³² − 1 steps), and step 1 runs and
+    // applies it: run both untimed, then every timed step is a wheel step.
     let mut wheel_only = controller(&scenario, u32::MAX);
     timing::controller_step(&mut wheel_only, TickDeltas::default());
     timing::controller_step(&mut wheel_only, TickDeltas::default());

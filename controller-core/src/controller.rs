@@ -39,9 +39,7 @@ use crate::odometry::Odometry;
 use crate::params::Params;
 use crate::pid::PidParts;
 use crate::reference::{Reference, ReferenceState};
-use crate::steering::{
-    JobParts, Steering, SteeringAway, SteeringJob, SteeringOutcome, SteeringSeat,
-};
+use crate::steering::{Steering, SteeringAway, SteeringJob, SteeringOutcome, SteeringSeat};
 
 /// Signed encoder ticks counted during one step, forward positive.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -315,10 +313,7 @@ impl<S: SteeringSeat> Controller<S> {
         law: LawKind,
         start: Pose,
     ) -> Result<(), SteeringAway> {
-        self.steering.seated().ok_or(SteeringAway)?;
-        self.run_due_job_aside();
-        let steering = self.steering.seated_mut().ok_or(SteeringAway)?;
-        steering.restart(params, law);
+        self.outer_loop_for_a_change()?.restart(params, law);
         self.params = *params;
         self.restart_from_params(start);
         Ok(())
@@ -332,11 +327,10 @@ impl<S: SteeringSeat> Controller<S> {
         law: LawKind,
         start: Pose,
     ) -> Result<(), SteeringAway> {
-        self.steering.seated().ok_or(SteeringAway)?;
-        self.run_due_job_aside();
-        let steering = self.steering.seated_mut().ok_or(SteeringAway)?;
-        steering.follow(reference);
-        steering.restart(&self.params, law);
+        self.outer_loop_for_a_change()?.follow(reference);
+        if let Some(steering) = self.steering.seated_mut() {
+            steering.restart(&self.params, law);
+        }
         self.restart_from_params(start);
         Ok(())
     }
@@ -473,9 +467,7 @@ impl<S: SteeringSeat> Controller<S> {
     /// Selects another steering law (takes effect at the next steering step). Refused
     /// while the outer loop is lent.
     pub fn set_law(&mut self, law: LawKind) -> Result<(), SteeringAway> {
-        self.steering.seated().ok_or(SteeringAway)?;
-        self.run_due_job_aside();
-        self.steering.seated_mut().ok_or(SteeringAway)?.set_law(law);
+        self.outer_loop_for_a_change()?.set_law(law);
         Ok(())
     }
 
@@ -693,6 +685,14 @@ impl<S: SteeringSeat> Controller<S> {
         }
     }
 
+    /// The outer loop, to change it: refused while it is lent; a due job runs first, on
+    /// the outer loop as it was (see [`Controller::run_due_job_aside`]).
+    fn outer_loop_for_a_change(&mut self) -> Result<&mut Steering, SteeringAway> {
+        self.steering.seated().ok_or(SteeringAway)?;
+        self.run_due_job_aside();
+        self.steering.seated_mut().ok_or(SteeringAway)
+    }
+
     /// The due job went to the outer loop, with the restarts it carried.
     fn job_taken(&mut self) {
         self.job_due = false;
@@ -705,26 +705,15 @@ impl<S: SteeringSeat> Controller<S> {
     /// lent outer loop. True if there was one.
     fn steering_outcome_into_telemetry(&mut self) -> bool {
         if self.job_due && self.steering.runs_jobs() {
-            let cap = self.rim_speed_cap_m_s();
-            let elapsed = self.job_elapsed_periods;
-            let (restart_reference, restart_limiter_from) =
-                (self.restart_reference, self.restart_limiter_from);
-            let heading = self.odometry.heading_sin_cos();
+            let job = self.steering_job();
             if let Some(steering) = self.steering.seated_mut() {
                 let t = &mut self.telemetry;
-                steering.run_parts(
-                    JobParts {
-                        pose: &t.pose,
-                        heading_sin_cos: heading,
-                        elapsed_periods: elapsed,
-                        rim_speed_cap_m_s: cap,
-                        restart_reference,
-                        restart_limiter_from,
-                    },
+                steering.run_into(
+                    &job,
                     (&mut t.reference, &mut t.error, &mut t.law),
                     (&mut t.command, &mut t.limit_flags),
                 );
-                t.rim_speed_cap_m_s = cap;
+                t.rim_speed_cap_m_s = job.rim_speed_cap_m_s;
                 self.job_taken();
                 return true;
             }

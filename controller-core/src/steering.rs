@@ -54,16 +54,6 @@ pub struct SteeringJob {
     pub epoch: u32,
 }
 
-/// A job's parts, borrowed where they are (see [`Steering::run`]).
-pub(crate) struct JobParts<'a> {
-    pub(crate) pose: &'a Pose,
-    pub(crate) heading_sin_cos: (f32, f32),
-    pub(crate) elapsed_periods: u32,
-    pub(crate) rim_speed_cap_m_s: f32,
-    pub(crate) restart_reference: bool,
-    pub(crate) restart_limiter_from: Option<BodyVelocity>,
-}
-
 /// What the outer loop hands back: the steering law's command after its limits, and how
 /// it got there (for telemetry).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -203,15 +193,8 @@ impl Steering {
     /// restarted with. Never panics; a non-finite input gives a non-finite command, which
     /// the inner loop latches as a fault when it applies it.
     pub fn run(&mut self, job: &SteeringJob, outcome: &mut SteeringOutcome) {
-        self.run_parts(
-            JobParts {
-                pose: &job.pose,
-                heading_sin_cos: job.heading_sin_cos,
-                elapsed_periods: job.elapsed_periods,
-                rim_speed_cap_m_s: job.rim_speed_cap_m_s,
-                restart_reference: job.restart_reference,
-                restart_limiter_from: job.restart_limiter_from,
-            },
+        self.run_into(
+            job,
             (&mut outcome.reference, &mut outcome.error, &mut outcome.law),
             (&mut outcome.command, &mut outcome.limit_flags),
         );
@@ -219,12 +202,11 @@ impl Steering {
         outcome.epoch = job.epoch;
     }
 
-    /// [`Steering::run`] on a job's parts where they are, writing each part of the
-    /// outcome where it is wanted (the controller's telemetry, when it runs its jobs
-    /// itself: nothing copied either way).
-    pub(crate) fn run_parts(
+    /// [`Steering::run`], writing each part of the outcome where it is wanted (the
+    /// controller's telemetry, when it runs its jobs itself: no copy of the outcome).
+    pub(crate) fn run_into(
         &mut self,
-        job: JobParts<'_>,
+        job: &SteeringJob,
         (reference, error, law): (&mut ReferenceState, &mut TrackingError, &mut LawOutput),
         (command, limit_flags): (&mut BodyVelocity, &mut LimitFlags),
     ) {
@@ -237,9 +219,9 @@ impl Steering {
         let p = &self.params;
         *reference = self
             .reference
-            .sample(job.elapsed_periods, p.control_rate, job.pose);
-        *error = tracking_error_with_heading(job.pose, job.heading_sin_cos, &reference.pose);
-        *law = law::steer_with_error(self.law, &p.gains, job.pose, reference, *error);
+            .sample(job.elapsed_periods, p.control_rate, &job.pose);
+        *error = tracking_error_with_heading(&job.pose, job.heading_sin_cos, &reference.pose);
+        *law = law::steer_with_error(self.law, &p.gains, &job.pose, reference, *error);
         (*command, *limit_flags) = self.limiter.apply(
             law.command,
             p.steering_period_s,

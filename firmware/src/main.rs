@@ -136,14 +136,15 @@ mod app {
             Ok(sides) => sides,
             Err(_) => defmt::panic!("the configuration in force is invalid"),
         };
-        // The steering law runs in its own task, below the control task.
-        let Some(steering) = control.lend_outer_loop() else {
-            defmt::panic!("the outer loop was lent already");
-        };
+        // Built in the channels at start, so seated until the first lent job.
         let law = control
             .controller()
             .steering()
             .map_or("(lent)", |s| s.law().name());
+        // The steering law runs in its own task, below the control task.
+        let Some(steering) = control.lend_outer_loop() else {
+            defmt::panic!("the outer loop was lent already");
+        };
         defmt::info!(
             "boot: reset cause {}, path {}, law {=str}, {} when armed, link {=u32} Bd, tasks timed in {=str}",
             board.reset,

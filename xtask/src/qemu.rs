@@ -23,7 +23,7 @@ use crate::steps::{build_target_executables, display_command, Context};
 
 /// The budget of a full control step (steering law included) on the M4F, instructions.
 pub const CONTROL_STEP_BUDGET: u64 = 1000;
-/// What CI enforces: the measured figure (1 039 since the steering law's outcome is
+/// What CI enforces: the measured figure (1 042 since the steering law's outcome is
 /// handed over one period later, a job and a step apart; 989 before) plus a margin. The
 /// budget is printed beside it, met or not.
 pub const CONTROL_STEP_LIMIT: u64 = 1050;

@@ -937,6 +937,9 @@ mod tests {
         // An event.
         let armed = board_step(Some(Event::Armed(RunMode::FollowPath)), false);
         assert!(send(&armed) > 10);
+        // The step after the event: compact again, and the event is not repeated.
+        let after_event = board_step(None, false);
+        assert_eq!(send(&after_event), 10);
         // A counter changed.
         let mut late = board_step(None, false);
         late.missed_ticks_total += 3;
@@ -946,7 +949,7 @@ mod tests {
         // Every step comes out whole, the quiet one with the last details.
         assert_eq!(
             got,
-            [first, quiet, steering, armed, late].map(FromBoard::Step)
+            [first, quiet, steering, armed, after_event, late].map(FromBoard::Step)
         );
     }
 

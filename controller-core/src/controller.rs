@@ -39,7 +39,7 @@ use crate::odometry::Odometry;
 use crate::params::Params;
 use crate::pid::PidParts;
 use crate::reference::{Reference, ReferenceState};
-use crate::steering::{Steering, SteeringAway, SteeringJob, SteeringOutcome, SteeringSeat};
+use crate::steering::{Steering, SteeringAway, SteeringJob, SteeringSeat};
 
 /// Signed encoder ticks counted during one step, forward positive.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -229,7 +229,8 @@ pub struct Controller<S = Steering> {
     job_elapsed_periods: u32,
     /// The outcome in telemetry starts a new set-point ramp in this step.
     outcome_in_telemetry: bool,
-    /// `handed_over` waits to be applied.
+    /// The outer loop's [`Steering::outcome`] waits to be applied (a lent outer loop's,
+    /// or one run aside).
     outcome_ready: bool,
     /// Counts restarts of the loops: an outcome of a job from before the last restart is
     /// stale.
@@ -241,9 +242,6 @@ pub struct Controller<S = Steering> {
     restart_limiter_from: Option<BodyVelocity>,
     speed: [SpeedEstimator; 2],
     params: Params,
-    /// The steering law's outcome, applied at the next step (a lent outer loop's, or one
-    /// run aside). Last but the outer loop: it is not touched in most steps.
-    handed_over: SteeringOutcome,
     /// The outer loop, or where it is when lent.
     steering: S,
 }
@@ -288,7 +286,6 @@ impl<S: SteeringSeat> Controller<S> {
             job_due: false,
             job_elapsed_periods: 0,
             outcome_in_telemetry: false,
-            handed_over: SteeringOutcome::default(),
             outcome_ready: false,
             epoch: 0,
             restart_reference: false,
@@ -360,7 +357,6 @@ impl<S: SteeringSeat> Controller<S> {
         self.job_due = false;
         self.job_elapsed_periods = 0;
         self.outcome_in_telemetry = false;
-        self.handed_over = SteeringOutcome::default();
         self.outcome_ready = false;
         self.epoch = 0;
         self.restart_reference = false;
@@ -411,8 +407,11 @@ impl<S: SteeringSeat> Controller<S> {
     /// faults: then it is stale and dropped). Call it before the step. False when the
     /// outer loop is still away.
     pub fn collect_steering(&mut self) -> bool {
-        if self.steering.collect(&mut self.handed_over) {
-            self.outcome_ready = self.handed_over.epoch == self.epoch;
+        if self.steering.collect() {
+            self.outcome_ready = self
+                .steering
+                .seated()
+                .is_some_and(|s| s.outcome().epoch == self.epoch);
         }
         self.steering.seated().is_some()
     }
@@ -701,8 +700,8 @@ impl<S: SteeringSeat> Controller<S> {
     }
 
     /// At the start of a step: the outcome of the last step's job into telemetry, run
-    /// here directly into it when this controller runs its jobs, or as handed over by a
-    /// lent outer loop. True if there was one.
+    /// here directly into it when this controller runs its jobs, or as a lent outer loop
+    /// came back with it. True if there was one.
     fn steering_outcome_into_telemetry(&mut self) -> bool {
         if self.job_due && self.steering.runs_jobs() {
             let job = self.steering_job();
@@ -726,10 +725,13 @@ impl<S: SteeringSeat> Controller<S> {
         false
     }
 
-    /// The outcome a lent outer loop handed over (or one run aside), one step after its
-    /// job: into telemetry.
+    /// The outcome a lent outer loop came back with (or one run aside), one step after its
+    /// job: from the outer loop into telemetry (seated again, or it ran aside, before
+    /// this step).
     fn apply_steering(&mut self) {
-        let outcome = &self.handed_over;
+        let Some(outcome) = self.steering.seated().map(Steering::outcome) else {
+            return;
+        };
         let t = &mut self.telemetry;
         t.rim_speed_cap_m_s = outcome.rim_speed_cap_m_s;
         t.reference = outcome.reference;
@@ -762,7 +764,7 @@ impl<S: SteeringSeat> Controller<S> {
         }
         let job = self.steering_job();
         if let Some(steering) = self.steering.seated_mut() {
-            steering.run(&job, &mut self.handed_over);
+            steering.run(&job);
             self.job_taken();
             self.outcome_ready = true;
         }
@@ -959,8 +961,9 @@ pub(crate) mod tests {
             epoch: c.epoch,
         };
         assert_eq!(c.steering_job(), job);
-        let mut expected = SteeringOutcome::default();
-        outer.run(&job, &mut expected);
+        outer.run(&job);
+        let expected = *outer.outcome();
+        assert_eq!(expected.epoch, job.epoch);
         let setpoint_before = c.telemetry().wheel_setpoint;
         step(&mut c, ticks(4, 4));
         let t = c.telemetry();
@@ -980,15 +983,15 @@ pub(crate) mod tests {
     #[derive(Clone, Debug)]
     struct Lending {
         home: Option<Steering>,
-        /// Lent: the outer loop, its job, its outcome, and whether it ran.
-        away: Option<(Steering, SteeringJob, SteeringOutcome, bool)>,
+        /// Lent: the outer loop, its job, and whether it ran.
+        away: Option<(Steering, SteeringJob, bool)>,
     }
 
     impl Lending {
         /// Runs the lent job.
         fn run_away(&mut self) {
-            let (steering, job, outcome, ran) = self.away.as_mut().expect("lent");
-            steering.run(job, outcome);
+            let (steering, job, ran) = self.away.as_mut().expect("lent");
+            steering.run(job);
             *ran = true;
         }
     }
@@ -1010,15 +1013,14 @@ pub(crate) mod tests {
             let Some(steering) = self.home.take() else {
                 return false;
             };
-            self.away = Some((steering, *job, SteeringOutcome::default(), false));
+            self.away = Some((steering, *job, false));
             true
         }
 
-        fn collect(&mut self, outcome: &mut SteeringOutcome) -> bool {
+        fn collect(&mut self) -> bool {
             match self.away.take() {
-                Some((steering, _, ran, true)) => {
+                Some((steering, _, true)) => {
                     self.home = Some(steering);
-                    *outcome = ran;
                     true
                 }
                 still_away => {

@@ -16,8 +16,10 @@
 //! `Controller<Steering>` owns it and runs each job itself at the start of the next step,
 //! from the due step's state (still in place then) straight into its telemetry (the
 //! simulator, the tests). A seat that lends it (the firmware's) takes the job as a value
-//! and runs it elsewhere, in a lower-priority task, between the two steps; the next step
-//! collects the outcome and copies it into telemetry. Both give the same result.
+//! and runs it elsewhere, in a lower-priority task, between the two steps; the outcome
+//! stays with the outer loop ([`Steering::outcome`]), and the next step seats the outer
+//! loop again and copies the outcome from there into telemetry. Both give the same
+//! result.
 //!
 //! ```text
 //!  step k (inner loop)          between k and k+1           step k+1 (inner loop)
@@ -94,10 +96,9 @@ pub trait SteeringSeat {
         let _ = job;
         false
     }
-    /// Seats the outer loop again if it has come back, writing the outcome of the job it
-    /// ran to `outcome`; false when it has not come back (or was never lent).
-    fn collect(&mut self, outcome: &mut SteeringOutcome) -> bool {
-        let _ = outcome;
+    /// Seats the outer loop again if it has come back (with the outcome of the job it ran
+    /// in [`Steering::outcome`]); false when it has not come back (or was never lent).
+    fn collect(&mut self) -> bool {
         false
     }
 }
@@ -139,13 +140,14 @@ impl SteeringParams {
 }
 
 /// The outer loop's state: the reference being followed, the law and its gains, the
-/// limiter's last command.
+/// limiter's last command, and the outcome of the last job [`Steering::run`] ran.
 #[derive(Clone, Debug)]
 pub struct Steering {
     law: LawKind,
     params: SteeringParams,
     limiter: CommandLimiter,
     reference: Reference,
+    outcome: SteeringOutcome,
 }
 
 impl Steering {
@@ -156,6 +158,7 @@ impl Steering {
             params: SteeringParams::of(params),
             limiter: CommandLimiter::new(params.config().limits),
             reference,
+            outcome: SteeringOutcome::default(),
         }
     }
 
@@ -188,12 +191,21 @@ impl Steering {
         &self.reference
     }
 
-    /// One steering update for `job`, written to `outcome` (in place: it is 100 bytes),
-    /// with the geometry, rates, gains and limits of the parameters it was built or
-    /// restarted with. Never panics; a non-finite input gives a non-finite command, which
-    /// the inner loop latches as a fault when it applies it.
-    pub fn run(&mut self, job: &SteeringJob, outcome: &mut SteeringOutcome) {
-        self.run_into(
+    /// One steering update for `job`, into [`Steering::outcome`] (kept here, where a lent
+    /// outer loop comes back with it: the 100 bytes are copied once, into the inner loop's
+    /// telemetry), with the geometry, rates, gains and limits of the parameters it was
+    /// built or restarted with. Never panics; a non-finite input gives a non-finite
+    /// command, which the inner loop latches as a fault when it applies it.
+    pub fn run(&mut self, job: &SteeringJob) {
+        let Self {
+            law,
+            params,
+            limiter,
+            reference,
+            outcome,
+        } = self;
+        update(
+            (*law, params, limiter, reference),
             job,
             (&mut outcome.reference, &mut outcome.error, &mut outcome.law),
             (&mut outcome.command, &mut outcome.limit_flags),
@@ -202,31 +214,60 @@ impl Steering {
         outcome.epoch = job.epoch;
     }
 
+    /// The outcome of the last job [`Steering::run`] ran (a job the controller runs
+    /// straight into its telemetry is not kept here).
+    pub const fn outcome(&self) -> &SteeringOutcome {
+        &self.outcome
+    }
+
     /// [`Steering::run`], writing each part of the outcome where it is wanted (the
     /// controller's telemetry, when it runs its jobs itself: no copy of the outcome).
     pub(crate) fn run_into(
         &mut self,
         job: &SteeringJob,
-        (reference, error, law): (&mut ReferenceState, &mut TrackingError, &mut LawOutput),
-        (command, limit_flags): (&mut BodyVelocity, &mut LimitFlags),
+        law_parts: (&mut ReferenceState, &mut TrackingError, &mut LawOutput),
+        command_parts: (&mut BodyVelocity, &mut LimitFlags),
     ) {
-        if job.restart_reference {
-            self.reference.restart();
-        }
-        if let Some(from) = job.restart_limiter_from {
-            self.limiter.reset(from);
-        }
-        let p = &self.params;
-        *reference = self
-            .reference
-            .sample(job.elapsed_periods, p.control_rate, &job.pose);
-        *error = tracking_error_with_heading(&job.pose, job.heading_sin_cos, &reference.pose);
-        *law = law::steer_with_error(self.law, &p.gains, &job.pose, reference, *error);
-        (*command, *limit_flags) = self.limiter.apply(
-            law.command,
-            p.steering_period_s,
-            p.track_width_m,
-            job.rim_speed_cap_m_s,
+        update(
+            (
+                self.law,
+                &self.params,
+                &mut self.limiter,
+                &mut self.reference,
+            ),
+            job,
+            law_parts,
+            command_parts,
         );
     }
+}
+
+/// One steering update of the outer loop `(law, params, limiter, reference)` for `job`,
+/// each part of the outcome written where the caller wants it.
+fn update(
+    (law_kind, p, limiter, path): (
+        LawKind,
+        &SteeringParams,
+        &mut CommandLimiter,
+        &mut Reference,
+    ),
+    job: &SteeringJob,
+    (reference, error, law): (&mut ReferenceState, &mut TrackingError, &mut LawOutput),
+    (command, limit_flags): (&mut BodyVelocity, &mut LimitFlags),
+) {
+    if job.restart_reference {
+        path.restart();
+    }
+    if let Some(from) = job.restart_limiter_from {
+        limiter.reset(from);
+    }
+    *reference = path.sample(job.elapsed_periods, p.control_rate, &job.pose);
+    *error = tracking_error_with_heading(&job.pose, job.heading_sin_cos, &reference.pose);
+    *law = law::steer_with_error(law_kind, &p.gains, &job.pose, reference, *error);
+    (*command, *limit_flags) = limiter.apply(
+        law.command,
+        p.steering_period_s,
+        p.track_width_m,
+        job.rim_speed_cap_m_s,
+    );
 }

@@ -10,21 +10,21 @@
 //! - After [`ControlSide::lend_outer_loop`](crate::ControlSide::lend_outer_loop) (the
 //!   firmware does this), a step that hands over a job writes it into the mailbox and
 //!   publishes it; the [`SteeringWorker`], in a lower-priority task, runs it in place and
-//!   hands the mailbox back; the next step collects the outcome.
+//!   hands the mailbox back; the next step seats it again and applies the outcome it
+//!   keeps.
 //!
 //! Both give the same result (the hand-over is one period either way), and nothing is
-//! copied but the 44-byte job in and the 100-byte outcome out: the outer loop itself,
-//! path and all, stays where it is.
+//! copied but the 44-byte job in and, once, the 100-byte outcome from the outer loop into
+//! the controller's telemetry: the outer loop itself, path and all, stays where it is.
 
-use controller_core::steering::{Steering, SteeringJob, SteeringOutcome, SteeringSeat};
+use controller_core::steering::{Steering, SteeringJob, SteeringSeat};
 
 use crate::channel::mailbox::{Receiver, Sender};
 
-/// The outer loop with room for its job and its outcome.
+/// The outer loop (which keeps its outcome) with room for its job.
 pub struct OuterLoop {
     steering: Steering,
     job: SteeringJob,
-    outcome: SteeringOutcome,
 }
 
 /// The outer loop's room in the [`Channels`](crate::Channels): empty until
@@ -47,7 +47,6 @@ impl OuterLoopRoom {
         Self::Built(OuterLoop {
             steering,
             job: SteeringJob::default(),
-            outcome: SteeringOutcome::default(),
         })
     }
 
@@ -122,12 +121,9 @@ impl SteeringSeat for OuterLoopSeat<'_> {
         self.sender.publish()
     }
 
-    fn collect(&mut self, outcome: &mut SteeringOutcome) -> bool {
-        let Some(back) = self.sender.done() else {
+    fn collect(&mut self) -> bool {
+        if self.sender.done().is_none() {
             return false;
-        };
-        if let Some(outer) = back.outer() {
-            *outcome = outer.outcome;
         }
         self.sender.clear();
         true
@@ -150,13 +146,8 @@ impl<'a> SteeringWorker<'a> {
         let Some(room) = self.receiver.staged_mut() else {
             return false;
         };
-        if let Some(OuterLoop {
-            steering,
-            job,
-            outcome,
-        }) = room.outer_mut()
-        {
-            steering.run(job, outcome);
+        if let Some(OuterLoop { steering, job }) = room.outer_mut() {
+            steering.run(job);
         }
         self.receiver.finish();
         true

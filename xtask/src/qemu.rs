@@ -23,10 +23,11 @@ use crate::steps::{build_target_executables, display_command, Context};
 
 /// The budget of a full control step (steering law included) on the M4F, instructions.
 pub const CONTROL_STEP_BUDGET: u64 = 1000;
-/// What CI enforces: the measured figure (1 042 since the steering law's outcome is
-/// handed over one period later, a job and a step apart; 989 before) plus a margin. The
-/// budget is printed beside it, met or not.
-pub const CONTROL_STEP_LIMIT: u64 = 1050;
+/// What CI enforces: the measured figure (1 056 since the outer loop keeps its outcome,
+/// which took 300 instructions off the firmware's control interrupt; 1 042 before that,
+/// 989 before the outcome was handed over one period later) plus a margin. The budget is
+/// printed beside it, met or not.
+pub const CONTROL_STEP_LIMIT: u64 = 1075;
 /// The whole QEMU run takes well under a second; this only catches a hung guest.
 const TIMEOUT: Duration = Duration::from_secs(120);
 

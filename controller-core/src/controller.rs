@@ -407,13 +407,12 @@ impl<S: SteeringSeat> Controller<S> {
     /// faults: then it is stale and dropped). Call it before the step. False when the
     /// outer loop is still away.
     pub fn collect_steering(&mut self) -> bool {
-        if self.steering.collect() {
-            self.outcome_ready = self
-                .steering
-                .seated()
-                .is_some_and(|s| s.outcome().epoch == self.epoch);
+        let came_back = self.steering.collect();
+        let seated = self.steering.seated();
+        if came_back {
+            self.outcome_ready = seated.is_some_and(|s| s.outcome().epoch == self.epoch);
         }
-        self.steering.seated().is_some()
+        seated.is_some()
     }
 
     /// Odometry pose estimate, world frame.

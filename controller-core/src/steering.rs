@@ -17,7 +17,7 @@
 //! from the due step's state (still in place then) straight into its telemetry (the
 //! simulator, the tests). A seat that lends it (the firmware's) takes the job as a value
 //! and runs it elsewhere, in a lower-priority task, between the two steps; the outcome
-//! stays with the outer loop ([`Steering::outcome`]), and the next step seats the outer
+//! stays with the outer loop (`Steering::outcome`), and the next step seats the outer
 //! loop again and copies the outcome from there into telemetry. Both give the same
 //! result.
 //!
@@ -97,7 +97,7 @@ pub trait SteeringSeat {
         false
     }
     /// Seats the outer loop again if it has come back (with the outcome of the job it ran
-    /// in [`Steering::outcome`]); false when it has not come back (or was never lent).
+    /// in `Steering::outcome`); false when it has not come back (or was never lent).
     fn collect(&mut self) -> bool {
         false
     }
@@ -191,7 +191,7 @@ impl Steering {
         &self.reference
     }
 
-    /// One steering update for `job`, into [`Steering::outcome`] (kept here, where a lent
+    /// One steering update for `job`, into `Steering::outcome` (kept here, where a lent
     /// outer loop comes back with it: the 100 bytes are copied once, into the inner loop's
     /// telemetry), with the geometry, rates, gains and limits of the parameters it was
     /// built or restarted with. Never panics; a non-finite input gives a non-finite
@@ -215,8 +215,9 @@ impl Steering {
     }
 
     /// The outcome of the last job [`Steering::run`] ran (a job the controller runs
-    /// straight into its telemetry is not kept here).
-    pub const fn outcome(&self) -> &SteeringOutcome {
+    /// straight into its telemetry is not kept here, so this is for the controller
+    /// only: its telemetry is where the outcome in force is).
+    pub(crate) const fn outcome(&self) -> &SteeringOutcome {
         &self.outcome
     }
 

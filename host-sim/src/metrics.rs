@@ -18,7 +18,7 @@
 //!   reference, at its steering updates. The two differ when the robot is not what the
 //!   controller believes (mismatch, slip), which no feedback on odometry alone can see.
 
-use controller_core::supervisor::{Faults, State};
+use controller_core::supervisor::{Fault, Faults, State};
 use robot_app::metrics::ErrorSummary;
 use serde::Serialize;
 
@@ -91,25 +91,7 @@ impl SupervisorReport {
 
 /// The names of the faults set in `faults` (the supervisor's and the core's).
 pub fn fault_names(faults: &Faults) -> Vec<&'static str> {
-    let flags = [
-        (faults.core.encoder_jump, "encoder_jump"),
-        (faults.core.non_finite, "non_finite"),
-        (faults.overrun, "overrun"),
-        (faults.missed_ticks, "missed_ticks"),
-        (faults.stall_left, "stall_left"),
-        (faults.stall_right, "stall_right"),
-        (faults.saturated, "saturated"),
-        (faults.divergence, "divergence"),
-        (faults.geofence, "geofence"),
-        (faults.supply_low, "supply_low"),
-        (faults.supply_high, "supply_high"),
-        (faults.emergency_stop, "emergency_stop"),
-    ];
-    flags
-        .iter()
-        .filter(|(set, _)| *set)
-        .map(|(_, name)| *name)
-        .collect()
+    faults.iter().map(Fault::name).collect()
 }
 
 /// What one injected fault did.
@@ -240,10 +222,10 @@ mod tests {
 
     #[test]
     fn fault_names_list_what_is_set() {
-        let mut f = Faults::default();
+        let mut f = Faults::NONE;
         assert!(fault_names(&f).is_empty());
-        f.stall_left = true;
-        f.core.encoder_jump = true;
+        f.set(Fault::StallLeft);
+        f.set(Fault::EncoderJump);
         assert_eq!(fault_names(&f), vec!["encoder_jump", "stall_left"]);
     }
 }

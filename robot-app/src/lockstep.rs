@@ -33,7 +33,7 @@
 
 use core::num::NonZeroU32;
 
-use controller_core::controller::{FaultFlags, MotorCommand, TickDeltas};
+use controller_core::controller::{MotorCommand, TickDeltas};
 use controller_core::kinematics::{Pose, TrackingError};
 use controller_core::supervisor::{Bridge, DisarmReason, Event, Faults, RunMode, State};
 
@@ -290,22 +290,7 @@ struct Details {
 
 impl Details {
     const NONE: Details = Details {
-        faults: Faults {
-            core: FaultFlags {
-                encoder_jump: false,
-                non_finite: false,
-            },
-            overrun: false,
-            missed_ticks: false,
-            stall_left: false,
-            stall_right: false,
-            saturated: false,
-            divergence: false,
-            geofence: false,
-            supply_low: false,
-            supply_high: false,
-            emergency_stop: false,
-        },
+        faults: Faults::NONE,
         event: None,
         missed_ticks_total: 0,
         overruns_total: 0,
@@ -351,7 +336,7 @@ impl BoardEncoder {
     /// ran, an event happened, or the faults or counters changed.
     pub fn encode(&mut self, step: &BoardStep, out: &mut [u8; BOARD_STEP_MAX_LEN]) -> usize {
         let counters = (
-            fault_bits(&step.faults),
+            step.faults.bits(),
             step.missed_ticks_total,
             step.overruns_total,
         );
@@ -425,7 +410,7 @@ fn read_head(r: &mut Reader<'_>) -> Option<Option<Head>> {
 
 /// Reads the details; `None` inside when the event's code is out of range.
 fn read_details(r: &mut Reader<'_>) -> Option<Option<Details>> {
-    let faults = faults_from(r.u16()?);
+    let faults = Faults::from_bits(r.u16()?);
     let event = event_from([r.u8()?, r.u8()?]);
     let missed_ticks_total = r.varint()?;
     let overruns_total = r.varint()?;
@@ -785,56 +770,10 @@ const fn event_from(code: [u8; 2]) -> Option<Option<Event>> {
     Some(Some(event))
 }
 
-/// The fault flags as bits, in the order of [`Faults`]' fields.
-const fn fault_bits(f: &Faults) -> u16 {
-    let flags = [
-        f.core.encoder_jump,
-        f.core.non_finite,
-        f.overrun,
-        f.missed_ticks,
-        f.stall_left,
-        f.stall_right,
-        f.saturated,
-        f.divergence,
-        f.geofence,
-        f.supply_low,
-        f.supply_high,
-        f.emergency_stop,
-    ];
-    let mut bits = 0u16;
-    let mut i = 0;
-    while i < flags.len() {
-        if flags[i] {
-            bits |= 1 << i;
-        }
-        i += 1;
-    }
-    bits
-}
-
-fn faults_from(bits: u16) -> Faults {
-    let bit = |i: u32| bits & (1 << i) != 0;
-    Faults {
-        core: FaultFlags {
-            encoder_jump: bit(0),
-            non_finite: bit(1),
-        },
-        overrun: bit(2),
-        missed_ticks: bit(3),
-        stall_left: bit(4),
-        stall_right: bit(5),
-        saturated: bit(6),
-        divergence: bit(7),
-        geofence: bit(8),
-        supply_low: bit(9),
-        supply_high: bit(10),
-        emergency_stop: bit(11),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use controller_core::supervisor::Fault;
     use std::vec::Vec;
 
     fn step(left: i32, right: i32, periods: u32, button_pressed: bool) -> PlantStep {
@@ -861,15 +800,10 @@ mod tests {
             bridge: Bridge::Brake,
             state: State::Faulted,
             run_mode: RunMode::HoldWheelSpeeds,
-            faults: Faults {
-                stall_left: true,
-                emergency_stop: true,
-                core: FaultFlags {
-                    encoder_jump: false,
-                    non_finite: true,
-                },
-                ..Faults::default()
-            },
+            faults: Faults::NONE
+                .with(Fault::StallLeft)
+                .with(Fault::EmergencyStop)
+                .with(Fault::NonFinite),
             battery_low: true,
             event,
             missed_ticks_total: 12,
@@ -986,13 +920,23 @@ mod tests {
             .map(|&e| FromBoard::Step(board_step(e, true)))
             .collect();
         assert_eq!(got, expected);
-        // Each fault flag has its own bit.
-        for i in 0..12 {
-            let f = faults_from(1 << i);
-            assert_eq!(fault_bits(&f), 1 << i);
-            assert!(f.any());
+        // Each fault alone crosses as itself.
+        bytes.clear();
+        let steps: Vec<_> = Fault::ALL
+            .iter()
+            .map(|&f| BoardStep {
+                faults: Faults::NONE.with(f),
+                ..board_step(None, true)
+            })
+            .collect();
+        for s in &steps {
+            let len = encoder.encode(s, &mut out);
+            bytes.extend_from_slice(&out[..len]);
         }
-        assert!(!faults_from(0).any());
+        let (got, errors) = board_messages(&bytes);
+        assert_eq!(errors, 0);
+        let expected: Vec<_> = steps.into_iter().map(FromBoard::Step).collect();
+        assert_eq!(got, expected);
     }
 
     #[test]

@@ -120,7 +120,9 @@ mod tests {
         assert!(text.contains("t      2.50 s"), "{text}");
         assert!(text.contains("x   +1.000 m   y   -0.500 m"), "{text}");
         assert!(text.contains("faults            none"), "{text}");
-        frame.faults.stall_left = true;
+        frame
+            .faults
+            .set(controller_core::supervisor::Fault::StallLeft);
         assert!(screen(&frame, None, 1000).contains("stall_left"));
         assert_eq!(redraw_prefix(7), "\x1b[7A\x1b[J");
     }

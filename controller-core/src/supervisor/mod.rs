@@ -119,15 +119,17 @@
 mod button;
 mod checks;
 mod config;
+mod faults;
 
 pub use config::{
     geofence_radius_m, ms_to_steps, BatteryCheck, DivergenceCheck, MissedTickCheck,
     SaturationCheck, StallCheck, SupervisorConfig, SupervisorConfigError,
 };
+pub use faults::{Fault, Faults};
 
 use core::num::NonZeroU32;
 
-use crate::controller::{Controller, FaultFlags, Mode, MotorCommand, StepInput, TickDeltas};
+use crate::controller::{Controller, Mode, MotorCommand, StepInput, TickDeltas};
 use crate::drive::WheelVolts;
 use crate::kinematics::{BodyVelocity, WheelSpeeds};
 use crate::math;
@@ -279,62 +281,6 @@ impl ResetCause {
     /// ones after which [`SupervisorConfig::auto_arm_after_steps`] may arm the motors.
     pub const fn allows_auto_arm(self) -> bool {
         matches!(self, ResetCause::PowerOn | ResetCause::Pin)
-    }
-}
-
-/// Faults latched by the supervisor. Any flag set means the robot is [`State::Faulted`].
-///
-/// Word-aligned (12 bytes instead of 11): the flags are copied several times in every
-/// control step (into the step's outputs, the actuation, the published state), and on
-/// the Cortex-M4F an aligned 12-byte copy is three loads and three stores where an
-/// 11-byte one is a call to the byte-wise `memcpy`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[repr(align(4))]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(
-    feature = "serde",
-    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
-)]
-pub struct Faults {
-    /// The controller's own faults (encoder jump, non-finite value), and the supervisor's
-    /// own non-finite check of the duties.
-    pub core: FaultFlags,
-    /// The control loop overran its period too many times in a row.
-    pub overrun: bool,
-    /// The control loop missed too many ticks, or was blind too long.
-    pub missed_ticks: bool,
-    /// The left wheel did not follow its drive (see [`StallCheck`]).
-    pub stall_left: bool,
-    /// The right wheel did not follow its drive (see [`StallCheck`]).
-    pub stall_right: bool,
-    /// A wheel loop kept hitting its limits (see [`SaturationCheck`]).
-    pub saturated: bool,
-    /// The tracking error stayed above its bound (see [`DivergenceCheck`]).
-    pub divergence: bool,
-    /// The estimated pose left the geofence around the start.
-    pub geofence: bool,
-    /// The supply was below the battery's fault threshold (or unreadable).
-    pub supply_low: bool,
-    /// The supply was above what the bridge tolerates.
-    pub supply_high: bool,
-    /// An emergency stop was commanded.
-    pub emergency_stop: bool,
-}
-
-impl Faults {
-    /// True when any fault is latched.
-    pub const fn any(&self) -> bool {
-        self.core.any()
-            || self.overrun
-            || self.missed_ticks
-            || self.stall_left
-            || self.stall_right
-            || self.saturated
-            || self.divergence
-            || self.geofence
-            || self.supply_low
-            || self.supply_high
-            || self.emergency_stop
     }
 }
 
@@ -583,7 +529,7 @@ impl Supervisor {
             max_supply_v: params.config().drive.max_supply_v,
             state: State::Disarmed,
             run_mode: config.initial_mode,
-            faults: Faults::default(),
+            faults: Faults::NONE,
             button: Debouncer::new(),
             press_consumed: false,
             auto_arm_pending: config.auto_arm_after_steps.is_some() && reset.allows_auto_arm(),
@@ -840,7 +786,7 @@ impl Supervisor {
         periods: NonZeroU32,
     ) {
         let t = controller.telemetry();
-        self.faults.core = self.faults.core.union(controller.faults());
+        self.faults.latch_core(controller.faults());
         // A second line of defence: the controller already clamps its duties to [−1, 1], so
         // `||` for `&&` below (letting a finite duty beyond ±1 pass) cannot be observed
         // with this controller; an equivalent mutant, listed in .cargo/mutants.toml.
@@ -848,33 +794,33 @@ impl Supervisor {
             .iter()
             .all(|d| d.is_finite() && math::abs(*d) <= 1.0);
         if !duty_ok {
-            self.faults.core.non_finite = true;
+            self.faults.set(Fault::NonFinite);
         }
         if self.consecutive_overruns >= self.config.max_consecutive_overruns {
-            self.faults.overrun = true;
+            self.faults.set(Fault::Overrun);
         }
         // A flash erase stalls the CPU on purpose: its missed ticks are not a fault.
         let missed_fault = self.missed.update(periods.get(), &self.config.missed_ticks);
         if missed_fault && self.state != State::Persisting {
-            self.faults.missed_ticks = true;
+            self.faults.set(Fault::MissedTicks);
         }
         if self.state == State::Armed {
             let [left, right] = self.stall.update(t, &self.config.stall);
-            self.faults.stall_left |= left;
-            self.faults.stall_right |= right;
+            self.faults.set_if(Fault::StallLeft, left);
+            self.faults.set_if(Fault::StallRight, right);
             let [left, right] = self
                 .saturation
                 .update(t, periods.get(), &self.config.saturation);
-            self.faults.saturated |= left || right;
+            self.faults.set_if(Fault::Saturated, left || right);
             if self.run_mode == RunMode::FollowPath {
                 if let Some(check) = self.config.divergence {
                     if self.divergence.update(t, periods.get(), &check) {
-                        self.faults.divergence = true;
+                        self.faults.set(Fault::Divergence);
                     }
                 }
                 if let Some(radius) = self.config.geofence_radius_m {
                     if outside_geofence(&t.pose, &self.config.start_pose, radius) {
-                        self.faults.geofence = true;
+                        self.faults.set(Fault::Geofence);
                     }
                 }
             }
@@ -885,8 +831,8 @@ impl Supervisor {
         let supply = self
             .supply
             .update(t.supply_v, &self.config.battery, self.max_supply_v);
-        self.faults.supply_low |= supply.low;
-        self.faults.supply_high |= supply.high;
+        self.faults.set_if(Fault::SupplyLow, supply.low);
+        self.faults.set_if(Fault::SupplyHigh, supply.high);
         self.battery_low = supply.warn;
     }
 
@@ -897,7 +843,7 @@ impl Supervisor {
             self.battery_warned = false;
             return None;
         }
-        if self.battery_warned || self.faults.supply_low {
+        if self.battery_warned || self.faults.has(Fault::SupplyLow) {
             return None;
         }
         self.battery_warned = true;
@@ -957,7 +903,7 @@ impl Supervisor {
                 (Ok(()), None)
             }
             (Command::EmergencyStop, _) => {
-                self.faults.emergency_stop = true;
+                self.faults.set(Fault::EmergencyStop);
                 (Ok(()), None)
             }
             (Command::Arm(_), State::Disarmed) if self.button.pressed() => {
@@ -1076,7 +1022,7 @@ impl Supervisor {
     }
 
     fn clear_faults<S: SteeringSeat>(&mut self, controller: &mut Controller<S>) -> Event {
-        self.faults = Faults::default();
+        self.faults = Faults::NONE;
         self.consecutive_overruns = 0;
         self.missed.restart_window();
         self.supply = Supply::default();

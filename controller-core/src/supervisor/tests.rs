@@ -299,7 +299,7 @@ fn a_detected_fault_stops_the_tune_too() {
     r.supply_v = 4.4;
     let outs = r.run(600);
     let last = outs.last().unwrap();
-    assert!(last.faults.supply_low);
+    assert!(last.faults.has(Fault::SupplyLow));
     assert_eq!(last.state, State::Faulted);
     assert_eq!(last.duty, MotorCommand::STOP);
     assert_eq!(r.sup.tune_outcome(), Some(Err(TuneAbort::Stopped)));
@@ -367,7 +367,7 @@ fn core_fault_stops_the_motors_until_acknowledged() {
     });
     assert_eq!(out.event, Some(Event::Faulted));
     assert_eq!(out.state, State::Faulted);
-    assert!(out.faults.core.encoder_jump);
+    assert!(out.faults.has(Fault::EncoderJump));
     assert_eq!(out.duty, MotorCommand::STOP);
     assert_eq!(out.bridge, Bridge::Brake);
     // Latched, still fed (the fault is handled; a reset would hide it).
@@ -411,7 +411,7 @@ fn non_finite_pose_is_a_fault() {
     });
     let out = r.step();
     assert_eq!(out.state, State::Faulted);
-    assert!(out.faults.core.non_finite);
+    assert!(out.faults.has(Fault::NonFinite));
     assert_eq!(out.duty, MotorCommand::STOP);
 }
 
@@ -441,7 +441,7 @@ fn consecutive_overruns_fault_and_starve_the_watchdog() {
     assert!(outs[..4].iter().all(|o| o.state == State::Armed));
     let last = outs[4];
     assert!(!last.feed_watchdog);
-    assert!(last.faults.overrun);
+    assert!(last.faults.has(Fault::Overrun));
     assert_eq!(last.state, State::Faulted);
     assert_eq!(last.duty, MotorCommand::STOP);
     // The loop recovers: feeding resumes, the fault stays latched.
@@ -484,7 +484,7 @@ fn a_wheel_that_does_not_turn_is_a_stall_fault() {
         .position(|o| o.state == State::Faulted)
         .expect("stall detected");
     assert!(at < 600, "stall at step {at}");
-    assert!(outs[at].faults.stall_left && outs[at].faults.stall_right);
+    assert!(outs[at].faults.has(Fault::StallLeft) && outs[at].faults.has(Fault::StallRight));
     assert_eq!(outs[at].duty, MotorCommand::STOP);
 }
 
@@ -759,7 +759,7 @@ fn emergency_stop_latches_until_cleared_by_the_link() {
     r.command(Command::Arm(ArmRequest::follow_path()));
     let out = r.command(Command::EmergencyStop);
     assert_eq!(out.state, State::Faulted);
-    assert!(out.faults.emergency_stop);
+    assert!(out.faults.has(Fault::EmergencyStop));
     assert_eq!(out.event, Some(Event::Faulted));
     assert_eq!(out.bridge, Bridge::Brake);
     assert!(r.run(100).iter().all(|o| o.state == State::Faulted));
@@ -809,7 +809,7 @@ fn late_steps_are_counted_and_too_many_fault() {
     let outs: Vec<_> = (0..10).map(|_| r.step()).collect();
     assert!(outs[..9].iter().all(|o| o.state == State::Armed));
     assert_eq!(outs[9].state, State::Faulted);
-    assert!(outs[9].faults.missed_ticks);
+    assert!(outs[9].faults.has(Fault::MissedTicks));
 }
 
 #[test]
@@ -817,7 +817,7 @@ fn a_long_gap_faults_at_once() {
     let mut r = rig();
     r.periods = NonZeroU32::new(10).unwrap();
     let out = r.step();
-    assert!(out.faults.missed_ticks);
+    assert!(out.faults.has(Fault::MissedTicks));
 }
 
 #[test]
@@ -853,12 +853,12 @@ fn the_supervisors_own_flags_stay_latched_when_the_controller_clears_its_own() {
         left: 10_000,
         right: 0,
     });
-    assert!(r.sup.faults().core.encoder_jump);
+    assert!(r.sup.faults().has(Fault::EncoderJump));
     // Something clears the controller's flags behind the supervisor's back: the
     // supervisor's latched copy must not follow.
     r.ctl.clear_faults();
     let out = r.step();
-    assert!(out.faults.core.encoder_jump);
+    assert!(out.faults.has(Fault::EncoderJump));
     assert_eq!(out.state, State::Faulted);
 }
 
@@ -880,7 +880,7 @@ fn a_low_battery_warns_then_faults() {
     r.supply_v = 4.4;
     let outs = r.run(400);
     let last = outs.last().unwrap();
-    assert!(last.faults.supply_low);
+    assert!(last.faults.has(Fault::SupplyLow));
     assert_eq!(last.state, State::Faulted);
 }
 
@@ -898,7 +898,7 @@ fn a_supply_above_the_bridge_maximum_faults() {
     for _ in 0..300 {
         out = sup.step(&mut ctl, Inputs::at_supply(12.6));
     }
-    assert!(out.faults.supply_high);
+    assert!(out.faults.has(Fault::SupplyHigh));
     assert_eq!(out.state, State::Faulted);
 }
 
@@ -921,7 +921,7 @@ fn losing_control_faults_after_the_settling_window() {
     for k in 0..6000u32 {
         r.command = Some(Command::Heartbeat);
         let out = r.step();
-        if out.faults.divergence {
+        if out.faults.has(Fault::Divergence) {
             faulted_at = Some(k);
             break;
         }
@@ -941,7 +941,7 @@ fn leaving_the_geofence_faults() {
     r.press(30);
     r.ctl.set_pose(Pose::new(0.6, -0.2, 0.0));
     let out = r.step();
-    assert!(out.faults.geofence);
+    assert!(out.faults.has(Fault::Geofence));
     assert_eq!(out.state, State::Faulted);
 }
 
@@ -991,28 +991,6 @@ fn tune_settings_the_new_robot_refuses_give_way_to_its_defaults() {
     assert_eq!(r.sup.set_tune_config(strong, &params()), Ok(()));
     assert_eq!(r.sup.set_config(config(), &params()), Ok(()));
     assert_eq!(r.sup.tune_config().experiment_volts_v, 5.0);
-}
-
-#[test]
-fn any_single_fault_counts() {
-    let one = |set: fn(&mut Faults)| {
-        let mut f = Faults::default();
-        set(&mut f);
-        f.any()
-    };
-    assert!(!Faults::default().any());
-    assert!(one(|f| f.core.encoder_jump = true));
-    assert!(one(|f| f.core.non_finite = true));
-    assert!(one(|f| f.overrun = true));
-    assert!(one(|f| f.missed_ticks = true));
-    assert!(one(|f| f.stall_left = true));
-    assert!(one(|f| f.stall_right = true));
-    assert!(one(|f| f.saturated = true));
-    assert!(one(|f| f.divergence = true));
-    assert!(one(|f| f.geofence = true));
-    assert!(one(|f| f.supply_low = true));
-    assert!(one(|f| f.supply_high = true));
-    assert!(one(|f| f.emergency_stop = true));
 }
 
 #[test]
@@ -1088,7 +1066,7 @@ fn a_loop_stuck_at_its_limits_faults() {
     let outs = r.run(1000);
     let at = outs
         .iter()
-        .position(|o| o.faults.saturated)
+        .position(|o| o.faults.has(Fault::Saturated))
         .expect("saturation detected");
     assert!((500..=550).contains(&at), "{at}");
     assert_eq!(outs[at].state, State::Faulted);

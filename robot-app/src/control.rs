@@ -121,9 +121,14 @@ struct TelemetryClock {
 }
 
 impl TelemetryClock {
+    /// The longest a due sample waits for a step that is not busy, control periods.
+    const MAX_WAIT_PERIODS: u32 = 2;
+
     /// True when a sample is due after a step of `periods` periods, at `hz` (Hz) on a loop
-    /// of `rate` periods per second.
-    fn due(&mut self, hz: u8, rate: NonZeroU32, periods: NonZeroU32) -> bool {
+    /// of `rate` periods per second. A sample that falls on a `busy` step waits for a step
+    /// that is not, up to [`TelemetryClock::MAX_WAIT_PERIODS`] periods; the periods keep
+    /// counting meanwhile, so the average rate holds.
+    fn due(&mut self, hz: u8, rate: NonZeroU32, periods: NonZeroU32, busy: bool) -> bool {
         if hz != self.hz {
             self.hz = hz;
             // At least one period: a rate above the loop's samples every step.
@@ -134,7 +139,7 @@ impl TelemetryClock {
             return false;
         }
         self.since = self.since.saturating_add(periods.get());
-        if self.since < self.period {
+        if self.since < self.period || (busy && self.since - self.period < Self::MAX_WAIT_PERIODS) {
             return false;
         }
         // Keep the remainder, so late steps do not slow the average rate, but never
@@ -250,10 +255,14 @@ impl<'a> ControlSide<'a> {
 
         // 1. At most one request from the link, and only when its reply and this step's
         //    event both have room: replies are never dropped. Not while the outer loop
-        //    is away (an installation needs it).
+        //    is away (an installation needs it), nor in a step that applies a steering
+        //    outcome (the heaviest step: the request waits one step).
         let mut command = None;
         let mut answered = None;
-        if outer_loop_seated && self.end.uplink.free() >= 2 {
+        if outer_loop_seated
+            && !self.controller.applies_steering_next_step()
+            && self.end.uplink.free() >= 2
+        {
             if let Some(request) = self.end.commands.pop() {
                 let kind = request.op.kind();
                 let result = match request.op {
@@ -317,12 +326,20 @@ impl<'a> ControlSide<'a> {
         if run_ended || tune_ended {
             link_has_work = true;
         }
+        // A step that applies the steering law's outcome or hands it a job does more
+        // than the others; a telemetry sample due in it waits a step or two, so that the
+        // two costs never fall in one step (the control interrupt's worst case).
+        let busy = steering_lent || self.controller.telemetry().steering_updated;
         if self
             .telemetry
-            .due(self.end.telemetry_hz(), self.rate, sensors.periods)
+            .due(self.end.telemetry_hz(), self.rate, sensors.periods, busy)
         {
-            let sample = self.telemetry_frame(&out);
-            if self.end.telemetry.push(sample).is_ok() {
+            // Built in its slot: a 160-byte frame is not copied on the way.
+            if self
+                .end
+                .telemetry
+                .push_with(|| telemetry_frame(&self.controller, self.step, &out))
+            {
                 link_has_work = true;
             } else {
                 self.end.count_telemetry_drop();
@@ -459,28 +476,33 @@ impl<'a> ControlSide<'a> {
             max_duty: self.run_max_duty,
         }
     }
+}
 
-    /// The telemetry sample of this step.
-    fn telemetry_frame(&self, out: &Supervised) -> TelemetryFrame {
-        let t = self.controller.telemetry();
-        let [left, right] = self.controller.wheel_pid_parts();
-        TelemetryFrame {
-            step: self.step,
-            state: out.state,
-            run_mode: out.run_mode,
-            faults: out.faults,
-            pose: t.pose,
-            tracking_error: t.error,
-            lyapunov: t.law.lyapunov,
-            lyapunov_rate: t.law.lyapunov_rate,
-            wheel_setpoint: t.wheel_setpoint,
-            wheel_speed: t.wheel_speed,
-            duty: out.duty,
-            pid_left: pid_parts(left),
-            pid_right: pid_parts(right),
-            supply_v: t.supply_v,
-            missed_ticks: out.missed_ticks_total,
-        }
+/// The telemetry sample of step `step`: the supervisor's outputs `out` and `controller`'s
+/// telemetry (pose and error in the world frame, m and rad; wheel speeds in rad/s).
+fn telemetry_frame(
+    controller: &Controller<OuterLoopSeat<'_>>,
+    step: u32,
+    out: &Supervised,
+) -> TelemetryFrame {
+    let t = controller.telemetry();
+    let [left, right] = controller.wheel_pid_parts();
+    TelemetryFrame {
+        step,
+        state: out.state,
+        run_mode: out.run_mode,
+        faults: out.faults,
+        pose: t.pose,
+        tracking_error: t.error,
+        lyapunov: t.law.lyapunov,
+        lyapunov_rate: t.law.lyapunov_rate,
+        wheel_setpoint: t.wheel_setpoint,
+        wheel_speed: t.wheel_speed,
+        duty: out.duty,
+        pid_left: pid_parts(left),
+        pid_right: pid_parts(right),
+        supply_v: t.supply_v,
+        missed_ticks: out.missed_ticks_total,
     }
 }
 
@@ -617,12 +639,14 @@ mod tests {
             since: 0,
         };
         let one = NonZeroU32::MIN;
-        assert!(!(0..100).any(|_| clock.due(0, KHZ, one)), "off");
-        let due: usize = (0..1000).filter(|_| clock.due(50, KHZ, one)).count();
+        assert!(!(0..100).any(|_| clock.due(0, KHZ, one, false)), "off");
+        let due: usize = (0..1000).filter(|_| clock.due(50, KHZ, one, false)).count();
         assert_eq!(due, 50);
         // A late step counts the periods it covered.
         let three = NonZeroU32::new(3).unwrap_or(one);
-        let due: usize = (0..100).filter(|_| clock.due(100, KHZ, three)).count();
+        let due: usize = (0..100)
+            .filter(|_| clock.due(100, KHZ, three, false))
+            .count();
         assert_eq!(due, 30, "one per 10 periods: 300 periods in steps of 3");
         // Faster than the loop: every step.
         let mut clock = TelemetryClock {
@@ -631,7 +655,31 @@ mod tests {
             since: 0,
         };
         let slow = NonZeroU32::new(50).unwrap_or(one);
-        assert!((0..10).all(|_| clock.due(100, slow, one)));
+        assert!((0..10).all(|_| clock.due(100, slow, one, false)));
+    }
+
+    #[test]
+    fn a_sample_due_in_a_busy_step_waits_at_most_two_periods() {
+        let fresh = || TelemetryClock {
+            hz: 0,
+            period: 0,
+            since: 0,
+        };
+        let one = NonZeroU32::MIN;
+        // 50 Hz on 1 kHz: due at steps 19, 39, … (0-based). The due step and the one
+        // after it are busy: each sample goes out two periods late, and the next one is
+        // due 20 periods after its due time, not after its late sending.
+        let mut clock = fresh();
+        let busy = |k: u32| k % 20 == 19 || k % 20 == 0;
+        let sampled: Vec<u32> = (0..1000)
+            .filter(|&k| clock.due(50, KHZ, one, busy(k)))
+            .collect();
+        let expected: Vec<u32> = (1..50).map(|i| 20 * i + 1).collect();
+        assert_eq!(sampled, expected);
+        // Every step busy (a steering law run every period): samples still go out.
+        let mut clock = fresh();
+        let sampled: Vec<u32> = (0..60).filter(|_| clock.due(50, KHZ, one, true)).collect();
+        assert_eq!(sampled, [21, 41]);
     }
 
     #[test]

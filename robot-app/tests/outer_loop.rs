@@ -87,3 +87,27 @@ fn an_outer_loop_that_overruns_the_period_is_an_overrun() {
     assert!(rig.events().iter().any(|e| matches!(e, Event::Disarmed(_))));
     assert_eq!(rig.last.map(|a| a.state), Some(State::Disarmed));
 }
+
+#[test]
+fn a_request_waits_one_step_rather_than_fall_on_the_step_that_applies_the_law() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::lending(&mut channels, BAUD, false);
+    assert_eq!(rig.ask(follow_path()), Ok(Reply::Ack));
+    let mut waited = 0;
+    for _ in 0..40 {
+        let seq = rig.send(Request::Heartbeat);
+        rig.step();
+        let applied = rig.control.controller().telemetry().steering_updated;
+        let answered_now = rig.reply(seq).is_some();
+        assert_eq!(
+            answered_now, !applied,
+            "taken unless the step applied the law"
+        );
+        if applied {
+            waited += 1;
+            rig.step();
+            assert!(rig.reply(seq).is_some(), "taken the step after");
+        }
+    }
+    assert!(waited >= 3, "{waited} requests fell on a steering step");
+}

@@ -19,14 +19,16 @@ use crate::steps::{build_target_executables, Context};
 /// The flash target for the firmware with the runtime link, bytes. Not met yet:
 /// see [`FLASH_BUDGET`].
 pub const FLASH_TARGET: u64 = 32 * 1024;
-/// The flash budget this check enforces, bytes: the measured size (72 008 B with the
-/// `firmware` profile, STM32F411 build, with the link service, the self-tune and the
-/// steering task, which added 1.6 KB, and the firmware crate at opt-level "s"; 1.6 KB are the constant placeholders a committed
-/// path is built over in place, which took 4.7 KB off the stack) plus a small margin, because [`FLASH_TARGET`] is out of
-/// reach with the features the firmware carries (`controller-core` alone is about 23 KB;
-/// see README.md, "Budgets"); the check prints the measured size against the target too,
-/// and the largest symbols.
-pub const FLASH_BUDGET: u64 = 72 * 1024;
+/// The flash budget this check enforces, bytes: the measured size (87 092 B with the
+/// `firmware` profile, STM32F411 build: the link service, the self-tune, the steering
+/// task; `controller-core` at opt-level 3, which costs 14.9 KB over "s" and keeps the
+/// control interrupt within its 1 500-instruction budget, see the workspace's
+/// `Cargo.toml`; 1.6 KB are the constant placeholders a committed path is built over in
+/// place, which took 4.7 KB off the stack) plus a small margin, because [`FLASH_TARGET`]
+/// is out of reach with the features the firmware carries (`controller-core` alone is
+/// about 23 KB at "s"; see README.md, "Budgets"); the check prints the measured size
+/// against the target too, and the largest symbols.
+pub const FLASH_BUDGET: u64 = 88 * 1024;
 /// The static RAM target, bytes (no heap); met.
 pub const RAM_TARGET: u64 = 8 * 1024;
 /// The static RAM budget this check enforces, bytes: the target. Measured 7 884 B (control

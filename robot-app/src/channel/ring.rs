@@ -111,6 +111,25 @@ impl<T, const N: usize> Producer<'_, T, N> {
         Ok(())
     }
 
+    /// Adds the item `make` returns at the back, written straight into its slot, and
+    /// returns true; when the queue is full, returns false without calling `make`. For
+    /// large items: `push` moves a finished item in, and it must survive a full queue.
+    pub fn push_with(&mut self, make: impl FnOnce() -> T) -> bool {
+        let ring = self.ring;
+        let tail = ring.tail.load(Ordering::Relaxed);
+        let head = ring.head.load(Ordering::Acquire);
+        if tail.wrapping_sub(head) >= N {
+            return false;
+        }
+        let Some(slot) = ring.slot(tail) else {
+            return false;
+        };
+        // SAFETY: as in `push`: the slot of `tail` is free and only this producer writes.
+        unsafe { (*slot.get()).write(make()) };
+        ring.tail.store(tail.wrapping_add(1), Ordering::Release);
+        true
+    }
+
     /// Free places as seen now (more may appear as the consumer takes items).
     pub fn free(&self) -> usize {
         N.saturating_sub(self.ring.len())
@@ -189,6 +208,25 @@ mod tests {
         assert_eq!(out, [1, 2, 3, 4]);
         assert!(rx.is_empty());
         assert_eq!(rx.peek(), None);
+    }
+
+    #[test]
+    fn push_with_builds_only_when_there_is_room() {
+        let mut ring = Ring::<u32, 2>::new();
+        let (mut tx, mut rx) = ring.split();
+        let mut built = 0;
+        for i in 0..3 {
+            let pushed = tx.push_with(|| {
+                built += 1;
+                10 + i
+            });
+            assert_eq!(pushed, i < 2, "item {i}");
+        }
+        assert_eq!(built, 2, "a full queue does not build the item");
+        assert_eq!(rx.pop(), Some(10));
+        assert!(tx.push_with(|| 12));
+        let out: Vec<u32> = core::iter::from_fn(|| rx.pop()).collect();
+        assert_eq!(out, [11, 12]);
     }
 
     #[test]

@@ -156,13 +156,18 @@ impl SpeedEstimator {
         if !ticks_per_step.is_finite() {
             return;
         }
+        // What `window` updates of one period each would leave, written directly (the
+        // step that arms in motion pays for this: about half the instructions): slot
+        // k − 1 holds step k's ticks, the sum is the last total, the periods stay 1 and
+        // the next update overwrites slot 0, the oldest.
         let mut counted = 0i32;
-        for k in 1..=self.window {
+        for (k, slot) in (1..).zip(self.ticks.iter_mut().take(self.window)) {
             let total = crate::math::round_to_i32(k as f32 * ticks_per_step);
-            let ticks = total.wrapping_sub(counted);
+            *slot = total.wrapping_sub(counted);
             counted = total;
-            self.update(ticks, core::num::NonZeroU32::MIN);
         }
+        self.tick_sum = counted;
+        self.head = 0;
     }
 }
 
@@ -265,6 +270,37 @@ mod tests {
         );
         est.seed(f32::NAN);
         assert_eq!(est.speed_rad_s(), 0.0);
+    }
+
+    proptest! {
+        /// Seeding leaves exactly what `window` one-period updates with the seeded ticks
+        /// leave: the same speed now and after any further steps.
+        #[test]
+        fn seeding_equals_filling_the_window_step_by_step(
+            window in 1usize..=MAX_SPEED_WINDOW_STEPS,
+            speed in -80.0f32..80.0,
+            later in prop::collection::vec((-40i32..40, 1u32..4), 0..80),
+        ) {
+            let rad_per_tick = core::f32::consts::TAU / 1440.0;
+            let mut seeded = SpeedEstimator::new(window, rad_per_tick, 1000.0);
+            seeded.update(17, ONE);
+            seeded.seed(speed);
+            let mut stepped = SpeedEstimator::new(window, rad_per_tick, 1000.0);
+            let ticks_per_step = speed / stepped.rad_per_tick_per_s;
+            let mut counted = 0i32;
+            for k in 1..=window {
+                let total = crate::math::round_to_i32(k as f32 * ticks_per_step);
+                stepped.update(total - counted, ONE);
+                counted = total;
+            }
+            prop_assert_eq!(seeded.speed_rad_s().to_bits(), stepped.speed_rad_s().to_bits());
+            for (ticks, periods) in later {
+                let periods = core::num::NonZeroU32::new(periods).unwrap_or(ONE);
+                let a = seeded.update(ticks, periods);
+                let b = stepped.update(ticks, periods);
+                prop_assert_eq!(a.to_bits(), b.to_bits());
+            }
+        }
     }
 
     proptest! {

@@ -157,7 +157,14 @@ impl fmt::Debug for Faults {
 #[cfg(feature = "defmt")]
 impl defmt::Format for Faults {
     fn format(&self, f: defmt::Formatter<'_>) {
-        defmt::write!(f, "Faults({=u16:#05x})", self.0)
+        defmt::write!(f, "Faults[");
+        for (i, fault) in self.iter().enumerate() {
+            if i > 0 {
+                defmt::write!(f, ", ");
+            }
+            defmt::write!(f, "{=str}", fault.name());
+        }
+        defmt::write!(f, "]");
     }
 }
 

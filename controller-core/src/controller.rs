@@ -139,14 +139,6 @@ impl FaultFlags {
     pub const fn any(&self) -> bool {
         self.encoder_jump || self.non_finite
     }
-
-    /// Both sets of flags together (a flag set in either is set).
-    pub const fn union(self, other: FaultFlags) -> FaultFlags {
-        FaultFlags {
-            encoder_jump: self.encoder_jump || other.encoder_jump,
-            non_finite: self.non_finite || other.non_finite,
-        }
-    }
 }
 
 /// Everything one step computed, for logs and plots. Frames as in each field's type.
@@ -1469,7 +1461,7 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn fault_flags_union() {
+    fn fault_flags_any() {
         let a = FaultFlags {
             encoder_jump: true,
             non_finite: false,
@@ -1478,8 +1470,6 @@ pub(crate) mod tests {
             encoder_jump: false,
             non_finite: true,
         };
-        assert!(a.union(b).encoder_jump && a.union(b).non_finite);
-        assert_eq!(FaultFlags::default().union(a), a);
         assert!(!FaultFlags::default().any());
         assert!(a.any() && b.any());
     }

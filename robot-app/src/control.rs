@@ -177,6 +177,8 @@ pub struct ControlSide<'a> {
     run_max_wheel_rad_s: f32,
     run_max_duty: f32,
     telemetry: TelemetryClock,
+    /// The last step left a waiting request for this one (see [`take_request_now`]).
+    request_waited: bool,
 }
 
 impl<'a> ControlSide<'a> {
@@ -210,6 +212,7 @@ impl<'a> ControlSide<'a> {
                 period: 0,
                 since: 0,
             },
+            request_waited: false,
         }
     }
 
@@ -255,12 +258,13 @@ impl<'a> ControlSide<'a> {
 
         // 1. At most one request from the link, and only when its reply and this step's
         //    event both have room: replies are never dropped. Not while the outer loop
-        //    is away (an installation needs it), nor in a step that applies a steering
-        //    outcome (the heaviest step: the request waits one step).
+        //    is away (an installation needs it), nor, unless the last step already
+        //    waited, in a step that applies a steering outcome (the heaviest step).
         let mut command = None;
         let mut answered = None;
+        let busy = self.controller.applies_steering_next_step();
         if outer_loop_seated
-            && !self.controller.applies_steering_next_step()
+            && take_request_now(busy, &mut self.request_waited)
             && self.end.uplink.free() >= 2
         {
             if let Some(request) = self.end.commands.pop() {
@@ -478,6 +482,16 @@ impl<'a> ControlSide<'a> {
     }
 }
 
+/// Whether a step takes a waiting link request: not in a `busy` step (one that applies a
+/// steering outcome, the heaviest kind), unless the step before already waited, so that
+/// a request waits one step at most even when every step is busy (a steering law run
+/// every period). `waited` carries that from step to step.
+fn take_request_now(busy: bool, waited: &mut bool) -> bool {
+    let wait = busy && !*waited;
+    *waited = wait;
+    !wait
+}
+
 /// The telemetry sample of step `step`: the supervisor's outputs `out` and `controller`'s
 /// telemetry (pose and error in the world frame, m and rad; wheel speeds in rad/s).
 fn telemetry_frame(
@@ -656,6 +670,20 @@ mod tests {
         };
         let slow = NonZeroU32::new(50).unwrap_or(one);
         assert!((0..10).all(|_| clock.due(100, slow, one, false)));
+    }
+
+    #[test]
+    fn a_request_waits_one_busy_step_at_most() {
+        let mut waited = false;
+        let taken: Vec<bool> = [false, true, false, true, true, true, true, false]
+            .iter()
+            .map(|&busy| take_request_now(busy, &mut waited))
+            .collect();
+        assert_eq!(
+            taken,
+            [true, false, true, false, true, false, true, true],
+            "busy steps in a row: every other one takes a request"
+        );
     }
 
     #[test]

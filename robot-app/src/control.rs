@@ -381,7 +381,7 @@ impl<'a> ControlSide<'a> {
         };
         let result = install(staged, &mut self.controller, &mut self.supervisor);
         if result.is_ok() {
-            self.metrics = ErrorStats::new(self.rate);
+            self.metrics.restart();
         }
         self.end.staging.finish();
         result
@@ -394,7 +394,7 @@ impl<'a> ControlSide<'a> {
     /// is paid in that step only.
     fn track_run(&mut self, out: &Supervised, periods: NonZeroU32) -> bool {
         if out.event == Some(Event::Armed(RunMode::FollowPath)) {
-            self.metrics = ErrorStats::new(self.rate);
+            self.metrics.restart();
             self.run_periods = 0;
             self.run_max_wheel_rad_s = 0.0;
             self.run_max_duty = 0.0;

@@ -177,7 +177,8 @@ pub struct ControlSide<'a> {
     run_max_wheel_rad_s: f32,
     run_max_duty: f32,
     telemetry: TelemetryClock,
-    /// The last step left a waiting request for this one (see [`take_request_now`]).
+    /// The last step applied a steering outcome and so took no request: this one takes
+    /// one whatever it does (see [`take_request_now`]).
     request_waited: bool,
 }
 
@@ -262,9 +263,9 @@ impl<'a> ControlSide<'a> {
         //    waited, in a step that applies a steering outcome (the heaviest step).
         let mut command = None;
         let mut answered = None;
-        let busy = self.controller.applies_steering_next_step();
+        let applies_outcome = self.controller.applies_steering_next_step();
         if outer_loop_seated
-            && take_request_now(busy, &mut self.request_waited)
+            && take_request_now(applies_outcome, &mut self.request_waited)
             && self.end.uplink.free() >= 2
         {
             if let Some(request) = self.end.commands.pop() {
@@ -333,10 +334,10 @@ impl<'a> ControlSide<'a> {
         // A step that applies the steering law's outcome or hands it a job does more
         // than the others; a telemetry sample due in it waits a step or two, so that the
         // two costs never fall in one step (the control interrupt's worst case).
-        let busy = steering_lent || self.controller.telemetry().steering_updated;
+        let heavy = steering_lent || self.controller.telemetry().steering_updated;
         if self
             .telemetry
-            .due(self.end.telemetry_hz(), self.rate, sensors.periods, busy)
+            .due(self.end.telemetry_hz(), self.rate, sensors.periods, heavy)
         {
             // Built in its slot: a 160-byte frame is not copied on the way.
             if self

@@ -521,9 +521,11 @@ fn telemetry_frame(
     }
 }
 
-/// The larger of `max` and |`value`| (a NaN value leaves `max`).
+/// The larger of `max` and |`value`| (a NaN value leaves `max`). The magnitude is the
+/// sign bit cleared (`controller_core::math::abs`), not a comparison with 0: four of these
+/// run in every armed step.
 fn max_abs(max: f32, value: f32) -> f32 {
-    let magnitude = if value < 0.0 { -value } else { value };
+    let magnitude = controller_core::math::abs(value);
     if magnitude > max {
         magnitude
     } else {

@@ -99,13 +99,15 @@ impl Saturation {
             self.reset();
         }
         self.age = self.age.saturating_add(periods);
-        let limit = check.max_fraction * check.window_steps as f32;
         let mut over = [false; 2];
         for (i, count) in self.saturated.iter_mut().enumerate() {
             if telemetry.wheel_loop.saturated[i] {
                 *count = count.saturating_add(periods);
+                // Only a count that grew can newly exceed the limit, and one that
+                // exceeded it faulted the robot then: the limit is computed in those
+                // steps only.
+                over[i] = *count as f32 > check.max_fraction * check.window_steps as f32;
             }
-            over[i] = *count as f32 > limit;
         }
         over
     }

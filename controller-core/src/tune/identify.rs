@@ -129,6 +129,12 @@ impl Bank {
         self.weight = [1.0; BANK];
     }
 
+    /// The same bank back at j = 0.
+    pub(crate) fn restarted(mut self) -> Self {
+        self.restart();
+        self
+    }
+
     /// The weights of the present sample.
     pub(crate) const fn weights(&self) -> &[f32; BANK] {
         &self.weight

@@ -737,3 +737,27 @@ fn a_wheel_with_dead_time_is_identified_with_it() {
         assert!(close(m.ks_v, 0.375, 0.03), "{m:?}");
     }
 }
+
+#[test]
+fn the_bank_follows_the_control_period_across_new_settings_and_starts() {
+    let fast = Params::new(RobotConfig::REFERENCE_ROBOT).unwrap();
+    let mut slow = RobotConfig::REFERENCE_ROBOT;
+    slow.control_rate_hz = 400;
+    let slow = Params::new(slow).unwrap();
+    let config = TuneConfig::for_robot(&RobotConfig::REFERENCE_ROBOT);
+    let fresh = |p: &Params| Bank::new(p.period_s());
+    let mut tuner = Tuner::new(config, &fast);
+    assert_eq!(tuner.bank, fresh(&fast));
+    // A new period computes new decay factors; the same one keeps them, restarted.
+    tuner.set_config(config, &slow);
+    assert_eq!(tuner.bank, fresh(&slow), "400 Hz");
+    tuner.bank.advance();
+    assert_ne!(tuner.bank, fresh(&slow), "a stepped bank has moved on");
+    tuner.set_config(config, &slow);
+    assert_eq!(tuner.bank, fresh(&slow), "same period: restarted");
+    tuner.bank.advance();
+    tuner.start(Pose::default());
+    assert_eq!(tuner.bank, fresh(&slow), "a start restarts it");
+    tuner.set_config(config, &fast);
+    assert_eq!(tuner.bank, fresh(&fast), "back to 1 kHz");
+}

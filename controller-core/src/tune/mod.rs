@@ -473,34 +473,32 @@ impl Tuner {
     /// Starts a tune from `pose` (the odometry's, world frame), forgetting the last
     /// outcome. The first [`Tuner::step`] applies 0 V.
     pub fn start(&mut self, pose: Pose) {
-        let (config, period_s, window_steps) = (self.config, self.period_s, self.window_steps);
-        self.rebuild(config, period_s, window_steps);
+        self.rebuild();
         self.start = pose;
         self.phase = Phase::Breakaway;
     }
 
     /// Replaces the settings (takes effect at the next [`Tuner::start`]) and the robot's
-    /// timing from `params`; a running tune is stopped.
+    /// timing from `params`; a running tune is stopped. Nothing else changes: the working
+    /// values are only read while a tune runs, and [`Tuner::start`] rebuilds them all.
     pub fn set_config(&mut self, config: TuneConfig, params: &Params) {
         self.abort(TuneAbort::Stopped);
-        let outcome = self.outcome;
-        let (period_s, window_steps) = (params.period_s(), params.config().speed_window_steps);
-        self.rebuild(config, period_s, window_steps);
-        self.outcome = outcome;
+        let period_s = params.period_s();
+        if period_s != self.period_s {
+            self.bank = Bank::new(period_s);
+            self.period_s = period_s;
+        }
+        self.config = config;
+        self.window_steps = params.config().speed_window_steps;
     }
 
     /// Rebuilds the tuner in place (no second tuner on the stack of the control interrupt
-    /// that installs parameters or arms a tune) as an idle one for `config`, `period_s`
-    /// (s) and `window_steps`. The bank's decay factors, ten exponentials (about 430
-    /// instructions on the Cortex-M4F), are kept when the period is the one they were
-    /// computed for, which on a robot it always is: the board's control rate cannot
-    /// change at run time.
-    fn rebuild(&mut self, config: TuneConfig, period_s: f32, window_steps: u32) {
-        let bank = if period_s == self.period_s {
-            self.bank.restarted()
-        } else {
-            Bank::new(period_s)
-        };
+    /// that arms a tune) as an idle one for its settings and timing. The bank's decay
+    /// factors, ten exponentials (about 430 instructions on the Cortex-M4F), are the ones
+    /// [`Tuner::set_config`] computed for the period, restarted.
+    fn rebuild(&mut self) {
+        let (config, period_s, window_steps) = (self.config, self.period_s, self.window_steps);
+        let bank = self.bank.restarted();
         *self = Self::with_bank(config, period_s, window_steps, bank);
     }
 

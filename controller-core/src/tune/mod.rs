@@ -427,7 +427,7 @@ impl Tuner {
     /// `window_steps`, identifying with `bank` (built for `period_s`). Always inlined:
     /// `*self = Self::with_bank(…)` then builds the tuner in place instead of in a
     /// temporary (measured: 416 B less of the control interrupt's stack when it arms a
-    /// tune or installs parameters).
+    /// tune).
     #[inline(always)]
     fn with_bank(config: TuneConfig, period_s: f32, window_steps: u32, bank: Bank) -> Self {
         Self {

@@ -746,6 +746,15 @@ mod tests {
     }
 
     #[test]
+    fn run_maxima_are_of_magnitudes_and_ignore_nan() {
+        assert_eq!(max_abs(0.5, -2.0), 2.0);
+        assert_eq!(max_abs(0.5, 0.25), 0.5);
+        assert_eq!(max_abs(0.5, -0.25), 0.5);
+        assert_eq!(max_abs(0.5, f32::NAN), 0.5);
+        assert_eq!(max_abs(0.0, -0.0), 0.0);
+    }
+
+    #[test]
     fn pid_parts_keep_each_part_in_its_place() {
         let parts = pid_parts(CorePidParts {
             p: 1.0,

@@ -301,6 +301,24 @@ mod tests {
     }
 
     #[test]
+    fn with_adds_and_never_removes() {
+        let once = Faults::NONE.with(Fault::Divergence);
+        assert_eq!(once.with(Fault::Divergence), once, "adding a latched fault again");
+    }
+
+    #[cfg(feature = "serde")]
+    #[test]
+    fn the_wire_form_round_trips_each_fault_in_its_own_field() {
+        for fault in Fault::ALL {
+            let only = Faults::NONE.with(fault);
+            let form = wire::Faults::from(only);
+            assert_eq!(Faults::from(form), only, "{fault:?}");
+        }
+        let all = Faults::from_bits(u16::MAX);
+        assert_eq!(Faults::from(wire::Faults::from(all)), all);
+    }
+
+    #[test]
     fn debug_names_the_latched_faults() {
         let f = Faults::NONE.with(Fault::SupplyLow).with(Fault::EncoderJump);
         assert_eq!(format!("{f:?}"), r#"{"encoder_jump", "supply_low"}"#);

@@ -31,7 +31,7 @@ use crate::steps::{build_target_executables, display_command, Context};
 /// The target for the control interrupt on the Cortex-M4F, instructions.
 pub const CONTROL_INTERRUPT_TARGET: u64 = 1500;
 /// The limit this step enforces on the armed steps, instructions: the target itself. The
-/// worst armed step measured 1 440 on either path: a steering outcome applied, or a
+/// worst armed step measured 1 440–1 446 on either path: a steering outcome applied, or a
 /// job handed over with a link request or a telemetry sample. A link request waits a step
 /// rather than fall on the step that applies the outcome (the heaviest), a telemetry
 /// sample waits on that step and on the hand-over, and `controller-core` is built at

@@ -303,7 +303,11 @@ mod tests {
     #[test]
     fn with_adds_and_never_removes() {
         let once = Faults::NONE.with(Fault::Divergence);
-        assert_eq!(once.with(Fault::Divergence), once, "adding a latched fault again");
+        assert_eq!(
+            once.with(Fault::Divergence),
+            once,
+            "adding a latched fault again"
+        );
     }
 
     #[cfg(feature = "serde")]

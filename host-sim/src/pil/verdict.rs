@@ -12,14 +12,18 @@
 //!   cut. The robot counts the timeout from the last heartbeat it *received*; the relay
 //!   stops passing bytes at the cut, but bytes it passed just before are still on their
 //!   way through the emulator's USART, one per guest main-loop turn and not in step with
-//!   the lockstep, so the last heartbeat can reach the firmware a few steps after the cut
-//!   (measured: up to 14 ms, 0.514 s against the 0.500 s timeout; a 15-byte frame at one
-//!   byte per main-loop turn, which can be one per control period, takes up to 15 ms).
+//!   the lockstep, so the last heartbeat can reach the firmware a few steps after the cut.
+//!   A 15-byte frame at one byte per main-loop turn, which can be one per control period,
+//!   takes up to 15 ms; the control step then takes the request at the next step, or one
+//!   later when that step applies a steering outcome (`take_request_now`), and the timeout
+//!   counts from that step: up to 18 ms in all (measured: up to 18 ms, 0.518 s against
+//!   the 0.500 s timeout; 14 ms before requests waited on the heaviest step).
 
 use serde_json::Value;
 
 /// Time a heartbeat already handed to the emulator at the cut may take to reach the
-/// firmware, s (a 15-byte frame, one byte per guest main-loop turn; see the module doc).
+/// firmware's supervisor, s (a 15-byte frame, one byte per guest main-loop turn, and up
+/// to three control steps; 18 ms at worst, see the module doc).
 pub const LINK_IN_FLIGHT_S: f64 = 0.020;
 
 use super::firmware::LinkLoss;

@@ -11,7 +11,7 @@ use robot_app::BoardStats;
 
 use crate::board;
 
-/// The runs of one task: how many, and the longest, in raw [`board::work_counter`]
+/// The runs of one task: how many, and the longest, in raw [`board::work_since`]
 /// differences. Written by its task only; read from anywhere.
 pub struct TaskTiming {
     longest_raw: AtomicU32,
@@ -31,7 +31,7 @@ impl TaskTiming {
     /// read-modify-write instruction needed).
     #[inline(always)]
     pub fn record_since(&self, started: u32) {
-        let raw = board::work_counter().wrapping_sub(started);
+        let raw = board::work_since(started);
         if raw > self.longest_raw.load(Ordering::Relaxed) {
             self.longest_raw.store(raw, Ordering::Relaxed);
         }

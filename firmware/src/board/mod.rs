@@ -14,8 +14,9 @@
 //!   (the tick: a timer on the F411, the plant's first message on QEMU);
 //! - `Watchdog` (`feed`, `set_timeout`), `WATCHDOG_RUN`, `WATCHDOG_PERSIST`;
 //! - `Storage` (`page`, `erase_and_program`) and `FlashError`;
-//! - `work_counter`, `work_units`, `WORK_UNIT`: the clock the tasks are timed with
-//!   (cycles on the F411, instructions under QEMU);
+//! - `work_counter`, `work_since`, `work_units`, `WORK_UNIT`: the clock the tasks are
+//!   timed with (cycles on the F411, instructions under QEMU), and a wrap-aware
+//!   difference of its readings;
 //! - `LINK_BAUD`, `NAME`, `announce_ready`, `force_motors_off`, `halt_after_failure`.
 //!
 //! The RTIC application (`crate::app`) is the same code for both: its control task is

@@ -410,10 +410,17 @@ pub fn work_counter() -> u32 {
     DWT::cycle_count()
 }
 
+/// Cycles [`work_counter`] advanced since it read `started` (CYCCNT wraps at 2³², as
+/// the difference does).
+#[inline(always)]
+pub fn work_since(started: u32) -> u32 {
+    work_counter().wrapping_sub(started)
+}
+
 /// What [`work_counter`] counts, for the log.
 pub const WORK_UNIT: &str = "cycles";
 
-/// Converts a difference of [`work_counter`] readings to [`WORK_UNIT`]s.
+/// Converts a [`work_since`] difference to [`WORK_UNIT`]s.
 #[inline(always)]
 pub fn work_units(delta: u32) -> u32 {
     delta

@@ -43,7 +43,7 @@ pub fn start(mut syst: SYST) {
     let time = |n: u32| {
         let t0 = work_counter();
         spin(black_box(n));
-        work_counter().wrapping_sub(t0) & RELOAD
+        work_since(t0)
     };
     let ticks = time(SPINS.1).saturating_sub(time(SPINS.0));
     let instructions = u64::from(SPINS.1 - SPINS.0) * u64::from(SPIN_INSTRUCTIONS);
@@ -62,10 +62,18 @@ pub fn work_counter() -> u32 {
     RELOAD - SYST::get_current()
 }
 
-/// A difference of [`work_counter`] readings in instructions.
+/// Ticks [`work_counter`] advanced since it read `started`: the 24-bit difference, so a
+/// run during which the counter wrapped is measured right (a plain `u32` difference would
+/// be about 2³² − 2²⁴ ticks, longer than any real run).
+#[inline(always)]
+pub fn work_since(started: u32) -> u32 {
+    work_counter().wrapping_sub(started) & RELOAD
+}
+
+/// A [`work_since`] difference in instructions.
 #[inline(always)]
 pub fn work_units(delta: u32) -> u32 {
-    let ticks = u64::from(delta & RELOAD);
+    let ticks = u64::from(delta);
     let per_million = u64::from(ticks_per_million().max(1));
     ((ticks * 1_000_000 + per_million / 2) / per_million) as u32
 }

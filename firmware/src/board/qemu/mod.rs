@@ -44,7 +44,7 @@ use robot_app::persist::Slot;
 use robot_app::{Actuation, Sensors};
 use stm32f4xx_hal::pac;
 
-pub use self::instructions::{work_counter, work_units, WORK_UNIT};
+pub use self::instructions::{work_counter, work_since, work_units, WORK_UNIT};
 pub use self::plant_port::PlantPort;
 
 /// What `Info` reports as the chip.

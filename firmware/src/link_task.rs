@@ -2,7 +2,9 @@
 //! between the link USART's rings, and the flash writes it asks for.
 //!
 //! Each run (the task is pended by the USART interrupt, by the control task when a
-//! step queued something for the link, and after sending) repeats until nothing moves:
+//! step queued something for the link or lent it the control side, and after sending)
+//! first does the work a step lent it the control side for (an install, the rest of
+//! arming: `robot_app::lend`), then repeats until nothing moves:
 //!
 //! 1. received bytes from the receive ring into the service, while it has room for
 //!    their replies (otherwise they wait in the ring);
@@ -13,11 +15,11 @@
 
 use link::MAX_FRAME_LEN;
 use robot_app::channel::ring::{Consumer, Producer};
-use robot_app::LinkService;
+use robot_app::{Borrower, LinkService};
 use rtic::Mutex;
 use stm32f4xx_hal::pac;
 
-use crate::board::{Storage, Watchdog};
+use crate::board::{self, Storage, Watchdog};
 use crate::link_uart::{RX_RING, TX_RING};
 use crate::persistence;
 use crate::stats::FirmwareStats;
@@ -29,21 +31,25 @@ const MAX_ROUNDS: usize = 4 * MAX_FRAME_LEN;
 /// The link task's state.
 pub struct LinkWorker {
     service: LinkService<'static>,
+    borrower: Borrower<'static>,
     rx: Consumer<'static, u8, RX_RING>,
     tx: Producer<'static, u8, TX_RING>,
     storage: Option<Storage>,
 }
 
 impl LinkWorker {
-    /// The worker around `service`, reading `rx`, writing `tx`, persisting to `storage`.
+    /// The worker around `service` and `borrower`, reading `rx`, writing `tx`,
+    /// persisting to `storage`.
     pub fn new(
         service: LinkService<'static>,
+        borrower: Borrower<'static>,
         rx: Consumer<'static, u8, RX_RING>,
         tx: Producer<'static, u8, TX_RING>,
         storage: Option<Storage>,
     ) -> Self {
         Self {
             service,
+            borrower,
             rx,
             tx,
             storage,
@@ -52,6 +58,9 @@ impl LinkWorker {
 
     /// One run of the task (module doc).
     pub fn run(&mut self, watchdog: &mut impl Mutex<T = Watchdog>) {
+        if self.borrower.run() {
+            board::lent_work_done();
+        }
         for _ in 0..MAX_ROUNDS {
             let mut moved = false;
             while self.service.ready_for_input() {

@@ -16,19 +16,21 @@
 //!    loads the parameters from flash or falls back to the built-in ones
 //!    ([`persistence`], [`robot`]), builds the two sides of the application
 //!    (`robot_app::start`: the control side and the link service, joined by lock-free
-//!    channels), starts the tick and, last, shortens the watchdog to 10 ms.
+//!    channels), seats the control side in its room (`robot_app::lend`), starts the
+//!    tick and, last, shortens the watchdog to 10 ms.
 //! 2. [`app::control`] runs every control period (TIM5): the board's sensors, one
 //!    `ControlSide::step` (supervisor and the controller's inner loop, the link's
 //!    commands, telemetry sampling), the board's actuators, the watchdog feed, and a pend
-//!    of the link task when the step queued something for it. It never waits, logs,
-//!    allocates or panics (`cargo xtask panic-check` proves the last from the release
-//!    binary).
+//!    of the link task when the step queued something for it or lent it the control
+//!    side for work between two steps. It never waits, logs, allocates or panics
+//!    (`cargo xtask panic-check` proves the last from the release binary).
 //! 3. [`app::steering`] runs the steering law (the outer loop) when a control step lent
 //!    it a job, below the control task and before the next step, which applies its
 //!    outcome (`robot_app::outer`). Same rules as the control task.
 //! 4. [`app::link_uart`] (USART2) moves bytes between the line and two rings
 //!    ([`link_uart`]); [`app::link`] runs the link service between those rings
-//!    ([`link_task`]), and writes flash when asked.
+//!    ([`link_task`]), does the work a control step lent it the control side for
+//!    (`robot_app::lend`), and writes flash when asked.
 //! 5. [`app::idle`] counts a heartbeat that proves the background runs, and sleeps.
 //!
 //! | task | bound to | priority | shares |
@@ -75,7 +77,7 @@ mod app {
     use robot_app::channel::ring::Ring;
     use robot_app::outer::SteeringWorker;
     use robot_app::panic_record::PanicRecord;
-    use robot_app::{start, Channels, ControlSide};
+    use robot_app::{start, Channels, ControlRoom, ControlSeat};
     use stm32f4xx_hal::pac;
 
     use crate::board;
@@ -104,7 +106,7 @@ mod app {
     #[local]
     struct Local {
         io: board::ControlIo,
-        control: ControlSide<'static>,
+        control: ControlSeat<'static>,
         steering: SteeringWorker<'static>,
         uart: LinkUart,
         link: LinkWorker,
@@ -114,6 +116,7 @@ mod app {
 
     #[init(local = [
         channels: Channels = Channels::new(),
+        control_room: ControlRoom<'static> = ControlRoom::new(),
         rx_ring: Ring<u8, RX_RING> = Ring::new(),
         tx_ring: Ring<u8, TX_RING> = Ring::new(),
     ])]
@@ -158,7 +161,10 @@ mod app {
         let (rx_in, rx_out) = cx.local.rx_ring.split();
         let (tx_in, tx_out) = cx.local.tx_ring.split();
         let uart = LinkUart::new(board.link_usart, rx_in, tx_out);
-        let link = LinkWorker::new(service, rx_out, tx_in, board.storage);
+        // The control task steps the control side from its room; the link task borrows
+        // it between two steps for the work that costs more than one (`robot_app::lend`).
+        let (control, borrower) = cx.local.control_room.seat(control);
+        let link = LinkWorker::new(service, borrower, rx_out, tx_in, board.storage);
 
         // Last: the tick, and the run-time watchdog. From here on the control task
         // must feed it.
@@ -194,9 +200,7 @@ mod app {
             return; // entered before the deadline: not a tick
         };
         let out = local.control.step(sensors);
-        local
-            .io
-            .actuate(&out, local.control.controller().telemetry());
+        local.io.actuate(&out, local.control);
         if out.feed_watchdog {
             cx.shared.watchdog.lock(|watchdog| watchdog.feed());
         }
@@ -210,9 +214,11 @@ mod app {
         #[cfg(feature = "panic-canary")]
         core::hint::black_box(crate::panic_canary::index());
         local.io.end_step();
-        stats::CONTROL.record_since(started);
+        // One reading for both figures: they measure the same span.
+        let elapsed = board::work_since(started);
+        stats::CONTROL.record(elapsed);
         if out.state == State::Armed && out.event.is_none() {
-            stats::CONTROL_ARMED.record_since(started);
+            stats::CONTROL_ARMED.record(elapsed);
         }
     }
 
@@ -223,7 +229,7 @@ mod app {
         if cx.local.steering.run() {
             stats::STEERING.record_since(started);
         }
-        board::outer_loop_done();
+        board::lent_work_done();
     }
 
     /// The plant port of the emulated board (see `board::PlantPort`).

@@ -27,11 +27,16 @@ impl TaskTiming {
     }
 
     /// Records one run that started at the [`board::work_counter`] reading `started`.
-    /// Only the task this timing is for calls it (relaxed loads and stores, no
-    /// read-modify-write instruction needed).
     #[inline(always)]
     pub fn record_since(&self, started: u32) {
-        let raw = board::work_since(started);
+        self.record(board::work_since(started));
+    }
+
+    /// Records one run that lasted `raw` ([`board::work_since`] units). Only the task
+    /// this timing is for calls it (relaxed loads and stores, no read-modify-write
+    /// instruction needed).
+    #[inline(always)]
+    pub fn record(&self, raw: u32) {
         if raw > self.longest_raw.load(Ordering::Relaxed) {
             self.longest_raw.store(raw, Ordering::Relaxed);
         }

@@ -6,8 +6,15 @@
 //! supervisor's event, samples telemetry at the rate the link side set, accumulates the
 //! run metrics and publishes its state and counters. It never waits, allocates, logs or
 //! panics, and its work per step is bounded: one request, one reply, one event, one
-//! telemetry sample; installing a staged configuration or path (only while disarmed)
-//! rebuilds the controller in place.
+//! telemetry sample. Two things cost more than a control step's worth of work, and are
+//! done not in a step but between two, by [`ControlSide::work_between_steps`] (the
+//! firmware lends the control side to its link task for it: `crate::lend`):
+//!
+//! - installing a staged configuration or path (only while disarmed), which rebuilds
+//!   the controller and the supervisor in place;
+//! - the rest of arming: the step that arms drives nothing yet, and the controller's
+//!   start (pose, speed estimates, loops) follows it (`controller_core::supervisor`,
+//!   "Arming takes two steps").
 //!
 //! The steering law (the outer loop) runs one period behind the step that hands it its
 //! job: in the step itself by default, or, once [`ControlSide::lend_outer_loop`] was
@@ -24,7 +31,7 @@ use controller_core::supervisor::{
 };
 use link::{PidParts, RunReport, TelemetryFrame, TuneReport};
 
-use crate::channel::{ControlEnd, Op, Published, Refused, Report, Staged, ToLink};
+use crate::channel::{ControlEnd, Op, OpKind, Published, Refused, Report, Staged, ToLink};
 use crate::metrics::{ErrorSample, ErrorStats, ErrorSummary};
 use crate::outer::{OuterLoopSeat, SteeringWorker};
 
@@ -89,6 +96,31 @@ pub struct Actuation {
     /// The outer loop was lent with a job in this step: run the
     /// [`SteeringWorker`] before the next step.
     pub steering_lent: bool,
+    /// The step left work for between it and the next (it took an install request while
+    /// disarmed, or it armed): call [`ControlSide::work_between_steps`] before the next
+    /// step, which otherwise does it itself.
+    pub lend_due: bool,
+}
+
+impl Actuation {
+    /// What to apply when no control step ran: motors stopped and coasting, the watchdog
+    /// not fed, nothing to do.
+    pub const MOTORS_OFF: Actuation = Actuation {
+        duty: MotorCommand::STOP,
+        bridge: Bridge::Coast,
+        feed_watchdog: false,
+        state: State::Disarmed,
+        run_mode: RunMode::FollowPath,
+        missed_ticks_total: 0,
+        overruns_total: 0,
+        led_on: false,
+        battery_low: false,
+        faults: Faults::NONE,
+        event: None,
+        link_has_work: false,
+        steering_lent: false,
+        lend_due: false,
+    };
 }
 
 /// The status LED at control step `step` of a loop at `rate` steps per second: off while
@@ -180,6 +212,9 @@ pub struct ControlSide<'a> {
     /// The last step applied a steering outcome and so took no request: this one takes
     /// one whatever it does (see [`take_request_now`]).
     request_waited: bool,
+    /// The `seq` of the install request a step took, until it is installed (see
+    /// [`ControlSide::work_between_steps`]).
+    install_seq: Option<u16>,
 }
 
 impl<'a> ControlSide<'a> {
@@ -214,6 +249,7 @@ impl<'a> ControlSide<'a> {
                 since: 0,
             },
             request_waited: false,
+            install_seq: None,
         }
     }
 
@@ -250,6 +286,11 @@ impl<'a> ControlSide<'a> {
 
     /// One control period (see the module doc).
     pub fn step(&mut self, sensors: Sensors) -> Actuation {
+        // An install the last step took that nobody ran between the steps (arming left
+        // unfinished is the supervisor's to finish: `Supervisor::step`).
+        if self.install_seq.is_some() {
+            self.install_left_over();
+        }
         self.step = self.step.wrapping_add(1);
         let mut link_has_work = false;
 
@@ -260,7 +301,9 @@ impl<'a> ControlSide<'a> {
         // 1. At most one request from the link, and only when its reply and this step's
         //    event both have room: replies are never dropped. Not while the outer loop
         //    is away (an installation needs it), nor, unless the last step already
-        //    waited, in a step that applies a steering outcome (the heaviest step).
+        //    waited, in a step that applies a steering outcome (the heaviest step). An
+        //    install is answered after the step, if the robot is still disarmed then,
+        //    by `work_between_steps` between this step and the next.
         let mut command = None;
         let mut answered = None;
         let applies_outcome = self.controller.applies_steering_next_step();
@@ -270,22 +313,15 @@ impl<'a> ControlSide<'a> {
         {
             if let Some(request) = self.end.commands.pop() {
                 let kind = request.op.kind();
-                let result = match request.op {
-                    Op::Command(c) => {
-                        command = Some(c);
-                        None
-                    }
-                    Op::BeginPersist => {
-                        command = Some(Command::BeginPersist);
-                        None
-                    }
-                    Op::EndPersist => {
-                        command = Some(Command::EndPersist);
-                        None
-                    }
-                    Op::Install => Some(self.install()),
-                };
-                answered = Some((request.seq, kind, result));
+                match request.op {
+                    Op::Command(c) => command = Some(c),
+                    Op::BeginPersist => command = Some(Command::BeginPersist),
+                    Op::EndPersist => command = Some(Command::EndPersist),
+                    Op::Install => self.install_seq = Some(request.seq),
+                }
+                if self.install_seq.is_none() {
+                    answered = Some((request.seq, kind, None));
+                }
             }
         }
 
@@ -305,6 +341,13 @@ impl<'a> ControlSide<'a> {
 
         // The outer loop's job, if this step handed one over and it is lent out.
         let steering_lent = self.controller.lend_steering();
+
+        // An install waits for the end of the step, and only while disarmed; so does the
+        // rest of arming.
+        let install_taken = self.install_seq.is_some();
+        let install_due = install_taken && self.install_still_due(&out, steering_lent);
+        let lend_due = install_due || self.supervisor.arming_unfinished();
+        link_has_work |= install_taken || lend_due;
 
         // 3. Reply and event.
         if let Some((seq, op, result)) = answered {
@@ -371,21 +414,72 @@ impl<'a> ControlSide<'a> {
             event: out.event,
             link_has_work,
             steering_lent,
+            lend_due,
         }
     }
 
-    /// Installs what is staged, atomically, if the robot is disarmed; hands the staging
-    /// area back either way.
-    fn install(&mut self) -> Result<(), Refused> {
-        let Some(staged) = self.end.staging.staged() else {
-            return Err(Refused::Busy);
+    /// Does what the last step left for between it and the next
+    /// ([`Actuation::lend_due`]; module doc); true if there was something. Call it
+    /// outside the control interrupt: it costs more than a step. Never waits or panics.
+    pub fn work_between_steps(&mut self) -> bool {
+        let installed = self.install_seq.is_some();
+        if installed {
+            self.install_staged();
+        }
+        let arming = self.supervisor.arming_unfinished();
+        self.supervisor.finish_arming(&mut self.controller);
+        installed || arming
+    }
+
+    /// Installs what is staged, atomically, for the install request the last step took,
+    /// hands the staging area back and queues the reply. It rebuilds the controller and
+    /// supervisor in place; nothing steps meanwhile, so the robot is still disarmed. The
+    /// reply's room in the uplink was kept when the request was taken.
+    fn install_staged(&mut self) {
+        let Some(seq) = self.install_seq.take() else {
+            return;
         };
-        let result = install(staged, &mut self.controller, &mut self.supervisor);
+        let result = match self.end.staging.staged() {
+            Some(staged) => install(staged, &mut self.controller, &mut self.supervisor),
+            None => Err(Refused::Busy),
+        };
         if result.is_ok() {
             self.metrics.restart();
         }
         self.end.staging.finish();
-        result
+        let _ = self.end.uplink.push(ToLink::Reply {
+            seq,
+            op: OpKind::Install,
+            result,
+        });
+    }
+
+    /// After a step that took an install request: true if it is due (the robot is
+    /// disarmed); otherwise refuses it now (a step that armed the robot). Out of line:
+    /// not the common step.
+    #[inline(never)]
+    fn install_still_due(&mut self, out: &Supervised, steering_lent: bool) -> bool {
+        if out.state == State::Disarmed && !steering_lent {
+            return true;
+        }
+        if let Some(seq) = self.install_seq.take() {
+            self.end.staging.finish();
+            let _ = self.end.uplink.push(ToLink::Reply {
+                seq,
+                op: OpKind::Install,
+                result: Err(state_refusal(out.state)),
+            });
+        }
+        false
+    }
+
+    /// An install at the start of a step, for a driver that did not call
+    /// [`ControlSide::work_between_steps`] between the steps. Out of line and cold: the
+    /// firmware never gets here.
+    #[cold]
+    #[inline(never)]
+    fn install_left_over(&mut self) {
+        self.install_staged();
     }
 
     /// Feeds the run metrics: restarted when the robot is armed to follow the path, fed
@@ -400,6 +494,8 @@ impl<'a> ControlSide<'a> {
             self.run_max_wheel_rad_s = 0.0;
             self.run_max_duty = 0.0;
             self.in_run = true;
+            // The step that arms drives nothing; the run's first step is the next.
+            return false;
         }
         if out.state != State::Armed || out.run_mode != RunMode::FollowPath {
             return self.in_run && self.end_run();
@@ -547,7 +643,7 @@ pub fn pid_parts(parts: CorePidParts) -> PidParts {
 
 /// Installs `staged` into `controller` and `supervisor`: both change or neither. The
 /// supervisor refuses unless disarmed; the controller is rebuilt (in place) only after it
-/// accepted. Kept out of the control step, so its frame is paid only when installing.
+/// accepted. Out of line: its frame is paid only when installing.
 #[inline(never)]
 fn install(
     staged: &Staged,

@@ -19,19 +19,20 @@ use crate::steps::{build_target_executables, Context};
 /// The flash target for the firmware with the runtime link, bytes. Not met yet:
 /// see [`FLASH_BUDGET`].
 pub const FLASH_TARGET: u64 = 32 * 1024;
-/// The flash budget this check enforces, bytes: the measured size (86 904 B with the
+/// The flash budget this check enforces, bytes: the measured size (105 292 B with the
 /// `firmware` profile, STM32F411 build: the link service, the self-tune, the steering
-/// task; `controller-core` at opt-level 3, which costs 14.6 KB over "s" and keeps the
-/// control interrupt within its 1 500-instruction budget, see the workspace's
-/// `Cargo.toml`; 1.6 KB are the constant placeholders a committed path is built over in
-/// place, which took 4.7 KB off the stack) plus a small margin, because [`FLASH_TARGET`]
-/// is out of reach with the features the firmware carries (`controller-core` alone is
-/// about 23 KB at "s"; see README.md, "Budgets"); the check prints the measured size
-/// against the target too, and the largest symbols.
-pub const FLASH_BUDGET: u64 = 88 * 1024;
+/// task; `controller-core` and `robot-app` at opt-level 3, which cost 14.6 KB and 16.4 KB
+/// over smaller levels and keep the control interrupt within its 1 500-instruction
+/// budget in every state, see the workspace's `Cargo.toml`; 1.6 KB are the constant
+/// placeholders a committed path is built over in place, which took 4.7 KB off the
+/// stack) plus a small margin, because [`FLASH_TARGET`] is out of reach with the features
+/// the firmware carries (`controller-core` alone is about 23 KB at "s"; see README.md,
+/// "Budgets"); the check prints the measured size against the target too, and the
+/// largest symbols.
+pub const FLASH_BUDGET: u64 = 104 * 1024;
 /// The static RAM target, bytes (no heap); met.
 pub const RAM_TARGET: u64 = 8 * 1024;
-/// The static RAM budget this check enforces, bytes: the target. Measured 7 884 B (control
+/// The static RAM budget this check enforces, bytes: the target. Measured 7 948 B (control
 /// side 2 632 B with the tune's state, channels 2 792 B with the outer loop and its path,
 /// link service 1 560 B, receive ring 264 B, RTT 256 B, panic record 128 B).
 pub const RAM_BUDGET: u64 = RAM_TARGET;

@@ -142,10 +142,12 @@ impl fmt::Display for Root {
 }
 
 /// The limit [`check_firmware`] enforces on the stack's worst case, bytes: the bound of
-/// this build (4 912 B: the link task checking a new configuration, 3 216 B, under the
-/// control interrupt ending a tune, 1 348 B) plus a margin; the 4 KiB target is
-/// not met (see the firmware's README).
-pub const STACK_BOUND_LIMIT: u32 = 5 * 1024 + 512;
+/// this build (5 680 B: the link task checking a new configuration, 3 624 B, under the
+/// steering task, 368 B, under the control interrupt ending a tune, 1 364 B, with an
+/// exception frame each; `robot-app` at opt-level 3 made the link task's own frame
+/// 544 B larger) plus a margin; the 4 KiB target is not met (see the firmware's
+/// README).
+pub const STACK_BOUND_LIMIT: u32 = 5 * 1024 + 768;
 
 /// The firmware's tasks for the stack bound, with their RTIC priorities: tasks of
 /// different priorities can preempt one another, so their stacks add up.

@@ -30,12 +30,12 @@ use crate::steps::{build_target_executables, display_command, Context};
 
 /// The issue's target for the control interrupt on the Cortex-M4F, instructions.
 pub const CONTROL_INTERRUPT_TARGET: u64 = 1500;
-/// The limit this step enforces on the armed steps, instructions: the target itself. The
-/// worst armed step measured 1 440–1 446 on either path: a steering outcome applied, or a
-/// job handed over with a link request or a telemetry sample. A link request waits a step
-/// rather than fall on the step that applies the outcome (the heaviest), a telemetry
-/// sample waits on that step and on the hand-over, and `controller-core` is built at
-/// opt-level 3; see the firmware's README.
+/// The limit this step enforces on every step, armed or not, instructions: the target
+/// itself. The worst step measured 1 393–1 417 on either path. Installs and the rest of
+/// arming run between steps in the link task (`robot_app::lend`); a link request waits a
+/// step rather than fall on the step that applies the steering outcome (the heaviest), a
+/// telemetry sample waits on that step and on the hand-over, and `controller-core` and
+/// `robot-app` are built at opt-level 3; see the firmware's README.
 pub const CONTROL_INTERRUPT_LIMIT: u64 = CONTROL_INTERRUPT_TARGET;
 /// The issue's target for the stack's high-water mark, bytes.
 pub const STACK_TARGET: u64 = 4096;
@@ -89,8 +89,8 @@ pub fn check(ctx: &Context) -> Result<()> {
     } = worst;
     println!("control interrupt on Cortex-M4F (PIL): max {control} instructions");
     println!(
-        "  (in any state, with the step that arms and the disarmed steps that install a \
-         configuration or path: {any_state})"
+        "  (in any state, the step that arms and the disarmed steps that take an install \
+         included: {any_state})"
     );
     println!("steering task on Cortex-M4F (PIL): max {steering} instructions");
     println!("stack high-water mark (PIL): {stack} bytes");
@@ -103,9 +103,10 @@ pub fn check(ctx: &Context) -> Result<()> {
         verdict(control, CONTROL_INTERRUPT_TARGET),
         verdict(stack, STACK_TARGET),
     );
-    if control > CONTROL_INTERRUPT_LIMIT {
+    if control.max(any_state) > CONTROL_INTERRUPT_LIMIT {
         failures.push(format!(
-            "control interrupt {control} instructions > {CONTROL_INTERRUPT_LIMIT}"
+            "control interrupt {control} instructions armed, {any_state} in any state > \
+             {CONTROL_INTERRUPT_LIMIT}"
         ));
     }
     if stack > STACK_LIMIT {

@@ -42,6 +42,20 @@
 //! check in force; the tune disarms by itself when done, and a fault, the button or the
 //! link stops it like any run). A long press while disarmed selects the next mode.
 //!
+//! ## Arming takes two steps
+//!
+//! The step that arms (a short press, the link's `Arm`, auto-arm) reports
+//! [`State::Armed`] and [`Event::Armed`], but its controller still runs idle: duties 0,
+//! the bridge as if disarmed. What arming does to the controller (the start pose, a
+//! tune's start, the speed estimates of a run that starts in motion, the loops restarted
+//! in the new mode) is left for [`Supervisor::finish_arming`], between that step and the
+//! next, which is the run's first driving step. That work costs as much as a control
+//! step; a firmware does it outside its control interrupt (see
+//! [`Supervisor::arming_unfinished`]). A caller that does not is covered: the next
+//! [`Supervisor::step`] finishes it first. [`Supervisor::arm_locally`], called between
+//! two steps, finishes at once. Either way the run starts at the same step, from the
+//! same state.
+//!
 //! ## The bridge: brake, then coast
 //!
 //! Both supported bridges run slow decay, so duty 0 with the bridge enabled is a short
@@ -103,15 +117,20 @@
 //! assert_eq!(out.duty, MotorCommand::STOP);
 //! assert!(out.feed_watchdog && out.bridge == Bridge::Coast);
 //!
-//! // The link arms the robot; it must then send heartbeats.
+//! // The link arms the robot; it must then send heartbeats. The controller starts the
+//! // run between this step and the next.
 //! input.command = Some(Command::Arm(ArmRequest::follow_path()));
 //! let out = supervisor.step(&mut controller, input);
 //! assert_eq!(out.state, State::Armed);
 //! assert_eq!(out.command_result, Some(Ok(())));
-//! assert!(out.bridge == Bridge::Drive);
+//! assert!(out.bridge == Bridge::Coast && supervisor.arming_unfinished());
+//! supervisor.finish_arming(&mut controller);
 //!
-//! // The steering law's command reaches the wheels one step later.
+//! // The run's first step drives; the steering law's command reaches the wheels one
+//! // step later.
 //! input.command = Some(Command::Heartbeat);
+//! let out = supervisor.step(&mut controller, input);
+//! assert!(out.bridge == Bridge::Drive);
 //! let out = supervisor.step(&mut controller, input);
 //! assert!(out.duty.left > 0.0 && out.bridge == Bridge::Drive);
 //! ```
@@ -513,6 +532,13 @@ pub struct Supervisor {
     /// The wheel-loop tune, and the voltages it asked for the next step.
     tuner: Tuner,
     tune_volts: WheelVolts,
+    /// Armed in the last step, and the controller not started yet (see
+    /// [`Supervisor::finish_arming`]). A flag, not an `Option` of what is left: it is
+    /// tested in every step.
+    arming_unfinished: bool,
+    /// The motion (v m/s, ω rad/s, robot frame) the run starts with, if the arming
+    /// asserted one; for [`Supervisor::finish_arming`].
+    arming_motion: Option<BodyVelocity>,
 }
 
 impl Supervisor {
@@ -551,6 +577,8 @@ impl Supervisor {
             supply: Supply::default(),
             tuner: Tuner::new(TuneConfig::for_robot(params.config()), params),
             tune_volts: WheelVolts::default(),
+            arming_unfinished: false,
+            arming_motion: None,
         })
     }
 
@@ -638,6 +666,9 @@ impl Supervisor {
         controller: &mut Controller<S>,
         input: Inputs,
     ) -> Supervised {
+        if self.arming_unfinished {
+            self.finish_arming(controller);
+        }
         self.steps_since_boot = self.steps_since_boot.saturating_add(1);
         self.track_liveness(&input);
 
@@ -653,16 +684,8 @@ impl Supervisor {
             event = self.handle_timers(controller);
         }
 
-        // 2. The controller runs in the mode the state allows.
-        let mode = match (self.state, self.run_mode) {
-            (State::Armed, RunMode::FollowPath) => Mode::FollowPath,
-            (State::Armed, RunMode::HoldWheelSpeeds) => {
-                Mode::HoldWheelSpeeds(self.config.hold_speeds)
-            }
-            (State::Armed, RunMode::Tune) => Mode::ApplyVolts(self.tune_volts),
-            (State::Disarmed | State::Faulted | State::Persisting, _) => Mode::Idle,
-        };
-        controller.set_mode(mode);
+        // 2. The controller runs in the mode the state allows (idle in the step that arms).
+        controller.set_mode(self.controller_mode());
         let controller_duty = controller.step(StepInput {
             ticks: input.ticks,
             periods: input.periods,
@@ -676,20 +699,24 @@ impl Supervisor {
                 self.start_braking();
             }
             self.state = State::Faulted;
+            self.arming_unfinished = false;
             self.armed_by_link = false;
             self.auto_arm_pending = false;
             self.tuner.abort(TuneAbort::Stopped);
             event = Some(Event::Faulted);
         }
-        if self.state == State::Armed && self.run_mode == RunMode::Tune {
+        // The tune starts with arming's end.
+        let mut driving = self.state == State::Armed && !self.arming_unfinished;
+        if driving && self.run_mode == RunMode::Tune {
             event = self.tune_step(controller, input.periods).or(event);
+            // The tune may have ended, disarming.
+            driving = self.state == State::Armed;
         }
         let battery_event = self.battery_event();
         event = event.or(battery_event);
 
-        // 4. Outputs.
-        let armed = self.state == State::Armed;
-        let bridge = if armed {
+        // 4. Outputs. The step that arms drives nothing yet.
+        let bridge = if driving {
             Bridge::Drive
         } else if self.brake_steps_left > 0 {
             self.brake_steps_left -= 1;
@@ -698,7 +725,7 @@ impl Supervisor {
             Bridge::Coast
         };
         Supervised {
-            duty: if armed {
+            duty: if driving {
                 controller_duty
             } else {
                 MotorCommand::STOP
@@ -739,8 +766,9 @@ impl Supervisor {
 
     /// Arms at once, at the request of the operator at the robot rather than over the
     /// link (a bench script, the simulator's timeline): like the button, it needs no
-    /// heartbeat. Only from Disarmed, and not while the button is held. The controller
-    /// runs in the new mode from the next [`Supervisor::step`].
+    /// heartbeat. Only from Disarmed, and not while the button is held. Call it between
+    /// two steps: it finishes arming at once ([`Supervisor::finish_arming`]), and the
+    /// next [`Supervisor::step`] is the run's first driving step.
     pub fn arm_locally<S: SteeringSeat>(
         &mut self,
         controller: &mut Controller<S>,
@@ -752,7 +780,9 @@ impl Supervisor {
         if self.button.pressed() {
             return Err(Refusal::ButtonHeld);
         }
-        Ok(self.arm(controller, request, false))
+        let event = self.arm(request, false);
+        self.finish_arming(controller);
+        Ok(event)
     }
 
     /// The watchdog-feeding rule (module doc): the loop is not late and the background runs.
@@ -884,7 +914,7 @@ impl Supervisor {
                 None
             }
             (Press::Up { long: false }, State::Disarmed) => {
-                Some(self.arm(controller, self.arm_request_for(self.run_mode), false))
+                Some(self.arm(self.arm_request_for(self.run_mode), false))
             }
             (Press::Up { long: false }, State::Faulted) => Some(self.clear_faults(controller)),
             (Press::Up { .. }, _) => None,
@@ -911,7 +941,7 @@ impl Supervisor {
             }
             (Command::Arm(request), State::Disarmed) => {
                 self.auto_arm_pending = false;
-                (Ok(()), Some(self.arm(controller, request, true)))
+                (Ok(()), Some(self.arm(request, true)))
             }
             (Command::Disarm, State::Armed) => {
                 self.disarm(controller);
@@ -940,7 +970,7 @@ impl Supervisor {
             State::Disarmed if self.auto_arm_pending => {
                 let due = self.config.auto_arm_after_steps.unwrap_or(u32::MAX);
                 if self.steps_since_boot >= due && !self.button.pressed() {
-                    Some(self.arm(controller, self.arm_request_for(self.run_mode), false))
+                    Some(self.arm(self.arm_request_for(self.run_mode), false))
                 } else {
                     None
                 }
@@ -974,12 +1004,9 @@ impl Supervisor {
         }
     }
 
-    fn arm<S: SteeringSeat>(
-        &mut self,
-        controller: &mut Controller<S>,
-        request: ArmRequest,
-        by_link: bool,
-    ) -> Event {
+    /// Arms with `request` (the link's when `by_link`); the controller starts with
+    /// [`Supervisor::finish_arming`].
+    fn arm(&mut self, request: ArmRequest, by_link: bool) -> Event {
         self.auto_arm_pending = false;
         self.state = State::Armed;
         self.run_mode = request.mode;
@@ -994,24 +1021,59 @@ impl Supervisor {
         self.brake_steps_left = 0;
         self.stall.reset();
         self.divergence.reset();
-        if request.mode == RunMode::FollowPath {
+        self.arming_unfinished = true;
+        self.arming_motion = request.initial_motion;
+        Event::Armed(self.run_mode)
+    }
+
+    /// Armed in the last step, and [`Supervisor::finish_arming`] not called since: the
+    /// controller is still idle. Call that between this step and the next.
+    pub const fn arming_unfinished(&self) -> bool {
+        self.arming_unfinished
+    }
+
+    /// Does what the last step's arming leaves for between two steps (module doc): the
+    /// start pose, a tune's start or the motion a run starts with, and the controller's
+    /// loops restarted in the run's mode. About as much work as a control step; nothing
+    /// if no arming is unfinished. Never waits or panics.
+    pub fn finish_arming<S: SteeringSeat>(&mut self, controller: &mut Controller<S>) {
+        if !self.arming_unfinished || self.state != State::Armed {
+            return;
+        }
+        self.arming_unfinished = false;
+        if self.run_mode == RunMode::FollowPath {
             // The robot has been put down at the start; forget where odometry drifted to
             // while it was carried. Leaving Idle for FollowPath restarts the reference.
             controller.set_pose(self.config.start_pose);
         }
-        if request.mode == RunMode::Tune {
+        if self.run_mode == RunMode::Tune {
             // From where the robot stands; the tune checks that it stands still.
             self.tune_volts = WheelVolts::default();
             self.tuner.start(controller.pose());
-        } else if let Some(motion) = request.initial_motion {
+        } else if let Some(motion) = self.arming_motion {
             controller.seed_motion(motion);
         }
-        Event::Armed(self.run_mode)
+        controller.set_mode(self.controller_mode());
+    }
+
+    /// The controller's mode in the present state: the run mode's while armed (idle until
+    /// arming is finished), idle otherwise.
+    fn controller_mode(&self) -> Mode {
+        match (self.state, self.run_mode) {
+            (State::Armed, _) if self.arming_unfinished => Mode::Idle,
+            (State::Armed, RunMode::FollowPath) => Mode::FollowPath,
+            (State::Armed, RunMode::HoldWheelSpeeds) => {
+                Mode::HoldWheelSpeeds(self.config.hold_speeds)
+            }
+            (State::Armed, RunMode::Tune) => Mode::ApplyVolts(self.tune_volts),
+            (State::Disarmed | State::Faulted | State::Persisting, _) => Mode::Idle,
+        }
     }
 
     fn disarm<S: SteeringSeat>(&mut self, controller: &mut Controller<S>) {
         self.tuner.abort(TuneAbort::Stopped);
         self.state = State::Disarmed;
+        self.arming_unfinished = false;
         self.armed_by_link = false;
         self.start_braking();
         controller.set_mode(Mode::Idle);

@@ -130,9 +130,9 @@ pub fn judge(scenario: &Scenario, outcome: &PilOutcome, host: Option<&RunResult>
             board.control_armed_max_instructions
         ),
         format!(
-            "control interrupt on Cortex-M4F (PIL), any state: max {} instructions (with the \
-             step that arms, which restarts the run, and the disarmed steps that install a \
-             configuration or path)",
+            "control interrupt on Cortex-M4F (PIL), any state: max {} instructions (the step \
+             that arms and the disarmed steps that take an install included; the install and \
+             the rest of arming run between steps, in the link task)",
             board.control_max_instructions
         ),
         format!(

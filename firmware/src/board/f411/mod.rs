@@ -46,7 +46,6 @@ mod watchdog;
 
 use core::num::NonZeroU32;
 
-use controller_core::controller::Telemetry;
 use controller_core::supervisor::ResetCause;
 use cortex_m::peripheral::DWT;
 use robot_app::hw::chip::{Chip, HSI_HZ};
@@ -54,7 +53,7 @@ use robot_app::hw::clock::{self as clock_plan, ClockPlan};
 use robot_app::hw::supply::{AdcPrescaler, Divider, SampleTime};
 use robot_app::hw::usart::BaudSetting;
 use robot_app::hw::watchdog::IwdgConfig;
-use robot_app::{Actuation, Sensors};
+use robot_app::{Actuation, ControlSeat, Sensors};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::qei::Qei;
@@ -386,7 +385,7 @@ impl ControlIo {
     /// Writes the step's outputs: duties and the driver's enable line, the LED, and
     /// starts the next supply conversion.
     #[inline(always)]
-    pub fn actuate(&mut self, out: &Actuation, _telemetry: &Telemetry) {
+    pub fn actuate(&mut self, out: &Actuation, _control: &ControlSeat<'_>) {
         self.drive.apply(out.duty, out.bridge.enabled());
         self.led.set(out.led_on);
         self.supply.start();
@@ -399,10 +398,10 @@ impl ControlIo {
     }
 }
 
-/// The steering task has run the outer loop the step lent it: nothing waits for that on
-/// this board (the tick starts the next step).
+/// The steering task has run the outer loop the step lent it, or the link task an
+/// install: nothing waits for that on this board (the tick starts the next step).
 #[inline(always)]
-pub fn outer_loop_done() {}
+pub fn lent_work_done() {}
 
 /// A free-running count for timing the tasks: DWT CYCCNT, CPU cycles.
 #[inline(always)]

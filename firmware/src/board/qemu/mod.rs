@@ -35,13 +35,12 @@
 mod instructions;
 mod plant_port;
 
-use controller_core::controller::Telemetry;
 use controller_core::supervisor::ResetCause;
 use robot_app::channel::ring::{Consumer, Producer, Ring};
 use robot_app::hw::watchdog::{IwdgConfig, IwdgPrescaler};
 use robot_app::lockstep::{BoardStep, PlantStep};
 use robot_app::persist::Slot;
-use robot_app::{Actuation, Sensors};
+use robot_app::{Actuation, ControlSeat, Sensors};
 use stm32f4xx_hal::pac;
 
 pub use self::instructions::{work_counter, work_since, work_units, WORK_UNIT};
@@ -127,9 +126,10 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Board {
     }
 }
 
-/// The steering task has run the outer loop the step lent it: the step's answer may go.
+/// The steering task has run the outer loop the step lent it, or the link task the
+/// work the step lent it the control side for: the step's answer may go.
 #[inline(always)]
-pub fn outer_loop_done() {
+pub fn lent_work_done() {
     plant_port::hold_answer(false);
     rtic::pend(pac::Interrupt::USART1);
 }
@@ -167,12 +167,17 @@ impl ControlIo {
 
     /// Queues the step's answer for the plant port, which sends it once this task has
     /// returned (same priority, so it never preempts the step). When the step lent the
-    /// outer loop, the answer is held until the steering task has run it
-    /// ([`outer_loop_done`]): the plant's next step message then cannot start the next
-    /// step before the outer loop is back, however the host's bytes fall in virtual time.
+    /// outer loop, or the control side for work between steps (never both), the answer
+    /// is held until the lower-priority task has done that work ([`lent_work_done`]): the
+    /// plant's next step message then cannot start the next step before it is back,
+    /// however the host's bytes fall in virtual time. The pose and error are `control`'s telemetry
+    /// (zero in a step that ran while the control side was lent, which this board's
+    /// hold never lets happen).
     #[inline(always)]
-    pub fn actuate(&mut self, out: &Actuation, telemetry: &Telemetry) {
-        plant_port::hold_answer(out.steering_lent);
+    pub fn actuate(&mut self, out: &Actuation, control: &ControlSeat<'_>) {
+        let telemetry = control.telemetry();
+        let held = out.steering_lent || out.lend_due;
+        plant_port::hold_answer(held);
         // The plant sends the next step only after this answer: the slot is free.
         let _ = self.replies.push(BoardStep {
             duty: out.duty,
@@ -184,11 +189,11 @@ impl ControlIo {
             event: out.event,
             missed_ticks_total: out.missed_ticks_total,
             overruns_total: out.overruns_total,
-            pose: telemetry.pose,
-            error: telemetry.error,
-            steering_updated: telemetry.steering_updated,
+            pose: telemetry.map_or_else(Default::default, |t| t.pose),
+            error: telemetry.map_or_else(Default::default, |t| t.error),
+            steering_updated: telemetry.is_some_and(|t| t.steering_updated),
         });
-        if !out.steering_lent {
+        if !held {
             rtic::pend(pac::Interrupt::USART1);
         }
     }

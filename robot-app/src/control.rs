@@ -312,15 +312,16 @@ impl<'a> ControlSide<'a> {
             && self.end.uplink.free() >= 2
         {
             if let Some(request) = self.end.commands.pop() {
-                let kind = request.op.kind();
-                match request.op {
-                    Op::Command(c) => command = Some(c),
-                    Op::BeginPersist => command = Some(Command::BeginPersist),
-                    Op::EndPersist => command = Some(Command::EndPersist),
-                    Op::Install => self.install_seq = Some(request.seq),
-                }
-                if self.install_seq.is_none() {
-                    answered = Some((request.seq, kind, None));
+                command = match request.op {
+                    Op::Command(c) => Some(c),
+                    Op::BeginPersist => Some(Command::BeginPersist),
+                    Op::EndPersist => Some(Command::EndPersist),
+                    Op::Install => None,
+                };
+                if command.is_some() {
+                    answered = Some((request.seq, request.op.kind()));
+                } else {
+                    self.install_seq = Some(request.seq);
                 }
             }
         }
@@ -346,12 +347,13 @@ impl<'a> ControlSide<'a> {
         // rest of arming.
         let install_taken = self.install_seq.is_some();
         let install_due = install_taken && self.install_still_due(&out, steering_lent);
-        let lend_due = install_due || self.supervisor.arming_unfinished();
-        link_has_work |= install_taken || lend_due;
+        let arming = self.supervisor.arming_unfinished();
+        let lend_due = install_due || arming;
+        link_has_work |= install_taken || arming;
 
         // 3. Reply and event.
-        if let Some((seq, op, result)) = answered {
-            let result = result.unwrap_or_else(|| command_outcome(command, out.command_result));
+        if let Some((seq, op)) = answered {
+            let result = command_outcome(command, out.command_result);
             // Room was checked before taking the request.
             let _ = self.end.uplink.push(ToLink::Reply { seq, op, result });
             link_has_work = true;
@@ -446,6 +448,11 @@ impl<'a> ControlSide<'a> {
         if result.is_ok() {
             self.metrics.restart();
         }
+        self.answer_install(seq, result);
+    }
+
+    /// Hands the staging area back and queues the reply to install request `seq`.
+    fn answer_install(&mut self, seq: u16, result: Result<(), Refused>) {
         self.end.staging.finish();
         let _ = self.end.uplink.push(ToLink::Reply {
             seq,
@@ -463,12 +470,7 @@ impl<'a> ControlSide<'a> {
             return true;
         }
         if let Some(seq) = self.install_seq.take() {
-            self.end.staging.finish();
-            let _ = self.end.uplink.push(ToLink::Reply {
-                seq,
-                op: OpKind::Install,
-                result: Err(state_refusal(out.state)),
-            });
+            self.answer_install(seq, Err(state_refusal(out.state)));
         }
         false
     }

@@ -107,7 +107,7 @@ impl<'a> ControlSeat<'a> {
             last: Actuation::MOTORS_OFF,
             stopped_steps: 0,
             feed_steps: 0,
-            carried_ticks: TickDeltas { left: 0, right: 0 },
+            carried_ticks: TickDeltas::default(),
             carried_periods: 0,
         }
     }
@@ -128,12 +128,9 @@ impl<'a> ControlSeat<'a> {
             return self.stopped_step(sensors.ticks, sensors.periods);
         };
         if self.carried_periods != 0 {
-            let carried = self.carried_ticks;
-            sensors.ticks.left = sensors.ticks.left.wrapping_add(carried.left);
-            sensors.ticks.right = sensors.ticks.right.wrapping_add(carried.right);
-            sensors.periods = sensors.periods.saturating_add(self.carried_periods);
-            self.carried_ticks = TickDeltas { left: 0, right: 0 };
-            self.carried_periods = 0;
+            sensors.ticks = add_ticks(sensors.ticks, core::mem::take(&mut self.carried_ticks));
+            let periods = core::mem::take(&mut self.carried_periods);
+            sensors.periods = sensors.periods.saturating_add(periods);
         }
         let out = control.step(sensors);
         if out.lend_due {
@@ -162,8 +159,7 @@ impl<'a> ControlSeat<'a> {
     #[inline(never)]
     fn stopped_step(&mut self, ticks: TickDeltas, periods: NonZeroU32) -> Actuation {
         self.stopped_steps = self.stopped_steps.saturating_add(1);
-        self.carried_ticks.left = self.carried_ticks.left.wrapping_add(ticks.left);
-        self.carried_ticks.right = self.carried_ticks.right.wrapping_add(ticks.right);
+        self.carried_ticks = add_ticks(self.carried_ticks, ticks);
         self.carried_periods = self.carried_periods.saturating_add(periods.get());
         let mut out = self.last;
         out.duty = MotorCommand::STOP;
@@ -174,6 +170,14 @@ impl<'a> ControlSeat<'a> {
         out.lend_due = false;
         out.feed_watchdog = self.stopped_steps <= self.feed_steps;
         out
+    }
+}
+
+/// The ticks of two spans of steps together (wrapping, as the encoder counters do).
+fn add_ticks(a: TickDeltas, b: TickDeltas) -> TickDeltas {
+    TickDeltas {
+        left: a.left.wrapping_add(b.left),
+        right: a.right.wrapping_add(b.right),
     }
 }
 

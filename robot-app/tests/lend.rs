@@ -1,6 +1,6 @@
-//! Installs out of the control step (`robot_app::lend`): the control side lent to the
-//! link task's borrower between two steps, the stopped steps while it is away, and the
-//! step's own fallback when nobody installs between steps.
+//! Installs and arming's end out of the control step (`robot_app::lend`): the control
+//! side lent to the link task's borrower between two steps, the stopped steps while it
+//! is away, and the step's own fallback when nobody installs between steps.
 
 mod support;
 
@@ -10,7 +10,8 @@ use controller_core::controller::{MotorCommand, TickDeltas};
 use controller_core::supervisor::{Bridge, State};
 use link::{encode, params_hash, Decoder, Downlink, Received, Reply, Request, Uplink};
 use robot_app::{
-    start, Actuation, Channels, ControlRoom, ControlSide, LinkService, NoBoardStats, Sensors,
+    start, Actuation, Borrower, Channels, ControlRoom, ControlSeat, ControlSide, LinkService,
+    NoBoardStats, Sensors,
 };
 use support::{app_config, default_params, SUPPLY_V};
 
@@ -48,12 +49,21 @@ fn sensors(left: i32, right: i32) -> Sensors {
     }
 }
 
+/// A robot with the default configuration, seated in `room`: its seat and borrower, and
+/// its link side.
+fn seated<'a>(
+    channels: &'a mut Channels,
+    room: &'a mut ControlRoom<'a>,
+) -> (ControlSeat<'a>, Borrower<'a>, LinkService<'a>) {
+    let (control, link) = start(channels, app_config(BAUD, false)).expect("valid");
+    let (seat, borrower) = room.seat(control);
+    (seat, borrower, link)
+}
+
 #[test]
 fn an_install_runs_in_the_borrower_between_two_steps() {
-    let mut channels = Channels::new();
-    let mut room = ControlRoom::new();
-    let (control, mut link) = start(&mut channels, app_config(BAUD, false)).expect("valid");
-    let (mut seat, mut borrower) = room.seat(control);
+    let (mut channels, mut room) = (Channels::new(), ControlRoom::new());
+    let (mut seat, mut borrower, mut link) = seated(&mut channels, &mut room);
     let mut host = Decoder::new();
     assert!(!borrower.run(), "nothing lent yet");
 
@@ -86,14 +96,8 @@ fn lending_and_direct<'a>(
     room: &'a mut ControlRoom<'a>,
     channels_2: &'a mut Channels,
     first: Sensors,
-) -> (
-    robot_app::ControlSeat<'a>,
-    robot_app::Borrower<'a>,
-    ControlSide<'a>,
-    Actuation,
-) {
-    let (control, mut link) = start(channels, app_config(BAUD, false)).expect("valid");
-    let (mut seat, borrower) = room.seat(control);
+) -> (ControlSeat<'a>, Borrower<'a>, ControlSide<'a>, Actuation) {
+    let (mut seat, borrower, mut link) = seated(channels, room);
     let (mut direct, mut link_2) = start(channels_2, app_config(BAUD, false)).expect("valid");
     send(&mut link, 7, Request::SetParams(new_params()));
     link.poll();
@@ -208,10 +212,8 @@ fn a_step_installs_itself_what_nobody_installed_between_steps() {
 
 #[test]
 fn arming_is_finished_by_the_borrower_and_the_next_step_drives() {
-    let mut channels = Channels::new();
-    let mut room = ControlRoom::new();
-    let (control, mut link) = start(&mut channels, app_config(BAUD, false)).expect("valid");
-    let (mut seat, mut borrower) = room.seat(control);
+    let (mut channels, mut room) = (Channels::new(), ControlRoom::new());
+    let (mut seat, mut borrower, mut link) = seated(&mut channels, &mut room);
     let mut host = Decoder::new();
     send(
         &mut link,

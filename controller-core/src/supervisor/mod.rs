@@ -1037,7 +1037,8 @@ impl Supervisor {
     /// loops restarted in the run's mode. About as much work as a control step; nothing
     /// if no arming is unfinished. Never waits or panics.
     pub fn finish_arming<S: SteeringSeat>(&mut self, controller: &mut Controller<S>) {
-        if !self.arming_unfinished || self.state != State::Armed {
+        // Every way out of Armed (a disarm, a fault) clears the flag.
+        if !self.arming_unfinished {
             return;
         }
         self.arming_unfinished = false;

@@ -31,8 +31,8 @@
 //!   nothing (`controller_core::supervisor`, "Arming takes two steps"); the next one is
 //!   the run's first.
 //! - **Arming in motion** (an `Arm` whose `initial_motion` is set): the plant's wheels are
-//!   spun up to that motion at the run's first step. When the asserted motion (f32 on the wire)
-//!   is the scenario's start motion rounded to f32, the scenario's own f64 values are
+//!   spun up to that motion at the run's first step. When the asserted motion (f32 on the
+//!   wire) is the scenario's start motion rounded to f32, the scenario's own f64 values are
 //!   used, and likewise for a committed start pose equal to the scenario's start: the
 //!   plant then starts exactly where `host-sim run` starts it.
 //!

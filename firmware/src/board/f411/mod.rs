@@ -398,8 +398,9 @@ impl ControlIo {
     }
 }
 
-/// The steering task has run the outer loop the step lent it, or the link task an
-/// install: nothing waits for that on this board (the tick starts the next step).
+/// The steering task has run the outer loop the step lent it, or the link task the work
+/// the step lent it the control side for: nothing waits for that on this board (the
+/// tick starts the next step).
 #[inline(always)]
 pub fn lent_work_done() {}
 

@@ -170,9 +170,9 @@ impl ControlIo {
     /// outer loop, or the control side for work between steps (never both), the answer
     /// is held until the lower-priority task has done that work ([`lent_work_done`]): the
     /// plant's next step message then cannot start the next step before it is back,
-    /// however the host's bytes fall in virtual time. The pose and error are `control`'s telemetry
-    /// (zero in a step that ran while the control side was lent, which this board's
-    /// hold never lets happen).
+    /// however the host's bytes fall in virtual time. The pose and error are `control`'s
+    /// telemetry (zero in a step that ran while the control side was lent, which this
+    /// board's hold never lets happen).
     #[inline(always)]
     pub fn actuate(&mut self, out: &Actuation, control: &ControlSeat<'_>) {
         let telemetry = control.telemetry();

@@ -9,8 +9,8 @@
 //! - **transmit** (TXE): the control task's answers, one message at a time; TXEIE stays
 //!   on while bytes wait (QEMU keeps TXE set, so in practice a message goes out in one
 //!   interrupt). An answer is not started while it is held ([`hold_answer`]: the step
-//!   lent the outer loop, or the control side for an install, and the lower-priority
-//!   task has not done that work yet).
+//!   lent the outer loop, or the control side for work between steps, and the
+//!   lower-priority task has not done that work yet).
 //! - **finish**: answers with the run's figures ([`BoardReport`]) and ends the emulation
 //!   (semihosting `exit(0)`).
 

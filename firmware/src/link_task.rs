@@ -3,9 +3,10 @@
 //!
 //! Each run (the task is pended by the USART interrupt, by the control task when a
 //! step queued something for the link or lent it the control side, and after sending)
-//! first does the work a step lent it the control side for (an install, the rest of
-//! arming: `robot_app::lend`), then repeats until nothing moves:
+//! repeats until nothing moves:
 //!
+//! 0. the work a step lent it the control side for (an install, the rest of arming:
+//!    `robot_app::lend`), if any;
 //! 1. received bytes from the receive ring into the service, while it has room for
 //!    their replies (otherwise they wait in the ring);
 //! 2. `poll`: the control side's replies, events and telemetry into frames;
@@ -58,10 +59,13 @@ impl LinkWorker {
 
     /// One run of the task (module doc).
     pub fn run(&mut self, watchdog: &mut impl Mutex<T = Watchdog>) {
-        if self.borrower.run() {
-            board::lent_work_done();
-        }
         for _ in 0..MAX_ROUNDS {
+            // First in every round, not only in the run's first: a control step that
+            // preempted this run may have lent the control side meanwhile, and each
+            // period it stays here is a step with the motors stopped.
+            if self.borrower.run() {
+                board::lent_work_done();
+            }
             let mut moved = false;
             while self.service.ready_for_input() {
                 let Some(byte) = self.rx.pop() else {

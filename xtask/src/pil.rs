@@ -31,7 +31,7 @@ use crate::steps::{build_target_executables, display_command, Context};
 /// The target for the control interrupt on the Cortex-M4F, instructions.
 pub const CONTROL_INTERRUPT_TARGET: u64 = 1500;
 /// The limit this step enforces on every step, armed or not, instructions: the target
-/// itself. The worst step measured 1 393–1 417 on either path. Installs and the rest of
+/// itself. The worst step measured 1 387–1 417 on either path. Installs and the rest of
 /// arming run between steps in the link task (`robot_app::lend`); a link request waits a
 /// step rather than fall on the step that applies the steering outcome (the heaviest), a
 /// telemetry sample waits on that step and on the hand-over, and `controller-core` and

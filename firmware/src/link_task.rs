@@ -58,48 +58,86 @@ impl LinkWorker {
     }
 
     /// One run of the task (module doc).
+    ///
+    /// Each kind of work is a function of its own, never inlined here: inlined, their
+    /// temporaries (a decoded request, a record image, a staged path) shared this
+    /// function's frame and added up on the stack, where as calls made one after the
+    /// other only the deepest counts (`cargo xtask panic-check` prints the bound).
     pub fn run(&mut self, watchdog: &mut impl Mutex<T = Watchdog>) {
         for _ in 0..MAX_ROUNDS {
             // First in every round, not only in the run's first: a control step that
             // preempted this run may have lent the control side meanwhile, and each
             // period it stays here is a step with the motors stopped.
-            if self.borrower.run() {
+            if lent_work(&mut self.borrower) {
                 board::lent_work_done();
             }
-            let mut moved = false;
-            while self.service.ready_for_input() {
-                let Some(byte) = self.rx.pop() else {
-                    break;
-                };
-                self.service.receive_byte(byte, &FirmwareStats);
-                moved = true;
-            }
-            self.service.poll();
-            let mut queued = 0;
-            for &byte in self.service.outgoing() {
-                if self.tx.push(byte).is_err() {
-                    break;
-                }
-                queued += 1;
-            }
-            if queued > 0 {
-                self.service.consume(queued);
-                rtic::pend(pac::Interrupt::USART2);
-                moved = true;
-            }
-            if let Some(job) = self.service.persist_job() {
-                let ok = match self.storage.as_mut() {
-                    Some(storage) => persistence::write(&job, storage, watchdog),
-                    None => false,
-                };
-                self.service.persist_finished(ok);
-                moved = true;
-            }
-            if !moved {
+            let received = receive(&mut self.service, &mut self.rx);
+            let sent = send(&mut self.service, &mut self.tx);
+            let persisted = persist(&mut self.service, self.storage.as_mut(), watchdog);
+            if !(received || sent || persisted) {
                 return;
             }
         }
         // Still busy: run again once the higher-priority work is done.
         rtic::pend(crate::app::LINK_TASK_INTERRUPT);
     }
+}
+
+/// Step 0: the work the control side was lent for, if it was; true if it was.
+#[inline(never)]
+fn lent_work(borrower: &mut Borrower<'static>) -> bool {
+    borrower.run()
+}
+
+/// Step 1: received bytes into the service while it has room for their replies; true
+/// if any moved.
+#[inline(never)]
+fn receive(service: &mut LinkService<'static>, rx: &mut Consumer<'static, u8, RX_RING>) -> bool {
+    let mut moved = false;
+    while service.ready_for_input() {
+        let Some(byte) = rx.pop() else {
+            break;
+        };
+        service.receive_byte(byte, &FirmwareStats);
+        moved = true;
+    }
+    moved
+}
+
+/// Steps 2 and 3: replies, events and telemetry into frames, and as many of their
+/// bytes as the transmit ring takes; true if any were queued (the USART interrupt is
+/// pended to send them).
+#[inline(never)]
+fn send(service: &mut LinkService<'static>, tx: &mut Producer<'static, u8, TX_RING>) -> bool {
+    service.poll();
+    let mut queued = 0;
+    for &byte in service.outgoing() {
+        if tx.push(byte).is_err() {
+            break;
+        }
+        queued += 1;
+    }
+    if queued > 0 {
+        service.consume(queued);
+        rtic::pend(pac::Interrupt::USART2);
+    }
+    queued > 0
+}
+
+/// Step 4: the persistence job the service asks for, if any; true if there was one.
+#[inline(never)]
+fn persist(
+    service: &mut LinkService<'static>,
+    storage: Option<&mut Storage>,
+    watchdog: &mut impl Mutex<T = Watchdog>,
+) -> bool {
+    let Some(job) = service.persist_job() else {
+        return false;
+    };
+    let ok = match storage {
+        Some(storage) => persistence::write(&job, storage, watchdog),
+        None => false,
+    };
+    service.persist_finished(ok);
+    true
 }

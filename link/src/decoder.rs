@@ -168,18 +168,10 @@ impl Decoder {
             }
             return None;
         }
-        let outcome = if self.overflowed {
-            Some(Err(Dropped::Overflow))
-        } else if self.len == 0 {
-            None
-        } else {
-            Some(self.decode_frame())
-        };
-        self.reset();
-        if let Some(outcome) = &outcome {
-            self.count(outcome);
+        if self.len == 0 && !self.overflowed {
+            return None;
         }
-        outcome
+        Some(self.end_frame())
     }
 
     /// Takes a chunk of bytes; iterates over the frames it completes. Bytes are consumed
@@ -203,6 +195,23 @@ impl Decoder {
             Err(Dropped::Decode) => &mut c.decode_errors,
         };
         *counter = counter.wrapping_add(1);
+    }
+
+    /// What the frame that a delimiter just ended was; counts it and starts the next.
+    ///
+    /// Not inlined: the deserializer's temporaries are several copies of the message,
+    /// and on a small stack they should not share a frame with what the caller does
+    /// with the message.
+    #[inline(never)]
+    fn end_frame<M: Message>(&mut self) -> Outcome<M> {
+        let outcome = if self.overflowed {
+            Err(Dropped::Overflow)
+        } else {
+            self.decode_frame()
+        };
+        self.reset();
+        self.count(&outcome);
+        outcome
     }
 
     /// Un-stuffs, checks and decodes the frame in `buf[..len]`.

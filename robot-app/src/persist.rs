@@ -241,13 +241,12 @@ pub fn decode(page: &[u8], control_rate_hz: u32) -> Result<Loaded, LoadError> {
     }
     let body = covered.get(HEADER_LEN..).unwrap_or_default();
     // The body is a `ParamSet`, which postcard writes as its two fields one after the
-    // other. Read as two halves, it is not moved whole through the deserializer's
-    // results, whose copies made this function's frame 1.5 KB (now 0.95 KB) on the
-    // link task's stack when it writes flash.
-    let Ok((robot, rest)) = postcard::take_from_bytes::<RobotConfig>(body) else {
+    // other. Read as two halves, each by a function of its own, it is not moved whole
+    // through the deserializer's results, whose copies are stack.
+    let Some((robot, rest)) = take_robot(body) else {
         return Err(LoadError::Undecodable);
     };
-    let Ok((supervisor, [])) = postcard::take_from_bytes::<SupervisorConfig>(rest) else {
+    let Some((supervisor, [])) = take_supervisor(rest) else {
         return Err(LoadError::Undecodable);
     };
     let checked = Params::new(robot).map_err(LoadError::InvalidRobot)?;
@@ -263,6 +262,21 @@ pub fn decode(page: &[u8], control_rate_hz: u32) -> Result<Loaded, LoadError> {
         params: ParamSet { robot, supervisor },
         sequence,
     })
+}
+
+/// A robot configuration from the front of `bytes`, and the bytes after it. Not inlined
+/// (nor [`take_supervisor`]): the deserializer's temporaries, copies of what it reads,
+/// are then in a frame that is gone before [`decode`] goes on.
+#[inline(never)]
+fn take_robot(bytes: &[u8]) -> Option<(RobotConfig, &[u8])> {
+    postcard::take_from_bytes(bytes).ok()
+}
+
+/// A supervisor configuration from the front of `bytes`, and the bytes after it
+/// ([`take_robot`]).
+#[inline(never)]
+fn take_supervisor(bytes: &[u8]) -> Option<(SupervisorConfig, &[u8])> {
+    postcard::take_from_bytes(bytes).ok()
 }
 
 /// One of the two pages.

@@ -123,7 +123,7 @@ fn serve_persist(rig: &mut Rig<'_>, flash: &mut Flash, ok: bool) {
     let mut job = None;
     for _ in 0..20 {
         rig.step();
-        job = rig.link.persist_job();
+        job = rig.link.persist_job().map(|job| *job.params);
         if job.is_some() {
             break;
         }
@@ -135,7 +135,7 @@ fn serve_persist(rig: &mut Rig<'_>, flash: &mut Flash, ok: bool) {
     let page = flash.page(plan.slot);
     *page = [0xff; 512];
     if ok {
-        persist::encode(&job.params, plan.sequence, page).expect("fits");
+        persist::encode(&job, plan.sequence, page).expect("fits");
         flash.writes += 1;
     }
     // The erase stalled the CPU: the next step comes 30 periods late, twice.

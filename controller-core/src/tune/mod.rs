@@ -516,7 +516,12 @@ impl Tuner {
     #[inline(never)]
     pub fn step(&mut self, telemetry: &Telemetry, periods: u32) -> TuneStep {
         if !self.running() {
-            return TuneStep::Finished(self.outcome.unwrap_or(Err(TuneAbort::Stopped)));
+            // Not `unwrap_or`: its default, built whether needed or not, was 100 bytes
+            // of the control interrupt's stack.
+            return match self.outcome {
+                Some(outcome) => TuneStep::Finished(outcome),
+                None => TuneStep::Finished(Err(TuneAbort::Stopped)),
+            };
         }
         let (phase, direction) = (self.phase, self.direction);
         match self.observe(telemetry, periods) {
@@ -778,8 +783,11 @@ impl Tuner {
                 self.breakaway = [None; 2];
                 self.enter(Phase::Breakaway, 0.0);
             } else {
-                let result = self.result()?;
-                self.finish(Ok(result));
+                // Stored as it comes, not unwrapped and wrapped again: each copy of
+                // the result was another 96 bytes of the control interrupt's stack.
+                let outcome = self.result();
+                outcome?;
+                self.finish(outcome);
             }
         } else if self.steps >= self.steps_of(BRAKE_TIMEOUT_S) {
             return Err(TuneAbort::NotStopped);
@@ -825,9 +833,7 @@ impl Tuner {
 
     /// Both directions averaged, checked, and the PI by SIMC (module doc).
     fn result(&self) -> Result<TuneResult, TuneAbort> {
-        let [forward, backward] = self.fits;
-        let [f_left, f_right] = forward;
-        let [b_left, b_right] = backward;
+        let [[f_left, f_right], [b_left, b_right]] = &self.fits;
         let (left_model, left_loop) = self.wheel_result(f_left, b_left, Side::Left)?;
         let (right_model, right_loop) = self.wheel_result(f_right, b_right, Side::Right)?;
         Ok(TuneResult {
@@ -839,8 +845,8 @@ impl Tuner {
     /// One wheel's model and loop from its forward fit `f` and backward fit `b`.
     fn wheel_result(
         &self,
-        f: DirectionFit,
-        b: DirectionFit,
+        f: &DirectionFit,
+        b: &DirectionFit,
         side: Side,
     ) -> Result<(WheelModel, WheelLoopConfig), TuneAbort> {
         let mean = |x: f32, y: f32| 0.5 * (x + y);

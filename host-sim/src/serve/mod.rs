@@ -397,7 +397,7 @@ impl<'a> VirtualRobot<'a> {
     /// The flash work of a `PersistParams`, in memory.
     fn persist(&mut self) {
         if let Some(job) = self.link.persist_job() {
-            self.persisted = Some(job.params);
+            self.persisted = Some(*job.params);
             self.link.persist_finished(true);
         }
     }

@@ -206,6 +206,7 @@ impl<'a> LinkService<'a> {
     }
 
     /// The statistics `GetStats` reports, with the board's figures from `board`.
+    #[inline(never)]
     pub fn stats<B: BoardStats + ?Sized>(&self, board: &B) -> Stats {
         let control = self.end.control_status();
         Stats {
@@ -235,13 +236,13 @@ impl<'a> LinkService<'a> {
     /// and a reply that then finds no room is counted in
     /// [`ServiceCounters::replies_dropped`]).
     pub fn receive_byte<B: BoardStats + ?Sized>(&mut self, byte: u8, board: &B) {
+        // The request is borrowed where the decoder left it, not moved: it can be a few
+        // hundred bytes, and each copy is stack.
         match self.decoder.push::<Downlink>(byte) {
-            Some(Ok(Received::Message(Downlink { seq, request }))) => {
-                self.handle(seq, request, board);
+            Some(Ok(Received::Message(ref message))) => {
+                self.handle(message.seq, &message.request, board);
             }
-            Some(Ok(Received::Mismatch(id))) => {
-                self.send_reply(&Uplink::VersionMismatch { received: id });
-            }
+            Some(Ok(Received::Mismatch(id))) => self.refuse_version(id),
             // Dropped frames are counted by the decoder.
             Some(Err(_)) | None => {}
         }
@@ -345,42 +346,52 @@ impl<'a> LinkService<'a> {
         self.in_flight.saturating_mul(CONTROL_REPLY_MAX)
     }
 
+    /// Answers a frame of another protocol version. Not inlined: its message is as large
+    /// as any, and inlined its room was on the stack under every request's handling.
+    #[inline(never)]
+    fn refuse_version(&mut self, received: ProtocolId) {
+        self.send_reply(&Uplink::VersionMismatch { received });
+    }
+
     /// Acts on one request; every request gets exactly one reply, now or when the control
     /// side has answered.
-    fn handle<B: BoardStats + ?Sized>(&mut self, seq: u16, request: Request, board: &B) {
+    ///
+    /// Not inlined, and `request` by reference: the decoded request and the reply are
+    /// each a few hundred bytes, and inlined into the caller their copies added up on
+    /// the link task's stack.
+    #[inline(never)]
+    fn handle<B: BoardStats + ?Sized>(&mut self, seq: u16, request: &Request, board: &B) {
         let now = match request {
             Request::Info => Some(Ok(Reply::Info(self.info()))),
-            Request::Ping { nonce } => Some(Ok(Reply::Pong { nonce })),
+            &Request::Ping { nonce } => Some(Ok(Reply::Pong { nonce })),
             Request::GetParams => Some(Ok(Reply::Params(self.active))),
-            Request::SetParams(set) => self.set_params(seq, &set),
+            Request::SetParams(set) => self.set_params(seq, set),
             Request::PersistParams => self.persist_params(seq),
-            Request::PathBegin(begin) => Some(
-                self.refuse_if_armed()
-                    .and_then(|()| self.uploads.begin(&begin)),
-            ),
-            Request::PathChunk(chunk) => Some(self.path_chunk(&chunk)),
-            Request::PathCommit(commit) => self.path_commit(seq, &commit),
-            Request::Arm {
+            Request::PathBegin(begin) => Some(self.path_begin(begin)),
+            Request::PathChunk(chunk) => Some(self.path_chunk(chunk)),
+            Request::PathCommit(commit) => self.path_commit(seq, commit),
+            &Request::Arm {
                 mode,
                 initial_motion,
-            } => match arm_request(mode, initial_motion) {
-                Ok(arm) => self.forward(seq, Op::Command(Command::Arm(arm))),
-                Err(refusal) => Some(Err(refusal)),
-            },
+            } => {
+                let arm = arm_request(mode, initial_motion);
+                self.forward(seq, Op::Command(Command::Arm(arm)))
+            }
             Request::Disarm => self.forward(seq, Op::Command(Command::Disarm)),
             Request::EmergencyStop => self.forward(seq, Op::Command(Command::EmergencyStop)),
             Request::ClearFaults => self.forward(seq, Op::Command(Command::ClearFaults)),
             Request::Heartbeat => self.forward(seq, Op::Command(Command::Heartbeat)),
-            Request::SetTelemetryRate { hz } => Some(self.set_telemetry_rate(hz)),
+            &Request::SetTelemetryRate { hz } => Some(self.set_telemetry_rate(hz)),
             Request::GetStats => Some(Ok(Reply::Stats(self.stats(board)))),
             Request::GetRunReport => Some(Ok(Reply::RunReport(self.last_report))),
             Request::GetTuneReport => Some(Ok(Reply::TuneReport(self.last_tune))),
         };
         if let Some(result) = now {
-            self.send_reply(&Uplink::Reply { seq, result });
+            self.reply(seq, result);
         }
     }
 
+    #[inline(never)]
     fn info(&self) -> RobotInfo {
         let id = &self.identity;
         RobotInfo {
@@ -393,6 +404,9 @@ impl<'a> LinkService<'a> {
         }
     }
 
+    // Not inlined, nor `path_begin`: a refusal's bounded texts are built on the stack, and
+    // inlined in `LinkService::handle` they were room of their own under every request.
+    #[inline(never)]
     fn set_telemetry_rate(&mut self, hz: u8) -> Result<Reply, Refusal> {
         let hz = check_telemetry_rate(hz)?;
         if hz > self.max_telemetry_hz {
@@ -403,6 +417,12 @@ impl<'a> LinkService<'a> {
         }
         self.end.set_telemetry_hz(hz);
         Ok(Reply::Ack)
+    }
+
+    #[inline(never)]
+    fn path_begin(&mut self, begin: &link::PathBegin) -> Result<Reply, Refusal> {
+        self.refuse_if_armed()
+            .and_then(|()| self.uploads.begin(begin))
     }
 
     /// The last state the control side published.
@@ -552,7 +572,7 @@ impl<'a> LinkService<'a> {
             OpKind::EndPersist => self.persist_ended(),
         };
         if let Some(result) = reply {
-            self.send_reply(&Uplink::Reply { seq, result });
+            self.reply(seq, result);
         }
     }
 
@@ -588,6 +608,14 @@ impl<'a> LinkService<'a> {
         reply
     }
 
+    /// Answers the request `seq` with `result` ([`LinkService::send_reply`]). Not
+    /// inlined: the message it builds is another copy of the reply, which need not be on
+    /// the stack while the reply is worked out.
+    #[inline(never)]
+    fn reply(&mut self, seq: u16, result: Result<Reply, Refusal>) {
+        self.send_reply(&Uplink::Reply { seq, result });
+    }
+
     /// Appends a reply (room is reserved for it; counted if there was none).
     fn send_reply(&mut self, message: &Uplink) {
         if self.tx.append(message, 0) {
@@ -602,17 +630,17 @@ impl<'a> LinkService<'a> {
 fn arm_request(
     mode: ArmMode,
     initial_motion: Option<controller_core::kinematics::BodyVelocity>,
-) -> Result<ArmRequest, Refusal> {
+) -> ArmRequest {
     let (mode, hold_speeds) = match mode {
         ArmMode::FollowPath => (RunMode::FollowPath, None),
         ArmMode::HoldWheelSpeeds(speeds) => (RunMode::HoldWheelSpeeds, Some(speeds)),
         ArmMode::Tune => (RunMode::Tune, None),
     };
-    Ok(ArmRequest {
+    ArmRequest {
         mode,
         hold_speeds,
         initial_motion,
-    })
+    }
 }
 
 /// The link's refusal for the control side's.
@@ -785,15 +813,12 @@ mod tests {
         let speeds = controller_core::kinematics::WheelSpeeds::new(2.0, -1.0);
         let hold = arm_request(ArmMode::HoldWheelSpeeds(speeds), None);
         assert_eq!(
-            hold.map(|a| (a.mode, a.hold_speeds)),
-            Ok((RunMode::HoldWheelSpeeds, Some(speeds)))
+            (hold.mode, hold.hold_speeds),
+            (RunMode::HoldWheelSpeeds, Some(speeds))
         );
         let follow = arm_request(ArmMode::FollowPath, None);
-        assert_eq!(follow.map(|a| a.mode), Ok(RunMode::FollowPath));
+        assert_eq!(follow.mode, RunMode::FollowPath);
         let tune = arm_request(ArmMode::Tune, None);
-        assert_eq!(
-            tune.map(|a| (a.mode, a.hold_speeds)),
-            Ok((RunMode::Tune, None))
-        );
+        assert_eq!((tune.mode, tune.hold_speeds), (RunMode::Tune, None));
     }
 }

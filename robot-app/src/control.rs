@@ -14,7 +14,9 @@
 //!   the controller and the supervisor in place;
 //! - the rest of arming: the step that arms drives nothing yet, and the controller's
 //!   start (pose, speed estimates, loops) follows it (`controller_core::supervisor`,
-//!   "Arming takes two steps").
+//!   "Arming takes two steps");
+//! - the report of a run that ended (its summary goes over the final window's buckets):
+//!   the step that ends the run, a fault's among them, only notes it.
 //!
 //! The steering law (the outer loop) runs one period behind the step that hands it its
 //! job: in the step itself by default, or, once [`ControlSide::lend_outer_loop`] was
@@ -97,8 +99,8 @@ pub struct Actuation {
     /// [`SteeringWorker`] before the next step.
     pub steering_lent: bool,
     /// The step left work for between it and the next (it took an install request while
-    /// disarmed, or it armed): call [`ControlSide::work_between_steps`] before the next
-    /// step, which otherwise does it itself.
+    /// disarmed, it armed, or it ended a run): call [`ControlSide::work_between_steps`]
+    /// before the next step, which otherwise does it itself.
     pub lend_due: bool,
 }
 
@@ -199,6 +201,9 @@ pub struct ControlSide<'a> {
     run_periods: u32,
     /// A path-following run is in progress (its report is due when it ends).
     in_run: bool,
+    /// A run ended in the last step and its report is not built yet (see
+    /// [`ControlSide::work_between_steps`]).
+    report_due: bool,
     /// Armed in tune mode (a tune's end is reported once).
     in_tune: bool,
     /// Tunes ended since start.
@@ -238,6 +243,7 @@ impl<'a> ControlSide<'a> {
             step: 0,
             run_periods: 0,
             in_run: false,
+            report_due: false,
             in_tune: false,
             tunes_ended: 0,
             runs_ended: 0,
@@ -286,10 +292,10 @@ impl<'a> ControlSide<'a> {
 
     /// One control period (see the module doc).
     pub fn step(&mut self, sensors: Sensors) -> Actuation {
-        // An install the last step took that nobody ran between the steps (arming left
+        // What the last step left that nobody did between the steps (arming left
         // unfinished is the supervisor's to finish: `Supervisor::step`).
-        if self.install_seq.is_some() {
-            self.install_left_over();
+        if self.install_seq.is_some() || self.report_due {
+            self.left_over();
         }
         self.step = self.step.wrapping_add(1);
         let mut link_has_work = false;
@@ -348,7 +354,6 @@ impl<'a> ControlSide<'a> {
         let install_taken = self.install_seq.is_some();
         let install_due = install_taken && self.install_still_due(&out, steering_lent);
         let arming = self.supervisor.arming_unfinished();
-        let lend_due = install_due || arming;
         link_has_work |= install_taken || arming;
 
         // 3. Reply and event.
@@ -416,7 +421,8 @@ impl<'a> ControlSide<'a> {
             event: out.event,
             link_has_work,
             steering_lent,
-            lend_due,
+            // A run that ended in this step (step 4) leaves its report for after it too.
+            lend_due: install_due || arming || self.report_due,
         }
     }
 
@@ -428,9 +434,13 @@ impl<'a> ControlSide<'a> {
         if installed {
             self.install_staged();
         }
+        let reported = self.report_due;
+        if reported {
+            self.end_run();
+        }
         let arming = self.supervisor.arming_unfinished();
         self.supervisor.finish_arming(&mut self.controller);
-        installed || arming
+        installed || reported || arming
     }
 
     /// Installs what is staged, atomically, for the install request the last step took,
@@ -475,20 +485,22 @@ impl<'a> ControlSide<'a> {
         false
     }
 
-    /// An install at the start of a step, for a driver that did not call
-    /// [`ControlSide::work_between_steps`] between the steps. Out of line and cold: the
-    /// firmware never gets here.
+    /// An install or a run's report at the start of a step, for a driver that did not
+    /// call [`ControlSide::work_between_steps`] between the steps. Out of line and cold:
+    /// the firmware never gets here.
     #[cold]
     #[inline(never)]
-    fn install_left_over(&mut self) {
+    fn left_over(&mut self) {
         self.install_staged();
+        if self.report_due {
+            self.end_run();
+        }
     }
 
     /// Feeds the run metrics: restarted when the robot is armed to follow the path, fed
     /// with the controller's estimated error at every steering update while it does.
-    /// When the run ends (the robot leaves armed path following), queues its
-    /// [`RunReport`] for the link side and returns true; the summary's one square root
-    /// is paid in that step only.
+    /// When the run ends (the robot leaves armed path following), notes that its
+    /// [`RunReport`] is due (built between this step and the next) and returns true.
     fn track_run(&mut self, out: &Supervised, periods: NonZeroU32) -> bool {
         if out.event == Some(Event::Armed(RunMode::FollowPath)) {
             self.metrics.restart();
@@ -500,7 +512,12 @@ impl<'a> ControlSide<'a> {
             return false;
         }
         if out.state != State::Armed || out.run_mode != RunMode::FollowPath {
-            return self.in_run && self.end_run();
+            if !self.in_run {
+                return false;
+            }
+            self.in_run = false;
+            self.report_due = true;
+            return true;
         }
         let t = self.controller.telemetry();
         if t.steering_updated {
@@ -520,17 +537,17 @@ impl<'a> ControlSide<'a> {
         false
     }
 
-    /// The run ended: its report goes to the link side (dropped if the previous one is
-    /// still there, which takes two runs ending between two link polls). Returns true.
-    /// Out of line: the report is built once per run, and its room should not be in the
-    /// frame of every control step.
+    /// The run that ended in the last step: its report goes to the link side (dropped if
+    /// the previous one is still there, which takes two runs ending between two link
+    /// polls). Between two steps: the summary goes over the final window's buckets, about
+    /// 110 instructions on the Cortex-M4F, which the step that faults cannot spare. Out
+    /// of line: its report's room is not on the stack under an install.
     #[inline(never)]
-    fn end_run(&mut self) -> bool {
-        self.in_run = false;
+    fn end_run(&mut self) {
+        self.report_due = false;
         self.runs_ended = self.runs_ended.wrapping_add(1);
         let report = self.run_report();
         let _ = self.end.reports.push(Report::Run(report));
-        true
     }
 
     /// Watches for a wheel-loop tune's end (armed in tune mode, then anything else: done,

@@ -1,15 +1,19 @@
 //! Lending the control side to the link task for the work that costs more than a
 //! control step, so that the control interrupt never does it.
 //!
-//! Two things are such work ([`ControlSide::work_between_steps`]):
+//! Three things are such work ([`ControlSide::work_between_steps`]):
 //!
 //! - installing a configuration or a path, which rebuilds the controller and the
 //!   supervisor in place;
 //! - the rest of arming: the start pose, a tune's start, the speed estimates of a run
 //!   that starts in motion, the loops restarted in the run's mode. The step that arms
-//!   drives nothing (`controller_core::supervisor`, "Arming takes two steps").
+//!   drives nothing (`controller_core::supervisor`, "Arming takes two steps");
+//! - the report of a path-following run that ended, whose summary goes over the final
+//!   window's buckets. The step that ends the run, a fault's or a disarm's, drives
+//!   nothing either.
 //!
-//! A step that takes an install request or arms only notes it ([`Actuation::lend_due`]);
+//! A step that takes an install request, arms or ends a run only notes it
+//! ([`Actuation::lend_due`]);
 //! the work is done between that step and the next. The firmware runs it in its link
 //! task, lending it the whole control side through a one-item mailbox:
 //!

@@ -38,7 +38,8 @@
 //!   request from the link, one reply, one event, one telemetry sample per step.
 //!   Installing a staged configuration or path (only while disarmed), which rebuilds
 //!   the controller in place, field by field, copying the path straight from the staging
-//!   area, and the rest of arming are done between two steps, by
+//!   area, the rest of arming and the report of a run that ended are done between two
+//!   steps, by
 //!   [`ControlSide::work_between_steps`] when [`Actuation::lend_due`]: in the link task
 //!   ([`Borrower::run`]) on the firmware.
 //! - **USART RX interrupt**: pushes each received byte into a byte ring the board owns

@@ -1,6 +1,7 @@
-//! Installs and arming's end out of the control step (`robot_app::lend`): the control
-//! side lent to the link task's borrower between two steps, the stopped steps while it
-//! is away, and the step's own fallback when nobody installs between steps.
+//! Installs, arming's end and a run's report out of the control step
+//! (`robot_app::lend`): the control side lent to the link task's borrower between two
+//! steps, the stopped steps while it is away, and the step's own fallback when nobody
+//! does the work between steps.
 
 mod support;
 
@@ -8,7 +9,7 @@ use core::num::NonZeroU32;
 
 use controller_core::controller::{MotorCommand, TickDeltas};
 use controller_core::supervisor::{Bridge, State};
-use link::{encode, params_hash, Decoder, Downlink, Received, Reply, Request, Uplink};
+use link::{encode, params_hash, Decoder, Downlink, Received, Reply, Request, RunReport, Uplink};
 use robot_app::{
     start, Actuation, Borrower, Channels, ControlRoom, ControlSeat, ControlSide, LinkService,
     NoBoardStats, Sensors,
@@ -248,4 +249,103 @@ fn arming_is_finished_by_the_borrower_and_the_next_step_drives() {
     assert!(steered > 10, "the steering law ran {steered} times");
     link.poll();
     assert!(reply(&mut link, &mut host, 3).is_some());
+}
+
+/// The run reports among what the link side has queued (consumed).
+fn run_reports(link: &mut LinkService<'_>, host: &mut Decoder) -> Vec<RunReport> {
+    link.poll();
+    let bytes = link.outgoing().to_vec();
+    link.consume(bytes.len());
+    host.feed::<Uplink>(&bytes)
+        .filter_map(|m| match m {
+            Ok(Received::Message(Uplink::RunReport(report))) => Some(report),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Arms `link`'s robot to follow the path with request `seq` and steps `control` (a
+/// seat's or a direct control side's step, then the work between steps) through
+/// arming and `steps` steps of the run.
+fn arm_and_run(
+    link: &mut LinkService<'_>,
+    seq: u16,
+    steps: u32,
+    mut step: impl FnMut() -> Actuation,
+    mut between: impl FnMut(),
+) {
+    send(
+        link,
+        seq,
+        Request::Arm {
+            mode: link::ArmMode::FollowPath,
+            initial_motion: None,
+        },
+    );
+    link.poll();
+    assert_eq!(step().state, State::Armed);
+    between();
+    for _ in 0..steps {
+        let out = step();
+        assert_eq!(out.state, State::Armed);
+        assert!(!out.lend_due);
+    }
+}
+
+#[test]
+fn a_run_s_report_is_built_by_the_borrower_not_by_the_step_that_ends_the_run() {
+    let (mut channels, mut room) = (Channels::new(), ControlRoom::new());
+    let (mut seat, mut borrower, mut link) = seated(&mut channels, &mut room);
+    let mut host = Decoder::new();
+    let seat_cell = core::cell::RefCell::new(&mut seat);
+    arm_and_run(
+        &mut link,
+        3,
+        300,
+        || seat_cell.borrow_mut().step(Sensors::at_rest(SUPPLY_V)),
+        || assert!(borrower.run()),
+    );
+    send(&mut link, 4, Request::Disarm);
+    link.poll();
+    let out = seat.step(Sensors::at_rest(SUPPLY_V));
+    assert_eq!(out.state, State::Disarmed);
+    assert!(out.lend_due && out.link_has_work);
+    assert!(
+        run_reports(&mut link, &mut host).is_empty(),
+        "not built in the step"
+    );
+    assert!(borrower.run());
+    let reports = run_reports(&mut link, &mut host);
+    assert_eq!(reports.len(), 1);
+    assert_eq!(reports[0].runs_ended, 1);
+    assert!(reports[0].run_steps >= 300, "{:?}", reports[0]);
+    let out = seat.step(Sensors::at_rest(SUPPLY_V));
+    assert!(!out.lend_due, "reported once");
+    assert!(run_reports(&mut link, &mut host).is_empty());
+}
+
+#[test]
+fn a_step_reports_itself_a_run_nobody_reported_between_steps() {
+    let mut channels = Channels::new();
+    let (mut control, mut link): (ControlSide<'_>, _) =
+        start(&mut channels, app_config(BAUD, false)).expect("valid");
+    let mut host = Decoder::new();
+    let control_cell = core::cell::RefCell::new(&mut control);
+    arm_and_run(
+        &mut link,
+        3,
+        300,
+        || control_cell.borrow_mut().step(Sensors::at_rest(SUPPLY_V)),
+        || {},
+    );
+    send(&mut link, 4, Request::Disarm);
+    link.poll();
+    assert!(control.step(Sensors::at_rest(SUPPLY_V)).lend_due);
+    assert!(run_reports(&mut link, &mut host).is_empty());
+    let out = control.step(Sensors::at_rest(SUPPLY_V));
+    assert!(!out.lend_due);
+    let reports = run_reports(&mut link, &mut host);
+    assert_eq!(reports.len(), 1);
+    assert_eq!(reports[0].runs_ended, 1);
+    assert!(!control.work_between_steps(), "done already");
 }

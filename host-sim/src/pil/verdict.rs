@@ -131,8 +131,9 @@ pub fn judge(scenario: &Scenario, outcome: &PilOutcome, host: Option<&RunResult>
         ),
         format!(
             "control interrupt on Cortex-M4F (PIL), any state: max {} instructions (the step \
-             that arms and the disarmed steps that take an install included; the install and \
-             the rest of arming run between steps, in the link task)",
+             that arms, the one that ends a run and the disarmed steps that take an install \
+             included; the install, the rest of arming and the run's report are done between \
+             steps, in the link task)",
             board.control_max_instructions
         ),
         format!(

@@ -127,10 +127,11 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Board {
 }
 
 /// The steering task has run the outer loop the step lent it, or the link task the
-/// work the step lent it the control side for: the step's answer may go.
+/// work the step lent it the control side for: the step's answer may go once both are
+/// done if it lent both.
 #[inline(always)]
 pub fn lent_work_done() {
-    plant_port::hold_answer(false);
+    plant_port::release_answer();
     rtic::pend(pac::Interrupt::USART1);
 }
 
@@ -167,17 +168,18 @@ impl ControlIo {
 
     /// Queues the step's answer for the plant port, which sends it once this task has
     /// returned (same priority, so it never preempts the step). When the step lent the
-    /// outer loop, or the control side for work between steps (never both), the answer
-    /// is held until the lower-priority task has done that work ([`lent_work_done`]): the
-    /// plant's next step message then cannot start the next step before it is back,
-    /// however the host's bytes fall in virtual time. The pose and error are `control`'s
+    /// outer loop, the control side for work between steps, or both (a step that ends a
+    /// run can hand the outer loop a job too), the answer is held until the
+    /// lower-priority tasks have done all of it ([`lent_work_done`]): the plant's next
+    /// step message then cannot start the next step before everything is back, however
+    /// the host's bytes fall in virtual time. The pose and error are `control`'s
     /// telemetry (zero in a step that ran while the control side was lent, which this
     /// board's hold never lets happen).
     #[inline(always)]
     pub fn actuate(&mut self, out: &Actuation, control: &ControlSeat<'_>) {
         let telemetry = control.telemetry();
-        let held = out.steering_lent || out.lend_due;
-        plant_port::hold_answer(held);
+        let lent = u8::from(out.steering_lent) + u8::from(out.lend_due);
+        plant_port::hold_answer(lent);
         // The plant sends the next step only after this answer: the slot is free.
         let _ = self.replies.push(BoardStep {
             duty: out.duty,
@@ -193,7 +195,7 @@ impl ControlIo {
             error: telemetry.map_or_else(Default::default, |t| t.error),
             steering_updated: telemetry.is_some_and(|t| t.steering_updated),
         });
-        if !held {
+        if lent == 0 {
             rtic::pend(pac::Interrupt::USART1);
         }
     }

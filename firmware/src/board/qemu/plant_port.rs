@@ -9,12 +9,12 @@
 //! - **transmit** (TXE): the control task's answers, one message at a time; TXEIE stays
 //!   on while bytes wait (QEMU keeps TXE set, so in practice a message goes out in one
 //!   interrupt). An answer is not started while it is held ([`hold_answer`]: the step
-//!   lent the outer loop, or the control side for work between steps, and the
-//!   lower-priority task has not done that work yet).
+//!   lent the outer loop, the control side for work between steps, or both, and the
+//!   lower-priority tasks have not done all of that work yet).
 //! - **finish**: answers with the run's figures ([`BoardReport`]) and ends the emulation
 //!   (semihosting `exit(0)`).
 
-use core::sync::atomic::{AtomicBool, Ordering};
+use core::sync::atomic::{AtomicU8, Ordering};
 
 use robot_app::channel::ring::{Consumer, Producer};
 use robot_app::lockstep::{
@@ -41,13 +41,22 @@ pub struct PlantPort {
     overflows: u32,
 }
 
-/// The last answer queued waits for the steering task (see the module doc).
-static ANSWER_HELD: AtomicBool = AtomicBool::new(false);
+/// The lent works the last answer queued still waits for (see the module doc).
+static ANSWER_HOLDS: AtomicU8 = AtomicU8::new(0);
 
-/// Holds the answers queued from now on (`true`) or lets them go (`false`).
+/// Holds the answer queued next until `lent` works are done ([`release_answer`]); 0
+/// lets it go.
 #[inline(always)]
-pub fn hold_answer(held: bool) {
-    ANSWER_HELD.store(held, Ordering::Release);
+pub fn hold_answer(lent: u8) {
+    ANSWER_HOLDS.store(lent, Ordering::Release);
+}
+
+/// One lent work is done: the answer goes when none is left. (The steering task and
+/// the link task may both call it, one preempting the other: one atomic decrement, and
+/// never below 0.)
+#[inline(always)]
+pub fn release_answer() {
+    let _ = ANSWER_HOLDS.fetch_update(Ordering::AcqRel, Ordering::Acquire, |n| n.checked_sub(1));
 }
 
 /// Writes the ready byte (QEMU sends it at once).
@@ -101,7 +110,7 @@ impl PlantPort {
     fn transmit(&mut self) {
         loop {
             if self.sent == self.len {
-                if ANSWER_HELD.load(Ordering::Acquire) {
+                if ANSWER_HOLDS.load(Ordering::Acquire) > 0 {
                     break;
                 }
                 let Some(step) = self.replies.pop() else {

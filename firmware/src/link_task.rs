@@ -61,7 +61,7 @@ impl LinkWorker {
     ///
     /// Each kind of work is a function of its own, never inlined here: inlined, their
     /// temporaries (a decoded request, a record image, a staged path) shared this
-    /// function's frame and added up on the stack, where as calls made one after the
+    /// function's frame and added up on the stack, whereas of calls made one after the
     /// other only the deepest counts (`cargo xtask panic-check` prints the bound).
     pub fn run(&mut self, watchdog: &mut impl Mutex<T = Watchdog>) {
         for _ in 0..MAX_ROUNDS {

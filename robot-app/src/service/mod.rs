@@ -205,7 +205,9 @@ impl<'a> LinkService<'a> {
         self.end.control_status()
     }
 
-    /// The statistics `GetStats` reports, with the board's figures from `board`.
+    /// The statistics `GetStats` reports, with the board's figures from `board`. Not
+    /// inlined, like the other replies' payloads, so that the link task's request
+    /// handling does not hold their room on its stack.
     #[inline(never)]
     pub fn stats<B: BoardStats + ?Sized>(&self, board: &B) -> Stats {
         let control = self.end.control_status();
@@ -358,7 +360,10 @@ impl<'a> LinkService<'a> {
     ///
     /// Not inlined, and `request` by reference: the decoded request and the reply are
     /// each a few hundred bytes, and inlined into the caller their copies added up on
-    /// the link task's stack.
+    /// the link task's stack. For the same reason the replies' payloads and refusals
+    /// with texts are built by functions of their own, out of line: LLVM gave each
+    /// inlined one room of its own in this frame, which a path commit's staging then sat
+    /// on.
     #[inline(never)]
     fn handle<B: BoardStats + ?Sized>(&mut self, seq: u16, request: &Request, board: &B) {
         let now = match request {
@@ -391,6 +396,7 @@ impl<'a> LinkService<'a> {
         }
     }
 
+    /// What `Info` reports. Not inlined: see [`LinkService::handle`].
     #[inline(never)]
     fn info(&self) -> RobotInfo {
         let id = &self.identity;
@@ -404,8 +410,9 @@ impl<'a> LinkService<'a> {
         }
     }
 
-    // Not inlined, nor `path_begin`: a refusal's bounded texts are built on the stack, and
-    // inlined in `LinkService::handle` they were room of their own under every request.
+    /// `SetTelemetryRate`. Not inlined, nor [`LinkService::path_begin`]: a refusal's
+    /// bounded texts are built on the stack, and inlined in [`LinkService::handle`] they
+    /// were room of their own under every request.
     #[inline(never)]
     fn set_telemetry_rate(&mut self, hz: u8) -> Result<Reply, Refusal> {
         let hz = check_telemetry_rate(hz)?;
@@ -419,6 +426,7 @@ impl<'a> LinkService<'a> {
         Ok(Reply::Ack)
     }
 
+    /// `PathBegin`: a new upload, unless the robot is armed.
     #[inline(never)]
     fn path_begin(&mut self, begin: &link::PathBegin) -> Result<Reply, Refusal> {
         self.refuse_if_armed()

@@ -349,3 +349,25 @@ fn a_step_reports_itself_a_run_nobody_reported_between_steps() {
     assert_eq!(reports[0].runs_ended, 1);
     assert!(!control.work_between_steps(), "done already");
 }
+
+#[test]
+fn work_between_steps_builds_a_finished_run_s_report_and_says_so() {
+    let mut channels = Channels::new();
+    let (mut control, mut link): (ControlSide<'_>, _) =
+        start(&mut channels, app_config(BAUD, false)).expect("valid");
+    let mut host = Decoder::new();
+    let control_cell = core::cell::RefCell::new(&mut control);
+    arm_and_run(
+        &mut link,
+        3,
+        100,
+        || control_cell.borrow_mut().step(Sensors::at_rest(SUPPLY_V)),
+        || assert!(control_cell.borrow_mut().work_between_steps()),
+    );
+    send(&mut link, 4, Request::Disarm);
+    link.poll();
+    assert!(control.step(Sensors::at_rest(SUPPLY_V)).lend_due);
+    assert!(control.work_between_steps(), "the report was due");
+    assert_eq!(run_reports(&mut link, &mut host).len(), 1);
+    assert!(!control.work_between_steps(), "nothing left");
+}

@@ -33,7 +33,7 @@ use crate::steps::{build_target_executables, display_command, Context};
 /// The target for the control interrupt on the Cortex-M4F, instructions.
 pub const CONTROL_INTERRUPT_TARGET: u64 = 1500;
 /// The limit this step enforces on every step, armed or not, instructions: the target
-/// itself. The worst step measured 1 375–1 423 across the four runs. Installs, the rest
+/// itself. The worst step measured 1 375–1 429 across the four runs. Installs, the rest
 /// of arming and a finished run's report are done between steps in the link task
 /// (`robot_app::lend`); a link request waits a
 /// step rather than fall on the step that applies the steering outcome (the heaviest), a

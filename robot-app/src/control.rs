@@ -485,16 +485,12 @@ impl<'a> ControlSide<'a> {
         false
     }
 
-    /// An install or a run's report at the start of a step, for a driver that did not
-    /// call [`ControlSide::work_between_steps`] between the steps. Out of line and cold:
-    /// the firmware never gets here.
+    /// [`ControlSide::work_between_steps`] at the start of a step, for a driver that did
+    /// not call it between the steps. Out of line and cold: the firmware never gets here.
     #[cold]
     #[inline(never)]
     fn left_over(&mut self) {
-        self.install_staged();
-        if self.report_due {
-            self.end_run();
-        }
+        self.work_between_steps();
     }
 
     /// Feeds the run metrics: restarted when the robot is armed to follow the path, fed

@@ -264,19 +264,18 @@ fn run_reports(link: &mut LinkService<'_>, host: &mut Decoder) -> Vec<RunReport>
         .collect()
 }
 
-/// Arms `link`'s robot to follow the path with request `seq` and steps `control` (a
-/// seat's or a direct control side's step, then the work between steps) through
-/// arming and `steps` steps of the run.
-fn arm_and_run(
+/// Arms `link`'s robot to follow the path, runs it `steps` steps and disarms it, through
+/// `step` (a seat's or a direct control side's step) and `between` (the work between
+/// steps, after the step that arms); returns the step that disarms.
+fn run_and_disarm(
     link: &mut LinkService<'_>,
-    seq: u16,
     steps: u32,
     mut step: impl FnMut() -> Actuation,
     mut between: impl FnMut(),
-) {
+) -> Actuation {
     send(
         link,
-        seq,
+        3,
         Request::Arm {
             mode: link::ArmMode::FollowPath,
             initial_motion: None,
@@ -290,6 +289,31 @@ fn arm_and_run(
         assert_eq!(out.state, State::Armed);
         assert!(!out.lend_due);
     }
+    send(link, 4, Request::Disarm);
+    link.poll();
+    let out = step();
+    assert_eq!(out.state, State::Disarmed);
+    out
+}
+
+/// [`run_and_disarm`] on a control side stepped directly, with the work between steps
+/// after arming done (`between`) or left to the next step.
+fn run_and_disarm_direct(
+    control: &mut ControlSide<'_>,
+    link: &mut LinkService<'_>,
+    between: bool,
+) -> Actuation {
+    let control = core::cell::RefCell::new(control);
+    run_and_disarm(
+        link,
+        100,
+        || control.borrow_mut().step(Sensors::at_rest(SUPPLY_V)),
+        || {
+            if between {
+                assert!(control.borrow_mut().work_between_steps());
+            }
+        },
+    )
 }
 
 #[test]
@@ -298,17 +322,12 @@ fn a_run_s_report_is_built_by_the_borrower_not_by_the_step_that_ends_the_run() {
     let (mut seat, mut borrower, mut link) = seated(&mut channels, &mut room);
     let mut host = Decoder::new();
     let seat_cell = core::cell::RefCell::new(&mut seat);
-    arm_and_run(
+    let out = run_and_disarm(
         &mut link,
-        3,
         300,
         || seat_cell.borrow_mut().step(Sensors::at_rest(SUPPLY_V)),
         || assert!(borrower.run()),
     );
-    send(&mut link, 4, Request::Disarm);
-    link.poll();
-    let out = seat.step(Sensors::at_rest(SUPPLY_V));
-    assert_eq!(out.state, State::Disarmed);
     assert!(out.lend_due && out.link_has_work);
     assert!(
         run_reports(&mut link, &mut host).is_empty(),
@@ -330,17 +349,7 @@ fn a_step_reports_itself_a_run_nobody_reported_between_steps() {
     let (mut control, mut link): (ControlSide<'_>, _) =
         start(&mut channels, app_config(BAUD, false)).expect("valid");
     let mut host = Decoder::new();
-    let control_cell = core::cell::RefCell::new(&mut control);
-    arm_and_run(
-        &mut link,
-        3,
-        300,
-        || control_cell.borrow_mut().step(Sensors::at_rest(SUPPLY_V)),
-        || {},
-    );
-    send(&mut link, 4, Request::Disarm);
-    link.poll();
-    assert!(control.step(Sensors::at_rest(SUPPLY_V)).lend_due);
+    assert!(run_and_disarm_direct(&mut control, &mut link, false).lend_due);
     assert!(run_reports(&mut link, &mut host).is_empty());
     let out = control.step(Sensors::at_rest(SUPPLY_V));
     assert!(!out.lend_due);
@@ -356,17 +365,7 @@ fn work_between_steps_builds_a_finished_run_s_report_and_says_so() {
     let (mut control, mut link): (ControlSide<'_>, _) =
         start(&mut channels, app_config(BAUD, false)).expect("valid");
     let mut host = Decoder::new();
-    let control_cell = core::cell::RefCell::new(&mut control);
-    arm_and_run(
-        &mut link,
-        3,
-        100,
-        || control_cell.borrow_mut().step(Sensors::at_rest(SUPPLY_V)),
-        || assert!(control_cell.borrow_mut().work_between_steps()),
-    );
-    send(&mut link, 4, Request::Disarm);
-    link.poll();
-    assert!(control.step(Sensors::at_rest(SUPPLY_V)).lend_due);
+    assert!(run_and_disarm_direct(&mut control, &mut link, true).lend_due);
     assert!(control.work_between_steps(), "the report was due");
     assert_eq!(run_reports(&mut link, &mut host).len(), 1);
     assert!(!control.work_between_steps(), "nothing left");

@@ -191,7 +191,6 @@ impl ThreadMode {
 /// one below at its deepest). Prints each part's bound and chain. Fails if a part's
 /// stack has no bound.
 pub fn stack_bound(image: &Image, thread: &ThreadMode, tasks: &[(Root, u8)]) -> Result<u32> {
-    let is_panic = |f: &image::Function| panic_names::is_panic_function(&f.name);
     let named = |name: &str| {
         image
             .find_function(|n| n == name)
@@ -229,7 +228,6 @@ pub fn stack_bound(image: &Image, thread: &ThreadMode, tasks: &[(Root, u8)]) -> 
 
 /// The deepest chain from `id` (a task's entry), bytes; prints it under `what`.
 fn deepest_chain(image: &Image, id: FunctionId, what: &str) -> Result<u32> {
-    let is_panic = |f: &image::Function| panic_names::is_panic_function(&f.name);
     let exploration = call_graph::explore(image, id, is_panic);
     let (bytes, chain) = stack_bound::worst_case(&exploration, |f| is_panic(image.function(f)))
         .map_err(|why| {
@@ -256,6 +254,11 @@ fn deepest_chain(image: &Image, id: FunctionId, what: &str) -> Result<u32> {
     Ok(bytes)
 }
 
+/// Whether the analysis stops at `f`: a panic function ([`panic_names`]).
+fn is_panic(f: &image::Function) -> bool {
+    panic_names::is_panic_function(&f.name)
+}
+
 /// The roots `cargo xtask panic-check` checks when none are given.
 pub fn default_roots() -> Vec<Root> {
     vec![
@@ -280,8 +283,7 @@ fn analyze<'a>(
         .iter()
         .map(|root| {
             let id = handler(image, root)?;
-            let exploration =
-                call_graph::explore(image, id, |f| panic_names::is_panic_function(&f.name));
+            let exploration = call_graph::explore(image, id, is_panic);
             Ok(Findings {
                 root,
                 image,

@@ -407,15 +407,6 @@ impl<S: SteeringSeat> Controller<S> {
         seated.is_some()
     }
 
-    /// True when the next step applies a steering outcome: one a lent outer loop came
-    /// back with, or the law's, run in that step. Such a step does the most work of any;
-    /// what can wait a step (a link request, a telemetry sample) should not add to it.
-    /// A lent outer loop counts once it came back: ask after
-    /// [`Controller::collect_steering`].
-    pub fn applies_steering_next_step(&self) -> bool {
-        self.outcome_ready || (self.job_due && self.steering.runs_jobs())
-    }
-
     /// Odometry pose estimate, world frame.
     pub fn pose(&self) -> Pose {
         self.odometry.pose()
@@ -939,21 +930,6 @@ pub(crate) mod tests {
             .collect();
         let expected: Vec<bool> = (1..=20).map(|k| k % 10 == 0).collect();
         assert_eq!(pattern, expected);
-    }
-
-    #[test]
-    fn the_step_that_applies_the_law_is_known_before_it_runs() {
-        let mut c = controller();
-        assert!(!c.applies_steering_next_step(), "idle");
-        c.set_mode(Mode::FollowPath);
-        let mut applied = 0;
-        for k in 0..40 {
-            let announced = c.applies_steering_next_step();
-            step(&mut c, ticks(3, 4));
-            assert_eq!(announced, c.telemetry().steering_updated, "step {k}");
-            applied += u32::from(announced);
-        }
-        assert_eq!(applied, 4, "every tenth step");
     }
 
     #[test]

@@ -2,11 +2,8 @@
 //! between the link USART's rings, and the flash writes it asks for.
 //!
 //! Each run (the task is pended by the USART interrupt, by the control task when a
-//! step queued something for the link or lent it the control side, and after sending)
-//! repeats until nothing moves:
+//! step queued something for the link, and after sending) repeats until nothing moves:
 //!
-//! 0. the work a step lent it the control side for (an install, the rest of arming:
-//!    `robot_app::lend`), if any;
 //! 1. received bytes from the receive ring into the service, while it has room for
 //!    their replies (otherwise they wait in the ring);
 //! 2. `poll`: the control side's replies, events and telemetry into frames;
@@ -16,11 +13,11 @@
 
 use link::MAX_FRAME_LEN;
 use robot_app::channel::ring::{Consumer, Producer};
-use robot_app::{Borrower, LinkService};
+use robot_app::LinkService;
 use rtic::Mutex;
 use stm32f4xx_hal::pac;
 
-use crate::board::{self, Storage, Watchdog};
+use crate::board::{Storage, Watchdog};
 use crate::link_uart::{RX_RING, TX_RING};
 use crate::persistence;
 use crate::stats::FirmwareStats;
@@ -32,25 +29,21 @@ const MAX_ROUNDS: usize = 4 * MAX_FRAME_LEN;
 /// The link task's state.
 pub struct LinkWorker {
     service: LinkService<'static>,
-    borrower: Borrower<'static>,
     rx: Consumer<'static, u8, RX_RING>,
     tx: Producer<'static, u8, TX_RING>,
     storage: Option<Storage>,
 }
 
 impl LinkWorker {
-    /// The worker around `service` and `borrower`, reading `rx`, writing `tx`,
-    /// persisting to `storage`.
+    /// The worker around `service`, reading `rx`, writing `tx`, persisting to `storage`.
     pub fn new(
         service: LinkService<'static>,
-        borrower: Borrower<'static>,
         rx: Consumer<'static, u8, RX_RING>,
         tx: Producer<'static, u8, TX_RING>,
         storage: Option<Storage>,
     ) -> Self {
         Self {
             service,
-            borrower,
             rx,
             tx,
             storage,
@@ -65,12 +58,6 @@ impl LinkWorker {
     /// other only the deepest counts (`cargo xtask panic-check` prints the bound).
     pub fn run(&mut self, watchdog: &mut impl Mutex<T = Watchdog>) {
         for _ in 0..MAX_ROUNDS {
-            // First in every round, not only in the run's first: a control step that
-            // preempted this run may have lent the control side meanwhile, and each
-            // period it stays here is a step with the motors stopped.
-            if lent_work(&mut self.borrower) {
-                board::lent_work_done();
-            }
             let received = receive(&mut self.service, &mut self.rx);
             let sent = send(&mut self.service, &mut self.tx);
             let persisted = persist(&mut self.service, self.storage.as_mut(), watchdog);
@@ -81,12 +68,6 @@ impl LinkWorker {
         // Still busy: run again once the higher-priority work is done.
         rtic::pend(crate::app::LINK_TASK_INTERRUPT);
     }
-}
-
-/// Step 0: the work the control side was lent for, if it was; true if it was.
-#[inline(never)]
-fn lent_work(borrower: &mut Borrower<'static>) -> bool {
-    borrower.run()
 }
 
 /// Step 1: received bytes into the service while it has room for their replies; true

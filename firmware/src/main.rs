@@ -16,33 +16,35 @@
 //!    loads the parameters from flash or falls back to the built-in ones
 //!    ([`persistence`], [`robot`]), builds the two sides of the application
 //!    (`robot_app::start`: the control side and the link service, joined by lock-free
-//!    channels), seats the control side in its room (`robot_app::lend`), starts the
-//!    tick and, last, shortens the watchdog to 10 ms.
+//!    channels), hands the outer loop to the steering task, starts the tick and, last,
+//!    shortens the watchdog to 10 ms.
 //! 2. [`app::control`] runs every control period (TIM5): the board's sensors, one
 //!    `ControlSide::step` (supervisor and the controller's inner loop, the link's
-//!    commands, telemetry sampling), the board's actuators, the watchdog feed, and a pend
-//!    of the link task when the step queued something for it or lent it the control
-//!    side for work between two steps. It never waits, logs, allocates or panics
-//!    (`cargo xtask panic-check` proves the last from the release binary).
+//!    commands, installs while disarmed, telemetry sampling, a run's report), the board's
+//!    actuators, the watchdog feed, and a pend of the link task when the step queued
+//!    something for it. It never waits, logs, allocates or panics (`cargo xtask
+//!    panic-check` proves the last from the release binary).
 //! 3. [`app::steering`] runs the steering law (the outer loop) when a control step lent
 //!    it a job, below the control task and before the next step, which applies its
 //!    outcome (`robot_app::outer`). Same rules as the control task.
-//! 4. [`app::link_uart`] (USART2) moves bytes between the line and two rings
-//!    ([`link_uart`]); [`app::link`] runs the link service between those rings
-//!    ([`link_task`]), does the work a control step lent it the control side for
-//!    (`robot_app::lend`), and writes flash when asked.
+//! 4. [`app::link_uart`] (USART2, above every other task: the USART has no FIFO) moves
+//!    bytes between the line and two rings ([`link_uart`]); [`app::link`] runs the link
+//!    service between those rings ([`link_task`]) and writes flash when asked.
 //! 5. [`app::idle`] counts a heartbeat that proves the background runs, and sleeps.
 //!
 //! | task | bound to | priority | shares |
 //! |---|---|---|---|
+//! | `link_uart` | USART2 | 4 | — |
 //! | `control` | TIM5 | 3 | the watchdog (with `link`, locked only to change its timeout, in Persisting) |
 //! | `plant_port` (`qemu` only) | USART1 | 3 | — |
 //! | `steering` | [`app::STEERING_TASK_INTERRUPT`] (pended by the control task) | 2 | — |
-//! | `link_uart` | USART2 | 2 | — |
 //! | `link` | [`app::LINK_TASK_INTERRUPT`] (pended by software) | 1 | the watchdog |
 //! | `idle` | — | 0 | — |
 //!
-//! Between the control task, the steering task and the link task nothing is locked:
+//! The receive interrupt is the highest: at 230 400 Bd a character lasts 43.4 µs and
+//! USART2 holds one, so no task may hold it off for longer (`docs/realtime.md`; a host
+//! test in `xtask` checks the order). Between the control task, the steering task and
+//! the link task nothing is locked:
 //! they talk through `robot_app`'s single-producer single-consumer queues, mailboxes and
 //! atomics. The link task is a
 //! hardware task on an interrupt no peripheral raises, pended by software: a pend while
@@ -77,7 +79,7 @@ mod app {
     use robot_app::channel::ring::Ring;
     use robot_app::outer::SteeringWorker;
     use robot_app::panic_record::PanicRecord;
-    use robot_app::{start, Channels, ControlRoom, ControlSeat};
+    use robot_app::{start, Channels, ControlSide};
     use stm32f4xx_hal::pac;
 
     use crate::board;
@@ -106,7 +108,7 @@ mod app {
     #[local]
     struct Local {
         io: board::ControlIo,
-        control: ControlSeat<'static>,
+        control: ControlSide<'static>,
         steering: SteeringWorker<'static>,
         uart: LinkUart,
         link: LinkWorker,
@@ -116,7 +118,6 @@ mod app {
 
     #[init(local = [
         channels: Channels = Channels::new(),
-        control_room: ControlRoom<'static> = ControlRoom::new(),
         rx_ring: Ring<u8, RX_RING> = Ring::new(),
         tx_ring: Ring<u8, TX_RING> = Ring::new(),
     ])]
@@ -161,10 +162,7 @@ mod app {
         let (rx_in, rx_out) = cx.local.rx_ring.split();
         let (tx_in, tx_out) = cx.local.tx_ring.split();
         let uart = LinkUart::new(board.link_usart, rx_in, tx_out);
-        // The control task steps the control side from its room; the link task borrows
-        // it between two steps for the work that costs more than one (`robot_app::lend`).
-        let (control, borrower) = cx.local.control_room.seat(control);
-        let link = LinkWorker::new(service, borrower, rx_out, tx_in, board.storage);
+        let link = LinkWorker::new(service, rx_out, tx_in, board.storage);
 
         // Last: the tick, and the run-time watchdog. From here on the control task
         // must feed it.
@@ -229,7 +227,7 @@ mod app {
         if cx.local.steering.run() {
             stats::STEERING.record_since(started);
         }
-        board::lent_work_done();
+        board::steering_done();
     }
 
     /// The plant port of the emulated board (see `board::PlantPort`).
@@ -240,7 +238,7 @@ mod app {
     }
 
     /// The link's USART: bytes between the line and the rings.
-    #[task(binds = USART2, priority = 2, local = [uart])]
+    #[task(binds = USART2, priority = 4, local = [uart])]
     fn link_uart(cx: link_uart::Context) {
         if cx.local.uart.on_interrupt() {
             rtic::pend(LINK_TASK_INTERRUPT);

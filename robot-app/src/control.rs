@@ -2,21 +2,13 @@
 //!
 //! [`ControlSide::step`] takes the step's [`Sensors`], at most one request forwarded by
 //! the link side, runs the supervisor around the controller, and returns the
-//! [`Actuation`] for the pins. On the way it answers the request, queues the
-//! supervisor's event, samples telemetry at the rate the link side set, accumulates the
-//! run metrics and publishes its state and counters. It never waits, allocates, logs or
-//! panics, and its work per step is bounded: one request, one reply, one event, one
-//! telemetry sample. Two things cost more than a control step's worth of work, and are
-//! done not in a step but between two, by [`ControlSide::work_between_steps`] (the
-//! firmware lends the control side to its link task for it: `crate::lend`):
-//!
-//! - installing a staged configuration or path (only while disarmed), which rebuilds
-//!   the controller and the supervisor in place;
-//! - the rest of arming: the step that arms drives nothing yet, and the controller's
-//!   start (pose, speed estimates, loops) follows it (`controller_core::supervisor`,
-//!   "Arming takes two steps");
-//! - the report of a run that ended (its summary goes over the final window's buckets):
-//!   the step that ends the run, a fault's among them, only notes it.
+//! [`Actuation`] for the pins. On the way it answers the request (installing a staged
+//! configuration or path in place, only while disarmed), queues the supervisor's event,
+//! samples telemetry at the rate the link side set, accumulates the run metrics, builds
+//! the report of a run that ended, and publishes its state and counters. It never waits,
+//! allocates, logs or panics, and its work per step is bounded: one request, one reply,
+//! one event, one telemetry sample, one report. The whole sequence, and where the other
+//! tasks come in, is drawn in `docs/realtime.md`.
 //!
 //! The steering law (the outer loop) runs one period behind the step that hands it its
 //! job: in the step itself by default, or, once [`ControlSide::lend_outer_loop`] was
@@ -33,7 +25,7 @@ use controller_core::supervisor::{
 };
 use link::{PidParts, RunReport, TelemetryFrame, TuneReport};
 
-use crate::channel::{ControlEnd, Op, OpKind, Published, Refused, Report, Staged, ToLink};
+use crate::channel::{ControlEnd, Op, Published, Refused, Report, Staged, ToLink};
 use crate::metrics::{ErrorSample, ErrorStats, ErrorSummary};
 use crate::outer::{OuterLoopSeat, SteeringWorker};
 
@@ -98,10 +90,6 @@ pub struct Actuation {
     /// The outer loop was lent with a job in this step: run the
     /// [`SteeringWorker`] before the next step.
     pub steering_lent: bool,
-    /// The step left work for between it and the next (it took an install request while
-    /// disarmed, it armed, or it ended a run): call [`ControlSide::work_between_steps`]
-    /// before the next step, which otherwise does it itself.
-    pub lend_due: bool,
 }
 
 impl Actuation {
@@ -121,7 +109,6 @@ impl Actuation {
         event: None,
         link_has_work: false,
         steering_lent: false,
-        lend_due: false,
     };
 }
 
@@ -155,14 +142,9 @@ struct TelemetryClock {
 }
 
 impl TelemetryClock {
-    /// The longest a due sample waits for a step that is not busy, control periods.
-    const MAX_WAIT_PERIODS: u32 = 2;
-
     /// True when a sample is due after a step of `periods` periods, at `hz` (Hz) on a loop
-    /// of `rate` periods per second. A sample that falls on a `busy` step waits for a step
-    /// that is not, up to [`TelemetryClock::MAX_WAIT_PERIODS`] periods; the periods keep
-    /// counting meanwhile, so the average rate holds.
-    fn due(&mut self, hz: u8, rate: NonZeroU32, periods: NonZeroU32, busy: bool) -> bool {
+    /// of `rate` periods per second.
+    fn due(&mut self, hz: u8, rate: NonZeroU32, periods: NonZeroU32) -> bool {
         if hz != self.hz {
             self.hz = hz;
             // At least one period: a rate above the loop's samples every step.
@@ -173,7 +155,7 @@ impl TelemetryClock {
             return false;
         }
         self.since = self.since.saturating_add(periods.get());
-        if self.since < self.period || (busy && self.since - self.period < Self::MAX_WAIT_PERIODS) {
+        if self.since < self.period {
             return false;
         }
         // Keep the remainder, so late steps do not slow the average rate, but never
@@ -201,9 +183,6 @@ pub struct ControlSide<'a> {
     run_periods: u32,
     /// A path-following run is in progress (its report is due when it ends).
     in_run: bool,
-    /// A run ended in the last step and its report is not built yet (see
-    /// [`ControlSide::work_between_steps`]).
-    report_due: bool,
     /// Armed in tune mode (a tune's end is reported once).
     in_tune: bool,
     /// Tunes ended since start.
@@ -214,12 +193,6 @@ pub struct ControlSide<'a> {
     run_max_wheel_rad_s: f32,
     run_max_duty: f32,
     telemetry: TelemetryClock,
-    /// The last step applied a steering outcome and so took no request: this one takes
-    /// one whatever it does (see [`take_request_now`]).
-    request_waited: bool,
-    /// The `seq` of the install request a step took, until it is installed (see
-    /// [`ControlSide::work_between_steps`]).
-    install_seq: Option<u16>,
 }
 
 impl<'a> ControlSide<'a> {
@@ -243,7 +216,6 @@ impl<'a> ControlSide<'a> {
             step: 0,
             run_periods: 0,
             in_run: false,
-            report_due: false,
             in_tune: false,
             tunes_ended: 0,
             runs_ended: 0,
@@ -254,8 +226,6 @@ impl<'a> ControlSide<'a> {
                 period: 0,
                 since: 0,
             },
-            request_waited: false,
-            install_seq: None,
         }
     }
 
@@ -292,11 +262,6 @@ impl<'a> ControlSide<'a> {
 
     /// One control period (see the module doc).
     pub fn step(&mut self, sensors: Sensors) -> Actuation {
-        // What the last step left that nobody did between the steps (arming left
-        // unfinished is the supervisor's to finish: `Supervisor::step`).
-        if self.install_seq.is_some() || self.report_due {
-            self.left_over();
-        }
         self.step = self.step.wrapping_add(1);
         let mut link_has_work = false;
 
@@ -306,29 +271,28 @@ impl<'a> ControlSide<'a> {
 
         // 1. At most one request from the link, and only when its reply and this step's
         //    event both have room: replies are never dropped. Not while the outer loop
-        //    is away (an installation needs it), nor, unless the last step already
-        //    waited, in a step that applies a steering outcome (the heaviest step). An
-        //    install is answered after the step, if the robot is still disarmed then,
-        //    by `work_between_steps` between this step and the next.
+        //    is away: an installation rebuilds it.
         let mut command = None;
         let mut answered = None;
-        let applies_outcome = self.controller.applies_steering_next_step();
-        if outer_loop_seated
-            && take_request_now(applies_outcome, &mut self.request_waited)
-            && self.end.uplink.free() >= 2
-        {
+        if outer_loop_seated && self.end.uplink.free() >= 2 {
             if let Some(request) = self.end.commands.pop() {
-                command = match request.op {
-                    Op::Command(c) => Some(c),
-                    Op::BeginPersist => Some(Command::BeginPersist),
-                    Op::EndPersist => Some(Command::EndPersist),
-                    Op::Install => None,
+                let kind = request.op.kind();
+                let result = match request.op {
+                    Op::Command(c) => {
+                        command = Some(c);
+                        None
+                    }
+                    Op::BeginPersist => {
+                        command = Some(Command::BeginPersist);
+                        None
+                    }
+                    Op::EndPersist => {
+                        command = Some(Command::EndPersist);
+                        None
+                    }
+                    Op::Install => Some(self.install_staged()),
                 };
-                if command.is_some() {
-                    answered = Some((request.seq, request.op.kind()));
-                } else {
-                    self.install_seq = Some(request.seq);
-                }
+                answered = Some((request.seq, kind, result));
             }
         }
 
@@ -349,16 +313,9 @@ impl<'a> ControlSide<'a> {
         // The outer loop's job, if this step handed one over and it is lent out.
         let steering_lent = self.controller.lend_steering();
 
-        // An install waits for the end of the step, and only while disarmed; so does the
-        // rest of arming.
-        let install_taken = self.install_seq.is_some();
-        let install_due = install_taken && self.install_still_due(&out, steering_lent);
-        let arming = self.supervisor.arming_unfinished();
-        link_has_work |= install_taken || arming;
-
         // 3. Reply and event.
-        if let Some((seq, op)) = answered {
-            let result = command_outcome(command, out.command_result);
+        if let Some((seq, op, result)) = answered {
+            let result = result.unwrap_or_else(|| command_outcome(command, out.command_result));
             // Room was checked before taking the request.
             let _ = self.end.uplink.push(ToLink::Reply { seq, op, result });
             link_has_work = true;
@@ -381,13 +338,9 @@ impl<'a> ControlSide<'a> {
         if run_ended || tune_ended {
             link_has_work = true;
         }
-        // A step that applies the steering law's outcome or hands it a job does more
-        // than the others; a telemetry sample due in it waits a step or two, so that the
-        // two costs never fall in one step (the control interrupt's worst case).
-        let heavy = steering_lent || self.controller.telemetry().steering_updated;
         if self
             .telemetry
-            .due(self.end.telemetry_hz(), self.rate, sensors.periods, heavy)
+            .due(self.end.telemetry_hz(), self.rate, sensors.periods)
         {
             // Built in its slot: a 160-byte frame is not copied on the way.
             if self
@@ -421,36 +374,15 @@ impl<'a> ControlSide<'a> {
             event: out.event,
             link_has_work,
             steering_lent,
-            // A run that ended in this step (step 4) leaves its report for after it too.
-            lend_due: install_due || arming || self.report_due,
         }
     }
 
-    /// Does what the last step left for between it and the next
-    /// ([`Actuation::lend_due`]; module doc); true if there was something. Call it
-    /// outside the control interrupt: it costs more than a step. Never waits or panics.
-    pub fn work_between_steps(&mut self) -> bool {
-        let installed = self.install_seq.is_some();
-        if installed {
-            self.install_staged();
-        }
-        let reported = self.report_due;
-        if reported {
-            self.end_run();
-        }
-        let arming = self.supervisor.arming_unfinished();
-        self.supervisor.finish_arming(&mut self.controller);
-        installed || reported || arming
-    }
-
-    /// Installs what is staged, atomically, for the install request the last step took,
-    /// hands the staging area back and queues the reply. It rebuilds the controller and
-    /// supervisor in place; nothing steps meanwhile, so the robot is still disarmed. The
-    /// reply's room in the uplink was kept when the request was taken.
-    fn install_staged(&mut self) {
-        let Some(seq) = self.install_seq.take() else {
-            return;
-        };
+    /// Installs what is staged, atomically, if the robot is disarmed (the supervisor
+    /// refuses otherwise); hands the staging area back either way. Rebuilds the
+    /// controller and the supervisor in place. Out of line: its frame is paid only when
+    /// installing.
+    #[inline(never)]
+    fn install_staged(&mut self) -> Result<(), Refused> {
         let result = match self.end.staging.staged() {
             Some(staged) => install(staged, &mut self.controller, &mut self.supervisor),
             None => Err(Refused::Busy),
@@ -458,45 +390,14 @@ impl<'a> ControlSide<'a> {
         if result.is_ok() {
             self.metrics.restart();
         }
-        self.answer_install(seq, result);
-    }
-
-    /// Hands the staging area back and queues the reply to install request `seq`.
-    fn answer_install(&mut self, seq: u16, result: Result<(), Refused>) {
         self.end.staging.finish();
-        let _ = self.end.uplink.push(ToLink::Reply {
-            seq,
-            op: OpKind::Install,
-            result,
-        });
-    }
-
-    /// After a step that took an install request: true if it is due (the robot is
-    /// disarmed); otherwise refuses it now (a step that armed the robot). Out of line:
-    /// not the common step.
-    #[inline(never)]
-    fn install_still_due(&mut self, out: &Supervised, steering_lent: bool) -> bool {
-        if out.state == State::Disarmed && !steering_lent {
-            return true;
-        }
-        if let Some(seq) = self.install_seq.take() {
-            self.answer_install(seq, Err(state_refusal(out.state)));
-        }
-        false
-    }
-
-    /// [`ControlSide::work_between_steps`] at the start of a step, for a driver that did
-    /// not call it between the steps. Out of line and cold: the firmware never gets here.
-    #[cold]
-    #[inline(never)]
-    fn left_over(&mut self) {
-        self.work_between_steps();
+        result
     }
 
     /// Feeds the run metrics: restarted when the robot is armed to follow the path, fed
     /// with the controller's estimated error at every steering update while it does.
-    /// When the run ends (the robot leaves armed path following), notes that its
-    /// [`RunReport`] is due (built between this step and the next) and returns true.
+    /// When the run ends (the robot leaves armed path following), queues its
+    /// [`RunReport`] for the link side and returns true.
     fn track_run(&mut self, out: &Supervised, periods: NonZeroU32) -> bool {
         if out.event == Some(Event::Armed(RunMode::FollowPath)) {
             self.metrics.restart();
@@ -504,15 +405,12 @@ impl<'a> ControlSide<'a> {
             self.run_max_wheel_rad_s = 0.0;
             self.run_max_duty = 0.0;
             self.in_run = true;
-            // The step that arms drives nothing; the run's first step is the next.
-            return false;
         }
         if out.state != State::Armed || out.run_mode != RunMode::FollowPath {
             if !self.in_run {
                 return false;
             }
-            self.in_run = false;
-            self.report_due = true;
+            self.end_run();
             return true;
         }
         let t = self.controller.telemetry();
@@ -533,14 +431,12 @@ impl<'a> ControlSide<'a> {
         false
     }
 
-    /// The run that ended in the last step: its report goes to the link side (dropped if
-    /// the previous one is still there, which takes two runs ending between two link
-    /// polls). Between two steps: the summary goes over the final window's buckets, about
-    /// 110 instructions on the Cortex-M4F, which the step that faults cannot spare. Out
-    /// of line: its report's room is not on the stack under an install.
+    /// The run ended in this step: its report goes to the link side (dropped if the
+    /// previous one is still there, which takes two runs ending between two link polls).
+    /// Out of line: its report's room is on the stack only in the step that ends a run.
     #[inline(never)]
     fn end_run(&mut self) {
-        self.report_due = false;
+        self.in_run = false;
         self.runs_ended = self.runs_ended.wrapping_add(1);
         let report = self.run_report();
         let _ = self.end.reports.push(Report::Run(report));
@@ -592,16 +488,6 @@ impl<'a> ControlSide<'a> {
             max_duty: self.run_max_duty,
         }
     }
-}
-
-/// Whether a step takes a waiting link request: not in a `busy` step (one that applies a
-/// steering outcome, the heaviest kind), unless the step before already waited, so that
-/// a request waits one step at most even when every step is busy (a steering law run
-/// every period). `waited` carries that from step to step.
-fn take_request_now(busy: bool, waited: &mut bool) -> bool {
-    let wait = busy && !*waited;
-    *waited = wait;
-    !wait
 }
 
 /// The telemetry sample of step `step`: the supervisor's outputs `out` and `controller`'s
@@ -767,13 +653,13 @@ mod tests {
             since: 0,
         };
         let one = NonZeroU32::MIN;
-        assert!(!(0..100).any(|_| clock.due(0, KHZ, one, false)), "off");
-        let due: usize = (0..1000).filter(|_| clock.due(50, KHZ, one, false)).count();
+        assert!(!(0..100).any(|_| clock.due(0, KHZ, one)), "off");
+        let due: usize = (0..1000).filter(|_| clock.due(50, KHZ, one)).count();
         assert_eq!(due, 50);
         // A late step counts the periods it covered.
         let three = NonZeroU32::new(3).unwrap_or(one);
         let due: usize = (0..100)
-            .filter(|_| clock.due(100, KHZ, three, false))
+            .filter(|_| clock.due(100, KHZ, three))
             .count();
         assert_eq!(due, 30, "one per 10 periods: 300 periods in steps of 3");
         // Faster than the loop: every step.
@@ -783,45 +669,7 @@ mod tests {
             since: 0,
         };
         let slow = NonZeroU32::new(50).unwrap_or(one);
-        assert!((0..10).all(|_| clock.due(100, slow, one, false)));
-    }
-
-    #[test]
-    fn a_request_waits_one_busy_step_at_most() {
-        let mut waited = false;
-        let taken: Vec<bool> = [false, true, false, true, true, true, true, false]
-            .iter()
-            .map(|&busy| take_request_now(busy, &mut waited))
-            .collect();
-        assert_eq!(
-            taken,
-            [true, false, true, false, true, false, true, true],
-            "busy steps in a row: every other one takes a request"
-        );
-    }
-
-    #[test]
-    fn a_sample_due_in_a_busy_step_waits_at_most_two_periods() {
-        let fresh = || TelemetryClock {
-            hz: 0,
-            period: 0,
-            since: 0,
-        };
-        let one = NonZeroU32::MIN;
-        // 50 Hz on 1 kHz: due at steps 19, 39, … (0-based). The due step and the one
-        // after it are busy: each sample goes out two periods late, and the next one is
-        // due 20 periods after its due time, not after its late sending.
-        let mut clock = fresh();
-        let busy = |k: u32| k % 20 == 19 || k % 20 == 0;
-        let sampled: Vec<u32> = (0..1000)
-            .filter(|&k| clock.due(50, KHZ, one, busy(k)))
-            .collect();
-        let expected: Vec<u32> = (1..50).map(|i| 20 * i + 1).collect();
-        assert_eq!(sampled, expected);
-        // Every step busy (a steering law run every period): samples still go out.
-        let mut clock = fresh();
-        let sampled: Vec<u32> = (0..60).filter(|_| clock.due(50, KHZ, one, true)).collect();
-        assert_eq!(sampled, [21, 41]);
+        assert!((0..10).all(|_| clock.due(100, slow, one)));
     }
 
     #[test]

@@ -27,21 +27,18 @@
 //! | [`LinkService::outgoing`], [`LinkService::consume`] | link task | start a transmission; after it completed |
 //! | [`LinkService::persist_job`], [`LinkService::persist_finished`] | link task | after `poll`; around the flash work |
 //!
-//! - **Control interrupt**: owns the [`ControlSide`] (a `#[local]` resource; the
-//!   firmware keeps it in a [`ControlRoom`] and steps it through the [`ControlSeat`], so
-//!   that it can be lent to the link task: [`lend`]). It reads
+//! - **Control interrupt**: owns the [`ControlSide`] (a `#[local]` resource). It reads
 //!   the encoders, button, supply and the `overrun` flag into [`Sensors`], calls
 //!   [`ControlSide::step`], writes the duties and the bridge, feeds the watchdog when
 //!   [`Actuation::feed_watchdog`], sets the LED, and pends the link task when
 //!   [`Actuation::link_has_work`] (e.g. `link::spawn()`, ignoring "already pending").
 //!   The step never waits, allocates, logs or panics. Its work is bounded: at most one
 //!   request from the link, one reply, one event, one telemetry sample per step.
-//!   Installing a staged configuration or path (only while disarmed), which rebuilds
-//!   the controller in place, field by field, copying the path straight from the staging
-//!   area, the rest of arming and the report of a run that ended are done between two
-//!   steps, by
-//!   [`ControlSide::work_between_steps`] when [`Actuation::lend_due`]: in the link task
-//!   ([`Borrower::run`]) on the firmware.
+//!   Installing a staged configuration or path (only while disarmed) rebuilds the
+//!   controller in place, field by field, copying the path straight from the staging
+//!   area. `docs/realtime.md` draws the whole step and the tasks around it.
+//! - **Steering task** (below the control interrupt): runs the outer loop's job when a
+//!   step says [`Actuation::steering_lent`] (`crate::outer`).
 //! - **USART RX interrupt**: pushes each received byte into a byte ring the board owns
 //!   ([`channel::ring::Ring`]`<u8, N>`, split: producer in the interrupt, consumer in
 //!   the link task; lock-free) and pends the link task. A full ring drops the byte: the
@@ -144,7 +141,6 @@
 pub mod channel;
 pub mod control;
 pub mod hw;
-pub mod lend;
 pub mod lockstep;
 pub mod metrics;
 pub mod outer;
@@ -155,7 +151,6 @@ mod start;
 
 pub use crate::channel::{Channels, ControlEnd, LinkEnd};
 pub use crate::control::{Actuation, ControlSide, Sensors};
-pub use crate::lend::{Borrower, ControlRoom, ControlSeat};
 pub use crate::service::{BoardStats, Identity, LinkOptions, LinkService, NoBoardStats};
 pub use crate::start::{start, AppConfig, StartError};
 

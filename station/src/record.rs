@@ -123,9 +123,7 @@ pub fn run<T: Transport>(
     let rate_hz = original.robot.control_rate_hz;
     let total = (scenario.duration_s * f64::from(rate_hz)).round() as u64;
     let mut timed = original;
-    // `total` driving steps: the step that arms is armed but drives nothing.
-    let armed_steps = total.saturating_add(1);
-    timed.supervisor.max_armed_steps = Some(u32::try_from(armed_steps).unwrap_or(u32::MAX));
+    timed.supervisor.max_armed_steps = Some(u32::try_from(total).unwrap_or(u32::MAX));
     if timed != original {
         ops::set_params(client, timed)?;
     }

@@ -129,8 +129,8 @@ pub struct SupervisorConfig {
     /// Happens at most once per boot, never after a watchdog, software or brown-out
     /// reset, and not once the button has been used.
     pub auto_arm_after_steps: Option<u32>,
-    /// Disarm after this many steps armed (`None`: no limit), the step that arms among
-    /// them (it drives nothing: the run drives one step fewer).
+    /// Disarm after this many steps armed, the step that arms among them (`None`: no
+    /// limit).
     pub max_armed_steps: Option<u32>,
     /// This many overrun steps in a row are a fault and stop the watchdog feeding (≥ 1).
     pub max_consecutive_overruns: u32,

@@ -42,19 +42,13 @@
 //! check in force; the tune disarms by itself when done, and a fault, the button or the
 //! link stops it like any run). A long press while disarmed selects the next mode.
 //!
-//! ## Arming takes two steps
+//! ## Arming
 //!
-//! The step that arms (a short press, the link's `Arm`, auto-arm) reports
-//! [`State::Armed`] and [`Event::Armed`], but its controller still runs idle: duties 0,
-//! the bridge as if disarmed. What arming does to the controller (the start pose, a
-//! tune's start, the speed estimates of a run that starts in motion, the loops restarted
-//! in the new mode) is left for [`Supervisor::finish_arming`], between that step and the
-//! next, which is the run's first driving step. That work costs as much as a control
-//! step; a firmware does it outside its control interrupt (see
-//! [`Supervisor::arming_unfinished`]). A caller that does not is covered: the next
-//! [`Supervisor::step`] finishes it first. [`Supervisor::arm_locally`], called between
-//! two steps, finishes at once. Either way the run starts at the same step, from the
-//! same state.
+//! The step that arms (a short press, the link's `Arm`, auto-arm) is the run's first
+//! driving step: it starts the controller in the new mode (the start pose, a tune's
+//! start, the speed estimates of a run that starts in motion, the loops restarted),
+//! steps it, and drives the motors. [`Supervisor::arm_locally`], called between two
+//! steps, starts the controller at once, so the next [`Supervisor::step`] drives.
 //!
 //! ## The bridge: brake, then coast
 //!
@@ -117,20 +111,15 @@
 //! assert_eq!(out.duty, MotorCommand::STOP);
 //! assert!(out.feed_watchdog && out.bridge == Bridge::Coast);
 //!
-//! // The link arms the robot; it must then send heartbeats. The controller starts the
-//! // run between this step and the next.
+//! // The link arms the robot; it must then send heartbeats. The step that arms drives.
 //! input.command = Some(Command::Arm(ArmRequest::follow_path()));
 //! let out = supervisor.step(&mut controller, input);
 //! assert_eq!(out.state, State::Armed);
 //! assert_eq!(out.command_result, Some(Ok(())));
-//! assert!(out.bridge == Bridge::Coast && supervisor.arming_unfinished());
-//! supervisor.finish_arming(&mut controller);
-//!
-//! // The run's first step drives; the steering law's command reaches the wheels one
-//! // step later.
-//! input.command = Some(Command::Heartbeat);
-//! let out = supervisor.step(&mut controller, input);
 //! assert!(out.bridge == Bridge::Drive);
+//!
+//! // The steering law's command reaches the wheels one step later.
+//! input.command = Some(Command::Heartbeat);
 //! let out = supervisor.step(&mut controller, input);
 //! assert!(out.duty.left > 0.0 && out.bridge == Bridge::Drive);
 //! ```
@@ -532,13 +521,6 @@ pub struct Supervisor {
     /// The wheel-loop tune, and the voltages it asked for the next step.
     tuner: Tuner,
     tune_volts: WheelVolts,
-    /// Armed in the last step, and the controller not started yet (see
-    /// [`Supervisor::finish_arming`]). A flag, not an `Option` of what is left: it is
-    /// tested in every step.
-    arming_unfinished: bool,
-    /// The motion (v m/s, ω rad/s, robot frame) the run starts with, if the arming
-    /// asserted one; for [`Supervisor::finish_arming`].
-    arming_motion: Option<BodyVelocity>,
 }
 
 impl Supervisor {
@@ -577,8 +559,6 @@ impl Supervisor {
             supply: Supply::default(),
             tuner: Tuner::new(TuneConfig::for_robot(params.config()), params),
             tune_volts: WheelVolts::default(),
-            arming_unfinished: false,
-            arming_motion: None,
         })
     }
 
@@ -666,9 +646,6 @@ impl Supervisor {
         controller: &mut Controller<S>,
         input: Inputs,
     ) -> Supervised {
-        if self.arming_unfinished {
-            self.finish_arming(controller);
-        }
         self.steps_since_boot = self.steps_since_boot.saturating_add(1);
         self.track_liveness(&input);
 
@@ -684,7 +661,7 @@ impl Supervisor {
             event = self.handle_timers(controller);
         }
 
-        // 2. The controller runs in the mode the state allows (idle in the step that arms).
+        // 2. The controller runs in the mode the state allows.
         controller.set_mode(self.controller_mode());
         let controller_duty = controller.step(StepInput {
             ticks: input.ticks,
@@ -699,23 +676,20 @@ impl Supervisor {
                 self.start_braking();
             }
             self.state = State::Faulted;
-            self.arming_unfinished = false;
             self.armed_by_link = false;
             self.auto_arm_pending = false;
             self.tuner.abort(TuneAbort::Stopped);
             event = Some(Event::Faulted);
         }
-        // The tune starts with arming's end.
-        let mut driving = self.state == State::Armed && !self.arming_unfinished;
-        if driving && self.run_mode == RunMode::Tune {
+        if self.state == State::Armed && self.run_mode == RunMode::Tune {
             event = self.tune_step(controller, input.periods).or(event);
-            // The tune may have ended, disarming.
-            driving = self.state == State::Armed;
         }
+        // The tune may have ended, disarming.
+        let driving = self.state == State::Armed;
         let battery_event = self.battery_event();
         event = event.or(battery_event);
 
-        // 4. Outputs. The step that arms drives nothing yet.
+        // 4. Outputs.
         let bridge = if driving {
             Bridge::Drive
         } else if self.brake_steps_left > 0 {
@@ -767,8 +741,8 @@ impl Supervisor {
     /// Arms at once, at the request of the operator at the robot rather than over the
     /// link (a bench script, the simulator's timeline): like the button, it needs no
     /// heartbeat. Only from Disarmed, and not while the button is held. Call it between
-    /// two steps: it finishes arming at once ([`Supervisor::finish_arming`]), and the
-    /// next [`Supervisor::step`] is the run's first driving step.
+    /// two steps: the controller starts at once, and the next [`Supervisor::step`]
+    /// drives.
     pub fn arm_locally<S: SteeringSeat>(
         &mut self,
         controller: &mut Controller<S>,
@@ -780,9 +754,7 @@ impl Supervisor {
         if self.button.pressed() {
             return Err(Refusal::ButtonHeld);
         }
-        let event = self.arm(request, false);
-        self.finish_arming(controller);
-        Ok(event)
+        Ok(self.arm(controller, request, false))
     }
 
     /// The watchdog-feeding rule (module doc): the loop is not late and the background runs.
@@ -914,7 +886,7 @@ impl Supervisor {
                 None
             }
             (Press::Up { long: false }, State::Disarmed) => {
-                Some(self.arm(self.arm_request_for(self.run_mode), false))
+                Some(self.arm(controller, self.arm_request_for(self.run_mode), false))
             }
             (Press::Up { long: false }, State::Faulted) => Some(self.clear_faults(controller)),
             (Press::Up { .. }, _) => None,
@@ -941,7 +913,7 @@ impl Supervisor {
             }
             (Command::Arm(request), State::Disarmed) => {
                 self.auto_arm_pending = false;
-                (Ok(()), Some(self.arm(request, true)))
+                (Ok(()), Some(self.arm(controller, request, true)))
             }
             (Command::Disarm, State::Armed) => {
                 self.disarm(controller);
@@ -970,7 +942,7 @@ impl Supervisor {
             State::Disarmed if self.auto_arm_pending => {
                 let due = self.config.auto_arm_after_steps.unwrap_or(u32::MAX);
                 if self.steps_since_boot >= due && !self.button.pressed() {
-                    Some(self.arm(self.arm_request_for(self.run_mode), false))
+                    Some(self.arm(controller, self.arm_request_for(self.run_mode), false))
                 } else {
                     None
                 }
@@ -1004,9 +976,15 @@ impl Supervisor {
         }
     }
 
-    /// Arms with `request` (the link's when `by_link`); the controller starts with
-    /// [`Supervisor::finish_arming`].
-    fn arm(&mut self, request: ArmRequest, by_link: bool) -> Event {
+    /// Arms with `request` (the link's when `by_link`) and prepares `controller` for the
+    /// run: the start pose, a tune's start or the motion a run starts with. The step
+    /// then switches it to the run's mode, which restarts its loops.
+    fn arm<S: SteeringSeat>(
+        &mut self,
+        controller: &mut Controller<S>,
+        request: ArmRequest,
+        by_link: bool,
+    ) -> Event {
         self.auto_arm_pending = false;
         self.state = State::Armed;
         self.run_mode = request.mode;
@@ -1021,27 +999,6 @@ impl Supervisor {
         self.brake_steps_left = 0;
         self.stall.reset();
         self.divergence.reset();
-        self.arming_unfinished = true;
-        self.arming_motion = request.initial_motion;
-        Event::Armed(self.run_mode)
-    }
-
-    /// Armed in the last step, and [`Supervisor::finish_arming`] not called since: the
-    /// controller is still idle. Call that between this step and the next.
-    pub const fn arming_unfinished(&self) -> bool {
-        self.arming_unfinished
-    }
-
-    /// Does what the last step's arming leaves for between two steps (module doc): the
-    /// start pose, a tune's start or the motion a run starts with, and the controller's
-    /// loops restarted in the run's mode. About as much work as a control step; nothing
-    /// if no arming is unfinished. Never waits or panics.
-    pub fn finish_arming<S: SteeringSeat>(&mut self, controller: &mut Controller<S>) {
-        // Every way out of Armed (a disarm, a fault) clears the flag.
-        if !self.arming_unfinished {
-            return;
-        }
-        self.arming_unfinished = false;
         if self.run_mode == RunMode::FollowPath {
             // The robot has been put down at the start; forget where odometry drifted to
             // while it was carried. Leaving Idle for FollowPath restarts the reference.
@@ -1051,17 +1008,16 @@ impl Supervisor {
             // From where the robot stands; the tune checks that it stands still.
             self.tune_volts = WheelVolts::default();
             self.tuner.start(controller.pose());
-        } else if let Some(motion) = self.arming_motion {
+        } else if let Some(motion) = request.initial_motion {
             controller.seed_motion(motion);
         }
-        controller.set_mode(self.controller_mode());
+        Event::Armed(self.run_mode)
     }
 
-    /// The controller's mode in the present state: the run mode's while armed (idle until
-    /// arming is finished), idle otherwise.
+    /// The controller's mode in the present state: the run mode's while armed, idle
+    /// otherwise.
     fn controller_mode(&self) -> Mode {
         match (self.state, self.run_mode) {
-            (State::Armed, _) if self.arming_unfinished => Mode::Idle,
             (State::Armed, RunMode::FollowPath) => Mode::FollowPath,
             (State::Armed, RunMode::HoldWheelSpeeds) => {
                 Mode::HoldWheelSpeeds(self.config.hold_speeds)
@@ -1074,7 +1030,6 @@ impl Supervisor {
     fn disarm<S: SteeringSeat>(&mut self, controller: &mut Controller<S>) {
         self.tuner.abort(TuneAbort::Stopped);
         self.state = State::Disarmed;
-        self.arming_unfinished = false;
         self.armed_by_link = false;
         self.start_braking();
         controller.set_mode(Mode::Idle);

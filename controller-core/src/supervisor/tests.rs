@@ -778,49 +778,29 @@ fn hold_speeds_can_come_with_the_arm_request() {
         hold_speeds: Some(speeds),
         initial_motion: None,
     }));
-    // Idle in the step that arms; the run's mode from arming's end on.
-    assert_eq!(r.ctl.mode(), Mode::Idle);
-    r.sup.finish_arming(&mut r.ctl);
     assert_eq!(r.ctl.mode(), Mode::HoldWheelSpeeds(speeds));
 }
 
 #[test]
-fn the_step_that_arms_drives_nothing_and_the_next_one_drives() {
+fn the_step_that_arms_drives() {
     let mut r = rig();
     r.moving = true;
     let out = r.command(Command::Arm(ArmRequest::follow_path()));
     assert_eq!(out.state, State::Armed);
     assert_eq!(out.event, Some(Event::Armed(RunMode::FollowPath)));
-    assert_eq!((out.duty, out.bridge), (MotorCommand::STOP, Bridge::Coast));
-    assert!(r.sup.arming_unfinished());
-    assert_eq!(r.ctl.mode(), Mode::Idle);
-    // Nobody finished it between the steps: the next step does, and drives.
-    let out = r.step();
-    assert!(!r.sup.arming_unfinished());
+    assert_eq!(out.bridge, Bridge::Drive);
     assert_eq!(r.ctl.mode(), Mode::FollowPath);
-    assert_eq!((out.state, out.bridge), (State::Armed, Bridge::Drive));
-    // Finishing twice does nothing more.
-    let before = format!("{:?}", r.ctl.telemetry());
-    r.sup.finish_arming(&mut r.ctl);
-    assert_eq!(format!("{:?}", r.ctl.telemetry()), before);
+    assert_eq!(out.duty, out.controller_duty, "its duties reach the motors");
 }
 
 #[test]
-fn arming_ended_by_a_disarm_or_a_fault_is_not_finished() {
+fn arming_ended_by_a_disarm_or_a_fault_in_the_same_step_leaves_the_controller_idle() {
     let mut r = rig();
     r.command(Command::Arm(ArmRequest::follow_path()));
-    r.sup.finish_arming(&mut r.ctl);
     assert_eq!(r.ctl.mode(), Mode::FollowPath);
     r.command(Command::Disarm);
-    r.step();
-    // Armed and at once disarmed by the link: the controller never leaves Idle.
-    r.command(Command::Arm(ArmRequest::follow_path()));
-    let out = r.command(Command::Disarm);
-    assert_eq!(out.state, State::Disarmed);
-    assert!(!r.sup.arming_unfinished());
-    r.sup.finish_arming(&mut r.ctl);
     assert_eq!(r.ctl.mode(), Mode::Idle);
-    // Armed, and faulted in the same step (an encoder jump): the same.
+    // Armed, and faulted in the same step (an encoder jump): idle, motors stopped.
     r.step();
     r.command = Some(Command::Arm(ArmRequest::follow_path()));
     let out = r.step_with(TickDeltas {
@@ -828,8 +808,8 @@ fn arming_ended_by_a_disarm_or_a_fault_is_not_finished() {
         right: 0,
     });
     assert_eq!(out.state, State::Faulted);
-    assert!(!r.sup.arming_unfinished());
-    r.sup.finish_arming(&mut r.ctl);
+    assert_eq!(out.duty, MotorCommand::STOP);
+    r.step();
     assert_eq!(r.ctl.mode(), Mode::Idle);
 }
 
@@ -843,7 +823,6 @@ fn arming_in_motion_seeds_the_speed_estimate() {
         initial_motion: Some(BodyVelocity::new(0.1625, 0.0)),
     }));
     assert_eq!(out.state, State::Armed);
-    r.sup.finish_arming(&mut r.ctl);
     // 0.1625 m/s on 32.5 mm wheels is 5 rad/s: the estimate starts there, not at 0.
     let w = r.ctl.telemetry().wheel_speed;
     assert!((w.left_rad_s - 5.0).abs() < 0.3, "{w:?}");

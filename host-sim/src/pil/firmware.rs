@@ -1,15 +1,12 @@
 //! The emulated firmware as the simulation loop's [`RobotLogic`]: each step's sensors go
 //! to the firmware's plant port, its answer comes back as the step's decision.
 //!
-//! **The plant holds still until the firmware drives.** Until then the loop's first step
-//! is not taken: its sensor readings (the plant at its start, read once) are sent again
-//! and again, while the station configures the robot, uploads the path and arms it over
-//! the link, which takes the firmware's control steps to do. The step that arms drives
-//! nothing yet (the controller starts between it and the next:
-//! `controller_core::supervisor`, "Arming takes two steps"); the first answer that
-//! drives the bridge becomes the run's step 0, and the plant moves from there. That
-//! step reports the arming's event, which a held answer carried. So the run
-//! starts in the same state however long the station took, and from then on every step
+//! **The plant holds still until the firmware reports armed.** Until then the loop's
+//! first step is not taken: its sensor readings (the plant at its start, read once) are
+//! sent again and again, while the station configures the robot, uploads the path and
+//! arms it over the link, which takes the firmware's control steps to do. The answer
+//! that says Armed (the step that arms drives) becomes the run's step 0, and the plant
+//! moves from there. So the run starts in the same state however long the station took, and from then on every step
 //! is the same computation as in `host-sim run`.
 
 use std::io::{ErrorKind, Read, Write};
@@ -19,7 +16,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use controller_core::controller::MotorCommand;
-use controller_core::supervisor::{ArmRequest, Bridge, Event, Supervised};
+use controller_core::supervisor::{ArmRequest, Bridge, Event, State, Supervised};
 use robot_app::lockstep::{
     BoardDecoder, BoardReport, BoardStep, FromBoard, PlantStep, FINISH, PLANT_STEP_MAX_LEN,
 };
@@ -49,7 +46,7 @@ pub struct Firmware {
     decoder: BoardDecoder,
     /// Bytes read from the plant port and not decoded yet.
     unread: Vec<u8>,
-    /// Waiting for the first answer that drives (module doc).
+    /// Waiting for the first armed answer (module doc).
     holding: bool,
     /// How long the station may take to arm the robot.
     arm_timeout: Duration,
@@ -198,20 +195,15 @@ impl RobotLogic for Firmware {
             button_pressed: sensors.button_pressed,
         };
         let started = Instant::now();
-        // The arming's event, from a held answer: step 0 reports it (module doc).
-        let mut armed = None;
-        let mut answer = loop {
+        let answer = loop {
             let answer = self.exchange(&step)?;
-            if !self.holding || answer.bridge == Bridge::Drive {
+            if !self.holding || answer.state == State::Armed {
                 break answer;
-            }
-            if let Some(event @ Event::Armed(_)) = answer.event {
-                armed = Some(event);
             }
             self.held_steps += 1;
             if started.elapsed() > self.arm_timeout {
                 return Err(RunError::Logic(format!(
-                    "the firmware was not armed and driving within {} s ({} control steps, state {:?})",
+                    "the firmware was not armed within {} s ({} control steps, state {:?})",
                     self.arm_timeout.as_secs(),
                     self.held_steps,
                     answer.state
@@ -219,7 +211,6 @@ impl RobotLogic for Firmware {
             }
         };
         self.holding = false;
-        answer.event = answer.event.or(armed);
         self.watch_link_loss(&answer);
         self.steps += 1;
         Ok(Decision {

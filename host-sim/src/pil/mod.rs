@@ -16,7 +16,7 @@
 //!   computation however fast the host or the emulator is.
 //! - **The station port** carries the runtime link, as the robot's serial line does; a
 //!   station uploads the path, arms and watches ([`relay`]). The plant holds still until
-//!   the armed firmware drives, so the start does not depend on when the station's bytes
+//!   the firmware reports armed, so the start does not depend on when the station's bytes
 //!   arrive. [`station`] is a minimal station for tests.
 //! - **QEMU** is started with `-icount shift=0,sleep=off`: one instruction per virtual
 //!   nanosecond, so SysTick counts instructions (the firmware's measurements), and no

@@ -24,14 +24,12 @@
 //! - **A committed path** puts the robot at the path's start pose, at rest (a new
 //!   hardware: encoders, noise and injected faults start again, as in a fresh
 //!   `host-sim run`).
-//! - **The plant holds still until the armed robot drives**: while it waits, each
-//!   control step reads the sensors of a copy of the hardware, so the noise the run will
-//!   see starts at the run's first driving step exactly as in `host-sim run`, and the
-//!   supply filter holds the one reading it would take then. The step that arms drives
-//!   nothing (`controller_core::supervisor`, "Arming takes two steps"); the next one is
-//!   the run's first.
+//! - **The plant holds still until the robot is armed**: while it waits, each control
+//!   step reads the sensors of a copy of the hardware, so the noise the run will see
+//!   starts at the arming step, the run's first, exactly as in `host-sim run`, and the
+//!   supply filter holds the one reading it would take at arming.
 //! - **Arming in motion** (an `Arm` whose `initial_motion` is set): the plant's wheels are
-//!   spun up to that motion at the run's first step. When the asserted motion (f32 on the
+//!   spun up to that motion at the arming step. When the asserted motion (f32 on the
 //!   wire) is the scenario's start motion rounded to f32, the scenario's own f64 values are
 //!   used, and likewise for a committed start pose equal to the scenario's start: the
 //!   plant then starts exactly where `host-sim run` starts it.
@@ -48,7 +46,7 @@ use std::time::{Duration, Instant};
 use controller_core::kinematics::{BodyVelocity, Pose, WheelSpeeds};
 use controller_core::law::LawKind;
 use controller_core::reference::Reference;
-use controller_core::supervisor::{Bridge, Event, ResetCause, RunMode, State};
+use controller_core::supervisor::{Event, ResetCause, RunMode, State};
 use link::{
     encode, Decoder, Downlink, GroundTruth, ParamSet, Received, Reply, Request, Uplink,
     MAX_FRAME_LEN,
@@ -102,10 +100,8 @@ pub struct VirtualRobot<'a> {
     control: ControlSide<'a>,
     link: LinkService<'a>,
     hardware: SimHardware,
-    /// The plant holds still (placed, not yet armed and driving).
+    /// The plant holds still (placed, not yet armed).
     frozen: bool,
-    /// The mode of an arming whose run has not started driving yet.
-    arming: Option<RunMode>,
     tap_in: Decoder,
     tap_out: Decoder,
     /// `initial_motion` of the last `Arm` seen on the link.
@@ -161,7 +157,6 @@ impl<'a> VirtualRobot<'a> {
             link,
             hardware,
             frozen: true,
-            arming: None,
             tap_in: Decoder::new(),
             tap_out: Decoder::new(),
             arm_motion: None,
@@ -249,11 +244,6 @@ impl<'a> VirtualRobot<'a> {
             overrun: false,
             background_heartbeat: self.background,
         });
-        // Between this step and the next, as the firmware's link task does
-        // (`robot_app::lend`).
-        if out.lend_due {
-            self.control.work_between_steps();
-        }
         let step = self.control.steps();
         if heartbeat_taken {
             self.last_heartbeat_step = step;
@@ -261,13 +251,8 @@ impl<'a> VirtualRobot<'a> {
         self.link.poll();
         self.persist();
 
-        // 3. The run's first driving step, after arming, starts the plant (and the true
-        //    metrics).
+        // 3. Arming starts the plant (and the true metrics).
         if let Some(Event::Armed(mode)) = out.event {
-            self.arming = Some(mode);
-        }
-        if let Some(mode) = self.arming.filter(|_| out.bridge == Bridge::Drive) {
-            self.arming = None;
             if let Some(copy) = probe.take().filter(|_| self.frozen) {
                 self.hardware = copy;
                 self.frozen = false;

@@ -128,21 +128,6 @@ impl<T> Sender<'_, T> {
         Some(unsafe { &*m.item.get() })
     }
 
-    /// The item while the sender owns it: in an empty mailbox, or in one the receiver
-    /// has finished with, which this empties first (one load of the state in either
-    /// case). None while the receiver has it.
-    pub fn collect_mut(&mut self) -> Option<&mut T> {
-        let m = self.mailbox;
-        match m.state.load(Ordering::Acquire) {
-            EMPTY => {}
-            DONE => m.state.store(EMPTY, Ordering::Release),
-            _ => return None,
-        }
-        // SAFETY: Empty (now): the sender owns the item (see `item_mut`); a Done state was
-        // the receiver's hand-back, seen by the Acquire load above.
-        Some(unsafe { &mut *m.item.get() })
-    }
-
     /// Empties a mailbox the receiver has finished with (the item stays, for the sender
     /// to prepare the next one in); does nothing in any other state.
     pub fn clear(&mut self) {

@@ -281,10 +281,6 @@ impl<'a> Rig<'a> {
             background_heartbeat: self.background,
         });
         self.last = Some(out);
-        // The link task does a step's left work before the next (`robot_app::lend`).
-        if out.lend_due {
-            self.control.work_between_steps();
-        }
         // The lower-priority task runs between this step and the next.
         if let Some(worker) = &mut self.worker {
             if self.stall_worker_once && out.steering_lent {

@@ -53,7 +53,7 @@ use robot_app::hw::clock::{self as clock_plan, ClockPlan};
 use robot_app::hw::supply::{AdcPrescaler, Divider, SampleTime};
 use robot_app::hw::usart::BaudSetting;
 use robot_app::hw::watchdog::IwdgConfig;
-use robot_app::{Actuation, ControlSeat, Sensors};
+use robot_app::{Actuation, ControlSide, Sensors};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::qei::Qei;
@@ -385,7 +385,7 @@ impl ControlIo {
     /// Writes the step's outputs: duties and the driver's enable line, the LED, and
     /// starts the next supply conversion.
     #[inline(always)]
-    pub fn actuate(&mut self, out: &Actuation, _control: &ControlSeat<'_>) {
+    pub fn actuate(&mut self, out: &Actuation, _control: &ControlSide<'_>) {
         self.drive.apply(out.duty, out.bridge.enabled());
         self.led.set(out.led_on);
         self.supply.start();
@@ -398,11 +398,10 @@ impl ControlIo {
     }
 }
 
-/// The steering task has run the outer loop the step lent it, or the link task the work
-/// the step lent it the control side for: nothing waits for that on this board (the
-/// tick starts the next step).
+/// The steering task has run the outer loop's job the step lent it: nothing waits for
+/// that on this board (the tick starts the next step).
 #[inline(always)]
-pub fn lent_work_done() {}
+pub fn steering_done() {}
 
 /// A free-running count for timing the tasks: DWT CYCCNT, CPU cycles.
 #[inline(always)]

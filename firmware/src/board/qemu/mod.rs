@@ -40,7 +40,7 @@ use robot_app::channel::ring::{Consumer, Producer, Ring};
 use robot_app::hw::watchdog::{IwdgConfig, IwdgPrescaler};
 use robot_app::lockstep::{BoardStep, PlantStep};
 use robot_app::persist::Slot;
-use robot_app::{Actuation, ControlSeat, Sensors};
+use robot_app::{Actuation, ControlSide, Sensors};
 use stm32f4xx_hal::pac;
 
 pub use self::instructions::{work_counter, work_since, work_units, WORK_UNIT};
@@ -126,11 +126,10 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Board {
     }
 }
 
-/// The steering task has run the outer loop the step lent it, or the link task the
-/// work the step lent it the control side for: the step's answer may go once both are
-/// done if it lent both.
+/// The steering task has run the outer loop's job the step lent it: the step's answer
+/// may go.
 #[inline(always)]
-pub fn lent_work_done() {
+pub fn steering_done() {
     plant_port::release_answer();
     rtic::pend(pac::Interrupt::USART1);
 }
@@ -168,18 +167,14 @@ impl ControlIo {
 
     /// Queues the step's answer for the plant port, which sends it once this task has
     /// returned (same priority, so it never preempts the step). When the step lent the
-    /// outer loop, the control side for work between steps, or both (a step that ends a
-    /// run can hand the outer loop a job too), the answer is held until the
-    /// lower-priority tasks have done all of it ([`lent_work_done`]): the plant's next
-    /// step message then cannot start the next step before everything is back, however
-    /// the host's bytes fall in virtual time. The pose and error are `control`'s
-    /// telemetry (zero in a step that ran while the control side was lent, which this
-    /// board's hold never lets happen).
+    /// outer loop a job, the answer is held until the steering task has run it
+    /// ([`steering_done`]): the plant's next step message then cannot start the next
+    /// step before the outer loop is back, however the host's bytes fall in virtual
+    /// time. The pose and error are `control`'s telemetry.
     #[inline(always)]
-    pub fn actuate(&mut self, out: &Actuation, control: &ControlSeat<'_>) {
-        let telemetry = control.telemetry();
-        let lent = u8::from(out.steering_lent) + u8::from(out.lend_due);
-        plant_port::hold_answer(lent);
+    pub fn actuate(&mut self, out: &Actuation, control: &ControlSide<'_>) {
+        let telemetry = control.controller().telemetry();
+        plant_port::hold_answer(out.steering_lent);
         // The plant sends the next step only after this answer: the slot is free.
         let _ = self.replies.push(BoardStep {
             duty: out.duty,
@@ -191,11 +186,11 @@ impl ControlIo {
             event: out.event,
             missed_ticks_total: out.missed_ticks_total,
             overruns_total: out.overruns_total,
-            pose: telemetry.map_or_else(Default::default, |t| t.pose),
-            error: telemetry.map_or_else(Default::default, |t| t.error),
-            steering_updated: telemetry.is_some_and(|t| t.steering_updated),
+            pose: telemetry.pose,
+            error: telemetry.error,
+            steering_updated: telemetry.steering_updated,
         });
-        if lent == 0 {
+        if !out.steering_lent {
             rtic::pend(pac::Interrupt::USART1);
         }
     }

@@ -9,12 +9,11 @@
 //! - **transmit** (TXE): the control task's answers, one message at a time; TXEIE stays
 //!   on while bytes wait (QEMU keeps TXE set, so in practice a message goes out in one
 //!   interrupt). An answer is not started while it is held ([`hold_answer`]: the step
-//!   lent the outer loop, the control side for work between steps, or both, and the
-//!   lower-priority tasks have not done all of that work yet).
+//!   lent the outer loop a job, and the steering task has not run it yet).
 //! - **finish**: answers with the run's figures ([`BoardReport`]) and ends the emulation
 //!   (semihosting `exit(0)`).
 
-use core::sync::atomic::{AtomicU8, Ordering};
+use core::sync::atomic::{AtomicBool, Ordering};
 
 use robot_app::channel::ring::{Consumer, Producer};
 use robot_app::lockstep::{
@@ -41,22 +40,19 @@ pub struct PlantPort {
     overflows: u32,
 }
 
-/// The lent works the last answer queued still waits for (see the module doc).
-static ANSWER_HOLDS: AtomicU8 = AtomicU8::new(0);
+/// The last answer queued waits for the steering task (see the module doc).
+static ANSWER_HELD: AtomicBool = AtomicBool::new(false);
 
-/// Holds the answer queued next until `lent` works are done ([`release_answer`]); 0
-/// lets it go.
+/// Holds the answer queued next until [`release_answer`] (`held`), or lets it go.
 #[inline(always)]
-pub fn hold_answer(lent: u8) {
-    ANSWER_HOLDS.store(lent, Ordering::Release);
+pub fn hold_answer(held: bool) {
+    ANSWER_HELD.store(held, Ordering::Release);
 }
 
-/// One lent work is done: the answer goes when none is left. (The steering task and
-/// the link task may both call it, one preempting the other: one atomic decrement, and
-/// never below 0.)
+/// The steering task is done: the held answer may go.
 #[inline(always)]
 pub fn release_answer() {
-    let _ = ANSWER_HOLDS.fetch_update(Ordering::AcqRel, Ordering::Acquire, |n| n.checked_sub(1));
+    ANSWER_HELD.store(false, Ordering::Release);
 }
 
 /// Writes the ready byte (QEMU sends it at once).
@@ -110,7 +106,7 @@ impl PlantPort {
     fn transmit(&mut self) {
         loop {
             if self.sent == self.len {
-                if ANSWER_HOLDS.load(Ordering::Acquire) > 0 {
+                if ANSWER_HELD.load(Ordering::Acquire) {
                     break;
                 }
                 let Some(step) = self.replies.pop() else {

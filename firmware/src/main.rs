@@ -75,7 +75,7 @@ compile_error!("the `qemu` board has no button, LED or motor driver: drop `nucle
 mod app {
     use core::sync::atomic::{AtomicU32, Ordering};
 
-    use controller_core::supervisor::State;
+    use controller_core::supervisor::{Event, State};
     use robot_app::channel::ring::Ring;
     use robot_app::outer::SteeringWorker;
     use robot_app::panic_record::PanicRecord;
@@ -215,8 +215,10 @@ mod app {
         // One reading for both figures: they measure the same span.
         let elapsed = board::work_since(started);
         stats::CONTROL.record(elapsed);
-        if out.state == State::Armed && out.event.is_none() {
-            stats::CONTROL_ARMED.record(elapsed);
+        match (out.state, out.event) {
+            (State::Armed, None) => stats::CONTROL_ARMED.record(elapsed),
+            (_, Some(Event::Armed(_))) => stats::CONTROL_ARMING.record(elapsed),
+            _ => {}
         }
     }
 

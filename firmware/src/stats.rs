@@ -16,6 +16,8 @@ use crate::board;
 pub struct TaskTiming {
     longest_raw: AtomicU32,
     runs: AtomicU32,
+    /// All runs together, raw units, saturating.
+    total_raw: AtomicU32,
 }
 
 impl TaskTiming {
@@ -23,6 +25,7 @@ impl TaskTiming {
         Self {
             longest_raw: AtomicU32::new(0),
             runs: AtomicU32::new(0),
+            total_raw: AtomicU32::new(0),
         }
     }
 
@@ -42,6 +45,9 @@ impl TaskTiming {
         }
         let runs = self.runs.load(Ordering::Relaxed);
         self.runs.store(runs.wrapping_add(1), Ordering::Relaxed);
+        let total = self.total_raw.load(Ordering::Relaxed);
+        self.total_raw
+            .store(total.saturating_add(raw), Ordering::Relaxed);
     }
 
     /// The longest run, in [`board::WORK_UNIT`]s.
@@ -49,19 +55,25 @@ impl TaskTiming {
         board::work_units(self.longest_raw.load(Ordering::Relaxed))
     }
 
-    /// Runs recorded (reported by the emulated board's plant port).
-    #[cfg_attr(not(feature = "qemu"), allow(dead_code))]
-    pub fn runs(&self) -> u32 {
-        self.runs.load(Ordering::Relaxed)
+    /// Runs recorded, the longest and the total (reported by the emulated board's
+    /// plant port, whose work unit is the instruction).
+    #[cfg(feature = "qemu")]
+    pub fn figures(&self) -> robot_app::lockstep::TaskFigures {
+        robot_app::lockstep::TaskFigures {
+            runs: self.runs.load(Ordering::Relaxed),
+            max_instructions: self.max_units(),
+            total_instructions: board::work_units(self.total_raw.load(Ordering::Relaxed)),
+        }
     }
 }
 
 /// The control task (TIM5), from its first instruction to its last, every step.
 pub static CONTROL: TaskTiming = TaskTiming::new();
-/// The control task in the steps that end armed (the steps that drive the motors; the
-/// longest step overall installs a new configuration or path, which happens only while
-/// disarmed).
+/// The control task in the armed steady state: the steps that end armed and report no
+/// event (the ones that drive the motors, arming and faults aside).
 pub static CONTROL_ARMED: TaskTiming = TaskTiming::new();
+/// The control task in the steps that arm (in motion or not).
+pub static CONTROL_ARMING: TaskTiming = TaskTiming::new();
 /// The link task, each run.
 pub static LINK: TaskTiming = TaskTiming::new();
 /// The steering task: the outer loop the control task lends it.

@@ -639,14 +639,22 @@ fn cmd_pil(
         dir.join("summary.json"),
         serde_json::to_string_pretty(&summary)? + "\n",
     )?;
+    let task = |t: &robot_app::lockstep::TaskFigures| {
+        serde_json::json!({
+            "runs": t.runs,
+            "max_instructions": t.max_instructions,
+            "total_instructions": t.total_instructions,
+        })
+    };
+    let board = &outcome.board;
     let pil = serde_json::json!({
-        "control_interrupt_max_instructions": outcome.board.control_max_instructions,
-        "link_service_max_instructions": outcome.board.link_max_instructions,
-        "steering_task_max_instructions": outcome.board.steering_max_instructions,
-        "stack_high_water_bytes": outcome.board.stack_high_water_bytes,
-        "start_stack_bytes": outcome.board.start_stack_bytes,
-        "control_armed_max_instructions": outcome.board.control_armed_max_instructions,
-        "control_steps": outcome.board.control_steps,
+        "control_interrupt": task(&board.control),
+        "control_interrupt_armed": task(&board.control_armed),
+        "control_interrupt_arming": task(&board.control_arming),
+        "steering_task": task(&board.steering),
+        "link_service": task(&board.link),
+        "stack_high_water_bytes": board.stack_high_water_bytes,
+        "start_stack_bytes": board.start_stack_bytes,
         "steps_before_arming": outcome.held_steps,
         "digest": outcome.result.digest.as_ref().map(ToString::to_string),
         "verdict": lines.iter().map(|l| serde_json::json!({"line": l.text, "passed": l.passed})).collect::<Vec<_>>(),

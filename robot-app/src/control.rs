@@ -658,9 +658,7 @@ mod tests {
         assert_eq!(due, 50);
         // A late step counts the periods it covered.
         let three = NonZeroU32::new(3).unwrap_or(one);
-        let due: usize = (0..100)
-            .filter(|_| clock.due(100, KHZ, three))
-            .count();
+        let due: usize = (0..100).filter(|_| clock.due(100, KHZ, three)).count();
         assert_eq!(due, 30, "one per 10 periods: 300 periods in steps of 3");
         // Faster than the loop: every step.
         let mut clock = TelemetryClock {

@@ -15,7 +15,7 @@
 //!  board ─► BoardStep   ('A' 10 bytes, or 'D' 40 bytes or more with the details)    ┘ step
 //!  …
 //!  plant ─► FINISH ('F')
-//!  board ─► BoardReport ('F' + 28 bytes), then the emulator exits
+//!  board ─► BoardReport ('F' + 68 bytes), then the emulator exits
 //! ```
 //!
 //! Messages are short because the emulated USART is slow: QEMU hands the guest one byte
@@ -57,7 +57,7 @@ pub const PLANT_STEP_MAX_LEN: usize = 1 + 3 * 5 + 4;
 /// details (faults, event, two varint counters, six `f32`).
 pub const BOARD_STEP_MAX_LEN: usize = 1 + 8 + 1 + 2 + 2 + 2 * 5 + 24;
 /// Bytes of a [`BoardReport`] on the wire, tag included.
-pub const BOARD_REPORT_LEN: usize = 29;
+pub const BOARD_REPORT_LEN: usize = 1 + 5 * 3 * 4 + 2 * 4;
 
 /// What the board's sensors read for one control step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -104,22 +104,43 @@ pub struct BoardStep {
 /// The board's figures at the end of a run (answer to [`FINISH`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BoardReport {
-    /// The longest control interrupt, instructions (counted with SysTick under QEMU's
-    /// `-icount`).
-    pub control_max_instructions: u32,
-    /// The longest control interrupt among the steps that ended armed, instructions.
-    pub control_armed_max_instructions: u32,
-    /// The longest run of the link task, instructions.
-    pub link_max_instructions: u32,
-    /// The longest run of the steering task (the outer loop lent by the control
-    /// interrupt), instructions.
-    pub steering_max_instructions: u32,
+    /// The control interrupt's runs, every step, in any state.
+    pub control: TaskFigures,
+    /// The control interrupt's runs in the armed steady state: the steps that end armed
+    /// and report no event.
+    pub control_armed: TaskFigures,
+    /// The control interrupt's runs in the steps that arm (in motion or not).
+    pub control_arming: TaskFigures,
+    /// The steering task's runs (the outer loop lent by the control interrupt).
+    pub steering: TaskFigures,
+    /// The link task's runs.
+    pub link: TaskFigures,
     /// The stack's high-water mark while the application ran (after start-up), bytes.
     pub stack_high_water_bytes: u32,
     /// The stack start-up (`init`) used, bytes.
     pub start_stack_bytes: u32,
-    /// Control steps run.
-    pub control_steps: u32,
+}
+
+/// One task's runs, in instructions (counted with SysTick under QEMU's `-icount`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TaskFigures {
+    /// Runs recorded.
+    pub runs: u32,
+    /// The longest run, instructions.
+    pub max_instructions: u32,
+    /// All runs together, instructions (saturating at `u32::MAX`).
+    pub total_instructions: u32,
+}
+
+impl TaskFigures {
+    /// The mean run, instructions (0 without a run).
+    pub fn mean_instructions(&self) -> f64 {
+        if self.runs == 0 {
+            0.0
+        } else {
+            f64::from(self.total_instructions) / f64::from(self.runs)
+        }
+    }
 }
 
 /// What the plant sends.
@@ -484,27 +505,42 @@ impl BoardReport {
             at: 0,
         };
         w.u8(FINISH);
-        w.u32(self.control_max_instructions);
-        w.u32(self.control_armed_max_instructions);
-        w.u32(self.link_max_instructions);
-        w.u32(self.steering_max_instructions);
+        for task in [
+            &self.control,
+            &self.control_armed,
+            &self.control_arming,
+            &self.steering,
+            &self.link,
+        ] {
+            w.u32(task.runs);
+            w.u32(task.max_instructions);
+            w.u32(task.total_instructions);
+        }
         w.u32(self.stack_high_water_bytes);
         w.u32(self.start_stack_bytes);
-        w.u32(self.control_steps);
         out
     }
 
     fn parse(bytes: &[u8]) -> Parse<Self> {
         let mut r = Reader { bytes, at: 1 };
         Parse::read((|| {
+            let mut task = || {
+                Some(TaskFigures {
+                    runs: r.u32()?,
+                    max_instructions: r.u32()?,
+                    total_instructions: r.u32()?,
+                })
+            };
+            let (control, control_armed, control_arming, steering, link) =
+                (task()?, task()?, task()?, task()?, task()?);
             Some(Self {
-                control_max_instructions: r.u32()?,
-                control_armed_max_instructions: r.u32()?,
-                link_max_instructions: r.u32()?,
-                steering_max_instructions: r.u32()?,
+                control,
+                control_armed,
+                control_arming,
+                steering,
+                link,
                 stack_high_water_bytes: r.u32()?,
                 start_stack_bytes: r.u32()?,
-                control_steps: r.u32()?,
             })
         })())
     }
@@ -941,17 +977,24 @@ mod tests {
 
     #[test]
     fn a_report_answers_finish() {
+        let task = |k: u32| TaskFigures {
+            runs: 30_001 + k,
+            max_instructions: 11_234 * k,
+            total_instructions: 4_000_000_000 - k,
+        };
         let r = BoardReport {
-            control_max_instructions: 11_234,
-            control_armed_max_instructions: 1234,
-            link_max_instructions: 98_765,
-            steering_max_instructions: 13_579,
+            control: task(1),
+            control_armed: task(2),
+            control_arming: task(3),
+            steering: task(4),
+            link: task(5),
             stack_high_water_bytes: 2048,
             start_stack_bytes: 9000,
-            control_steps: 30_001,
         };
         let (got, errors) = board_messages(&r.encode());
         assert_eq!((got, errors), (std::vec![FromBoard::Report(r)], 0));
+        assert_eq!(task(0).mean_instructions(), 4e9 / 30_001.0);
+        assert_eq!(TaskFigures::default().mean_instructions(), 0.0);
     }
 
     #[test]

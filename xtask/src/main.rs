@@ -27,6 +27,8 @@ mod pil;
 mod qemu;
 mod setup;
 mod steps;
+#[cfg(test)]
+mod task_priorities;
 
 use std::path::PathBuf;
 use std::process::ExitCode;

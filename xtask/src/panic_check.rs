@@ -56,8 +56,12 @@ use anyhow::{bail, ensure, Context as _, Result};
 use self::image::{FunctionId, Image};
 use self::report::Findings;
 use self::source_lines::SourceLines;
-use crate::pil::STACK_TARGET;
 use crate::steps::{build_target_executables, Context};
+
+/// The limit on the call-graph bound of the firmware's stack, bytes. It over-counts (every
+/// priority level's deepest chain at once); the measured high-water mark has its own,
+/// lower limit (`crate::pil::STACK_LIMIT`).
+pub const STACK_BOUND_LIMIT: u64 = 6 * 1024;
 
 /// Vector table entry of IRQ 0: the 16 system exception entries come first.
 const FIRST_IRQ_ENTRY: u32 = 16;
@@ -385,11 +389,11 @@ pub fn check_firmware(ctx: &Context) -> Result<()> {
     println!(
         "stack worst case (call graph): {bound} bytes (thread mode, then each priority's \
          deepest task, nested, with a {EXCEPTION_FRAME_BYTES}-byte exception frame each); \
-         the issue's target {STACK_TARGET} bytes, enforced"
+         limit {STACK_BOUND_LIMIT} bytes"
     );
     ensure!(
-        u64::from(bound) <= STACK_TARGET,
-        "the stack's worst case is {bound} bytes > {STACK_TARGET}"
+        u64::from(bound) <= STACK_BOUND_LIMIT,
+        "the stack's worst case is {bound} bytes > {STACK_BOUND_LIMIT}"
     );
     Ok(())
 }

@@ -14,16 +14,14 @@
 //!   way through the emulator's USART, one per guest main-loop turn and not in step with
 //!   the lockstep, so the last heartbeat can reach the firmware a few steps after the cut.
 //!   A 15-byte frame at one byte per main-loop turn, which can be one per control period,
-//!   takes up to 15 ms; the control step then takes the request at the next step, or one
-//!   later when that step applies a steering outcome (`take_request_now`), and the timeout
-//!   counts from that step: up to 18 ms in all (measured: up to 18 ms, 0.518 s against
-//!   the 0.500 s timeout; 14 ms before requests waited on the heaviest step).
+//!   takes up to 15 ms; the control step then takes the request at the next step, and
+//!   the timeout counts from that step: up to 17 ms in all.
 
 use serde_json::Value;
 
 /// Time a heartbeat already handed to the emulator at the cut may take to reach the
 /// firmware's supervisor, s (a 15-byte frame, one byte per guest main-loop turn, and up
-/// to three control steps; 18 ms at worst, see the module doc).
+/// to two control steps; 17 ms at worst, see the module doc).
 pub const LINK_IN_FLIGHT_S: f64 = 0.020;
 
 use super::firmware::LinkLoss;
@@ -126,32 +124,29 @@ pub fn judge(scenario: &Scenario, outcome: &PilOutcome, host: Option<&RunResult>
     let board = &outcome.board;
     for text in [
         format!(
-            "control interrupt on Cortex-M4F (PIL): max {} instructions",
-            board.control_armed_max_instructions
+            "control interrupt on Cortex-M4F (PIL), any state: max {} instructions over {} steps",
+            board.control.max_instructions, board.control.runs
         ),
         format!(
-            "control interrupt on Cortex-M4F (PIL), any state: max {} instructions (the step \
-             that arms, the one that ends a run and the disarmed steps that take an install \
-             included; the install, the rest of arming and the run's report are done between \
-             steps, in the link task)",
-            board.control_max_instructions
+            "control interrupt on Cortex-M4F (PIL), armed: mean {:.0}, max {} instructions \
+             over {} steps (armed, no event)",
+            board.control_armed.mean_instructions(),
+            board.control_armed.max_instructions,
+            board.control_armed.runs
         ),
         format!(
-            "steering task on Cortex-M4F (PIL): max {} instructions (the outer loop, lent by \
-             the control interrupt and run below it between two steps)",
-            board.steering_max_instructions
+            "control interrupt on Cortex-M4F (PIL), arming: max {} instructions over {} steps",
+            board.control_arming.max_instructions, board.control_arming.runs
         ),
         format!(
-            "link service on Cortex-M4F (PIL): max {} instructions",
-            board.link_max_instructions
+            "steering task on Cortex-M4F (PIL): max {} instructions, total {} over {} runs \
+             (the outer loop, lent by the control interrupt and run below it between two \
+             steps)",
+            board.steering.max_instructions, board.steering.total_instructions, board.steering.runs
         ),
         format!(
-            "stack high-water mark (PIL): {} bytes",
-            board.stack_high_water_bytes
-        ),
-        format!(
-            "stack used by start-up (PIL, before the tasks run): {} bytes",
-            board.start_stack_bytes
+            "link service on Cortex-M4F (PIL): max {} instructions, total {} over {} runs",
+            board.link.max_instructions, board.link.total_instructions, board.link.runs
         ),
     ] {
         lines.push(Line { text, passed: true });

@@ -132,13 +132,13 @@ impl PlantPort {
             self.transmit();
         }
         let report = BoardReport {
-            control_max_instructions: stats::CONTROL.max_units(),
-            control_armed_max_instructions: stats::CONTROL_ARMED.max_units(),
-            link_max_instructions: stats::LINK.max_units(),
-            steering_max_instructions: stats::STEERING.max_units(),
+            control: stats::CONTROL.figures(),
+            control_armed: stats::CONTROL_ARMED.figures(),
+            control_arming: stats::CONTROL_ARMING.figures(),
+            steering: stats::STEERING.figures(),
+            link: stats::LINK.figures(),
             stack_high_water_bytes: stats::stack_high_water_bytes(),
             start_stack_bytes: stats::start_stack_bytes(),
-            control_steps: stats::CONTROL.runs(),
         };
         for byte in report.encode() {
             while self.usart.sr().read().txe().bit_is_clear() {}
@@ -146,7 +146,7 @@ impl PlantPort {
         }
         defmt::info!(
             "plant port: finished after {=u32} steps ({=u32} step messages dropped, {=u32} bad bytes)",
-            report.control_steps,
+            report.control.runs,
             self.overflows,
             self.decoder.errors()
         );

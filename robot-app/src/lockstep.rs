@@ -56,6 +56,12 @@ pub const PLANT_STEP_MAX_LEN: usize = 1 + 3 * 5 + 4;
 /// Most bytes of a [`BoardStep`] on the wire: tag, two `f32`, the status byte, and the
 /// details (faults, event, two varint counters, six `f32`).
 pub const BOARD_STEP_MAX_LEN: usize = 1 + 8 + 1 + 2 + 2 + 2 * 5 + 24;
+/// Most bytes of any message the board sends: a [`BoardStep`] or a [`BoardReport`].
+const BOARD_MESSAGE_MAX_LEN: usize = if BOARD_STEP_MAX_LEN > BOARD_REPORT_LEN {
+    BOARD_STEP_MAX_LEN
+} else {
+    BOARD_REPORT_LEN
+};
 /// Bytes of a [`BoardReport`] on the wire, tag included.
 pub const BOARD_REPORT_LEN: usize = 1 + 5 * 3 * 4 + 2 * 4;
 
@@ -640,7 +646,7 @@ impl StepDecoder {
 /// details, so every [`BoardStep`] it gives is whole.
 #[derive(Clone, Debug)]
 pub struct BoardDecoder {
-    assembler: Assembler<BOARD_STEP_MAX_LEN>,
+    assembler: Assembler<BOARD_MESSAGE_MAX_LEN>,
     last: Details,
 }
 

@@ -336,8 +336,9 @@ fn load_report(w: &Figures) -> String {
     );
     out.push_str(&format!(
         "  budgets: any state {ANY_STATE_LIMIT}, armed mean {ARMED_MEAN_LIMIT}, armed worst \
-         {ARMED_WORST_LIMIT} instructions; load at {CYCLES_PER_INSTRUCTION} cycles per \
-         instruction of a {CYCLES_PER_PERIOD} -cycle period (100 MHz, 1 ms)\n"
+         {ARMED_WORST_LIMIT} instructions; load as a share of the 1 ms period at 100 MHz, \
+         {CYCLES_PER_INSTRUCTION} cycles per instruction (the link service runs below \
+         every other task and may span periods)\n"
     ));
     out.push_str(
         "| task | priority | worst run, instructions | worst run, % of period | mean run, \

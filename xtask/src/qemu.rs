@@ -2,8 +2,11 @@
 //! `qemu-system-arm` (netduinoplus2, semihosting, `-icount shift=0`), and checks that
 //!
 //! - its trajectory digest equals the one the host computes for the same scenario
-//!   ([`m4f_scenario::run_scenario`], called right here), bit for bit;
-//! - a full control step costs at most [`CONTROL_STEP_LIMIT`] instructions (printed against [`CONTROL_STEP_BUDGET`]).
+//!   ([`m4f_scenario::run_scenario`], called right here), bit for bit,
+//!
+//! and prints what a full control step (steering law included) and a wheel step cost,
+//! in instructions: reported, not capped. The robot's budget is the control interrupt's
+//! CPU load, which processor in the loop measures (`crate::pil`).
 //!
 //! Instruction counts are exact and repeatable: with `-icount shift=0` QEMU advances its
 //! virtual clock by 1 ns per executed instruction, so SysTick (clocked from the processor
@@ -21,13 +24,6 @@ use m4f_scenario::{run_scenario, Digest, Scenario};
 
 use crate::steps::{build_target_executables, display_command, Context};
 
-/// The budget of a full control step (steering law included) on the M4F, instructions.
-pub const CONTROL_STEP_BUDGET: u64 = 1000;
-/// What CI enforces: the measured figure (1 056 since the outer loop keeps its outcome,
-/// which took 300 instructions off the firmware's control interrupt; 1 042 before that,
-/// 989 before the outcome was handed over one period later) plus a margin. The budget is
-/// printed beside it, met or not.
-pub const CONTROL_STEP_LIMIT: u64 = 1075;
 /// The whole QEMU run takes well under a second; this only catches a hung guest.
 const TIMEOUT: Duration = Duration::from_secs(120);
 
@@ -98,23 +94,10 @@ pub fn check(ctx: &Context) -> Result<()> {
         ));
     }
     println!(
-        "control step: {} instructions (budget {CONTROL_STEP_BUDGET}: {}; enforced limit \
-         {CONTROL_STEP_LIMIT}); wheel step: {} instructions",
-        report.control_step,
-        if report.control_step <= CONTROL_STEP_BUDGET {
-            "met"
-        } else {
-            "NOT met"
-        },
-        report.wheel_step
+        "core on Cortex-M4F (QEMU): full control step {} instructions, wheel step {} \
+         (reported, not capped)",
+        report.control_step, report.wheel_step
     );
-    if report.control_step > CONTROL_STEP_LIMIT {
-        problems.push(format!(
-            "a full control step takes {} instructions on the Cortex-M4F, over the limit of \
-             {CONTROL_STEP_LIMIT}",
-            report.control_step
-        ));
-    }
     if !problems.is_empty() {
         bail!("{}", problems.join("; "));
     }

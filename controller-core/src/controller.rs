@@ -127,14 +127,14 @@ pub enum Mode {
     feature = "serde",
     derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
 )]
-pub struct FaultFlags {
+pub struct ControllerFaults {
     /// A tick delta implied a wheel speed beyond `max_plausible_wheel_speed_rad_s`.
     pub encoder_jump: bool,
     /// A pose, command or duty became NaN or infinite.
     pub non_finite: bool,
 }
 
-impl FaultFlags {
+impl ControllerFaults {
     /// True when any fault is latched.
     pub const fn any(&self) -> bool {
         self.encoder_jump || self.non_finite
@@ -184,7 +184,7 @@ pub struct Telemetry {
     /// Motor duties sent, −1…1.
     pub duty: MotorCommand,
     /// Latched faults.
-    pub faults: FaultFlags,
+    pub faults: ControllerFaults,
 }
 
 /// Where path following is in its schedule.
@@ -413,7 +413,7 @@ impl<S: SteeringSeat> Controller<S> {
     }
 
     /// Latched faults.
-    pub const fn faults(&self) -> FaultFlags {
+    pub const fn faults(&self) -> ControllerFaults {
         self.telemetry.faults
     }
 
@@ -484,7 +484,7 @@ impl<S: SteeringSeat> Controller<S> {
 
     /// Clears latched faults. Speed history is dropped and the loops restart from rest.
     pub fn clear_faults(&mut self) {
-        self.telemetry.faults = FaultFlags::default();
+        self.telemetry.faults = ControllerFaults::default();
         for estimator in &mut self.speed {
             estimator.reset();
         }
@@ -1438,15 +1438,15 @@ pub(crate) mod tests {
 
     #[test]
     fn fault_flags_any() {
-        let a = FaultFlags {
+        let a = ControllerFaults {
             encoder_jump: true,
             non_finite: false,
         };
-        let b = FaultFlags {
+        let b = ControllerFaults {
             encoder_jump: false,
             non_finite: true,
         };
-        assert!(!FaultFlags::default().any());
+        assert!(!ControllerFaults::default().any());
         assert!(a.any() && b.any());
     }
 

@@ -100,7 +100,7 @@ pub mod tune;
 /// The types needed to build and run a controller.
 pub mod prelude {
     pub use crate::controller::{
-        Controller, FaultFlags, Mode, MotorCommand, StepInput, Telemetry, TickDeltas,
+        Controller, ControllerFaults, Mode, MotorCommand, StepInput, Telemetry, TickDeltas,
     };
     pub use crate::kinematics::{BodyVelocity, DiffDrive, Point, Pose, TrackingError, WheelSpeeds};
     pub use crate::law::{LawGains, LawKind};

@@ -43,7 +43,7 @@ use std::time::Instant;
 use controller_core::controller::Telemetry;
 use controller_core::prelude::*;
 use controller_core::supervisor::{
-    ArmRequest, Bridge, Event, Inputs, RunMode, State, Supervised, Supervisor,
+    ArmRequest, Bridge, Event, Inputs, RunMode, State, Supervisor, SupervisorOutput,
 };
 use m4f_scenario::{Digest, Fnv1a64};
 use robot_app::metrics::{ErrorSample, ErrorStats};
@@ -356,7 +356,7 @@ pub struct Estimate {
 /// What the robot's logic decided in one step.
 pub struct Decision<'a> {
     /// The supervisor's outcome: duties, bridge, state, faults, event, counters.
-    pub out: Supervised,
+    pub out: SupervisorOutput,
     /// The controller's estimate.
     pub estimate: Estimate,
     /// The controller's whole telemetry, when the logic runs in this process (for the
@@ -441,7 +441,7 @@ fn supervise(
     controller: &mut Controller,
     heartbeat: &mut u32,
     sensors: &Sensors,
-) -> Supervised {
+) -> SupervisorOutput {
     *heartbeat = heartbeat.wrapping_add(1);
     supervisor.step(
         controller,
@@ -488,14 +488,14 @@ impl Robot {
     }
 
     /// One control step (module doc); returns the supervisor's decision.
-    pub(crate) fn step(&mut self) -> Supervised {
+    pub(crate) fn step(&mut self) -> SupervisorOutput {
         self.step_with_added_volts([0.0; 2])
     }
 
     /// One control step with `added_v` (V, [left, right]) added to what the supervisor
     /// drives, as a disturbance at the plant's input (while the bridge drives): the loop
     /// is broken there to measure it ([`crate::margins`]).
-    pub(crate) fn step_with_added_volts(&mut self, added_v: [f64; 2]) -> Supervised {
+    pub(crate) fn step_with_added_volts(&mut self, added_v: [f64; 2]) -> SupervisorOutput {
         let periods = self.hardware.periods_until_next_step();
         let sensors = self.hardware.sense(periods);
         let out = supervise(
@@ -568,7 +568,7 @@ impl FaultWatch {
         &mut self,
         period: u64,
         t_s: f64,
-        out: &Supervised,
+        out: &SupervisorOutput,
         pose: &TruePose,
         wheels: [f64; 2],
     ) {

@@ -20,12 +20,12 @@ use controller_core::controller::{Controller, MotorCommand, TickDeltas};
 use controller_core::pid::PidParts as CorePidParts;
 use controller_core::steering::{Steering, SteeringAway};
 use controller_core::supervisor::{
-    Bridge, Command, Event, Faults, Inputs, Refusal as SupervisorRefusal, RunMode, State,
-    Supervised, Supervisor, SupervisorSetError,
+    Bridge, Command, CommandRefusal, Event, Faults, Inputs, RunMode, State, Supervisor,
+    SupervisorOutput, SupervisorSetError,
 };
 use link::{PidParts, RunReport, TelemetryFrame, TuneReport};
 
-use crate::channel::{ControlEnd, Op, Published, Refused, Report, Staged, ToLink};
+use crate::channel::{ControlEnd, ControlRefusal, Op, Published, Report, Staged, ToLink};
 use crate::metrics::{ErrorSample, ErrorStats, ErrorSummary};
 use crate::outer::{OuterLoopSeat, SteeringWorker};
 
@@ -382,10 +382,10 @@ impl<'a> ControlSide<'a> {
     /// controller and the supervisor in place. Out of line: its frame is paid only when
     /// installing.
     #[inline(never)]
-    fn install_staged(&mut self) -> Result<(), Refused> {
+    fn install_staged(&mut self) -> Result<(), ControlRefusal> {
         let result = match self.end.staging.staged() {
             Some(staged) => install(staged, &mut self.controller, &mut self.supervisor),
-            None => Err(Refused::Busy),
+            None => Err(ControlRefusal::Busy),
         };
         if result.is_ok() {
             self.metrics.restart();
@@ -398,7 +398,7 @@ impl<'a> ControlSide<'a> {
     /// with the controller's estimated error at every steering update while it does.
     /// When the run ends (the robot leaves armed path following), queues its
     /// [`RunReport`] for the link side and returns true.
-    fn track_run(&mut self, out: &Supervised, periods: NonZeroU32) -> bool {
+    fn track_run(&mut self, out: &SupervisorOutput, periods: NonZeroU32) -> bool {
         if out.event == Some(Event::Armed(RunMode::FollowPath)) {
             self.metrics.restart();
             self.run_periods = 0;
@@ -445,7 +445,7 @@ impl<'a> ControlSide<'a> {
     /// Watches for a wheel-loop tune's end (armed in tune mode, then anything else: done,
     /// a fault, the button or the link): its outcome goes to the link side (as a run's
     /// report does). Returns true when it ended this step.
-    fn track_tune(&mut self, out: &Supervised) -> bool {
+    fn track_tune(&mut self, out: &SupervisorOutput) -> bool {
         if out.event == Some(Event::Armed(RunMode::Tune)) {
             self.in_tune = true;
         }
@@ -495,7 +495,7 @@ impl<'a> ControlSide<'a> {
 fn telemetry_frame(
     controller: &Controller<OuterLoopSeat<'_>>,
     step: u32,
-    out: &Supervised,
+    out: &SupervisorOutput,
 ) -> TelemetryFrame {
     let t = controller.telemetry();
     let [left, right] = controller.wheel_pid_parts();
@@ -550,11 +550,11 @@ fn install(
     staged: &Staged,
     controller: &mut Controller<OuterLoopSeat<'_>>,
     supervisor: &mut Supervisor,
-) -> Result<(), Refused> {
+) -> Result<(), ControlRefusal> {
     // The step takes no request while the outer loop is away; checked first all the same,
     // so that the supervisor and the controller both change or neither does.
     let Some(law) = controller.steering().map(Steering::law) else {
-        return Err(Refused::Busy);
+        return Err(ControlRefusal::Busy);
     };
     match staged {
         Staged::Params {
@@ -568,7 +568,7 @@ fn install(
             let pose = controller.pose();
             controller
                 .rebuild(params, law, pose)
-                .map_err(|SteeringAway| Refused::Busy)?;
+                .map_err(|SteeringAway| ControlRefusal::Busy)?;
         }
         Staged::Path(path) => {
             supervisor
@@ -576,27 +576,29 @@ fn install(
                 .map_err(set_refusal)?;
             controller
                 .follow(&path.reference, path.law, path.supervisor.start_pose)
-                .map_err(|SteeringAway| Refused::Busy)?;
+                .map_err(|SteeringAway| ControlRefusal::Busy)?;
         }
         // The link side never publishes an upload being assembled.
-        Staged::Assembling(_) => return Err(Refused::Busy),
+        Staged::Assembling(_) => return Err(ControlRefusal::Busy),
     }
     Ok(())
 }
 
-fn set_refusal(error: SupervisorSetError) -> Refused {
+fn set_refusal(error: SupervisorSetError) -> ControlRefusal {
     match error {
         SupervisorSetError::NotDisarmed(state) => state_refusal(state),
-        SupervisorSetError::Invalid(_) | SupervisorSetError::InvalidTune(_) => Refused::Invalid,
+        SupervisorSetError::Invalid(_) | SupervisorSetError::InvalidTune(_) => {
+            ControlRefusal::Invalid
+        }
     }
 }
 
 /// Why something that needs the robot disarmed was refused in `state`.
-const fn state_refusal(state: State) -> Refused {
+const fn state_refusal(state: State) -> ControlRefusal {
     match state {
-        State::Armed => Refused::Armed,
-        State::Faulted => Refused::Faulted,
-        State::Disarmed | State::Persisting => Refused::Busy,
+        State::Armed => ControlRefusal::Armed,
+        State::Faulted => ControlRefusal::Faulted,
+        State::Disarmed | State::Persisting => ControlRefusal::Busy,
     }
 }
 
@@ -605,16 +607,16 @@ const fn state_refusal(state: State) -> Refused {
 /// host may repeat any request whose reply it lost.
 fn command_outcome(
     command: Option<Command>,
-    result: Option<Result<(), SupervisorRefusal>>,
-) -> Result<(), Refused> {
+    result: Option<Result<(), CommandRefusal>>,
+) -> Result<(), ControlRefusal> {
     match result {
         None | Some(Ok(())) => Ok(()),
-        Some(Err(SupervisorRefusal::ButtonHeld)) => Err(Refused::ButtonHeld),
-        Some(Err(SupervisorRefusal::WrongState(State::Disarmed))) => match command {
+        Some(Err(CommandRefusal::ButtonHeld)) => Err(ControlRefusal::ButtonHeld),
+        Some(Err(CommandRefusal::WrongState(State::Disarmed))) => match command {
             Some(Command::ClearFaults | Command::EndPersist) => Ok(()),
-            _ => Err(Refused::Busy),
+            _ => Err(ControlRefusal::Busy),
         },
-        Some(Err(SupervisorRefusal::WrongState(state))) => Err(state_refusal(state)),
+        Some(Err(CommandRefusal::WrongState(state))) => Err(state_refusal(state)),
     }
 }
 
@@ -672,7 +674,7 @@ mod tests {
 
     #[test]
     fn repeated_commands_that_are_already_done_succeed() {
-        let wrong = |s| Some(Err(SupervisorRefusal::WrongState(s)));
+        let wrong = |s| Some(Err(CommandRefusal::WrongState(s)));
         assert_eq!(
             command_outcome(Some(Command::ClearFaults), wrong(State::Disarmed)),
             Ok(())
@@ -683,22 +685,19 @@ mod tests {
         );
         assert_eq!(
             command_outcome(Some(Command::BeginPersist), wrong(State::Armed)),
-            Err(Refused::Armed)
+            Err(ControlRefusal::Armed)
         );
         assert_eq!(
             command_outcome(Some(Command::ClearFaults), wrong(State::Armed)),
-            Err(Refused::Armed)
+            Err(ControlRefusal::Armed)
         );
         assert_eq!(
             command_outcome(Some(Command::Heartbeat), wrong(State::Persisting)),
-            Err(Refused::Busy)
+            Err(ControlRefusal::Busy)
         );
         assert_eq!(
-            command_outcome(
-                Some(Command::Disarm),
-                Some(Err(SupervisorRefusal::ButtonHeld))
-            ),
-            Err(Refused::ButtonHeld)
+            command_outcome(Some(Command::Disarm), Some(Err(CommandRefusal::ButtonHeld))),
+            Err(ControlRefusal::ButtonHeld)
         );
     }
 

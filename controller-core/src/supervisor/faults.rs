@@ -10,7 +10,7 @@
 
 use core::fmt;
 
-use crate::controller::FaultFlags;
+use crate::controller::ControllerFaults;
 
 /// One fault the supervisor latches. The discriminant is the fault's bit in [`Faults`]
 /// (and in the lockstep protocol's fault word).
@@ -142,7 +142,7 @@ impl Faults {
     }
 
     /// Latches the controller's own faults.
-    pub fn latch_core(&mut self, core: FaultFlags) {
+    pub fn latch_core(&mut self, core: ControllerFaults) {
         self.set_if(Fault::EncoderJump, core.encoder_jump);
         self.set_if(Fault::NonFinite, core.non_finite);
     }
@@ -180,12 +180,12 @@ impl postcard_schema::Schema for Faults {
 #[cfg(feature = "serde")]
 mod wire {
     use super::Fault;
-    use crate::controller::FaultFlags;
+    use crate::controller::ControllerFaults;
 
     /// The faults as named booleans (the controller's own two in `core`).
     #[derive(Clone, Copy, serde::Serialize, serde::Deserialize, postcard_schema::Schema)]
     pub struct Faults {
-        pub core: FaultFlags,
+        pub core: ControllerFaults,
         pub overrun: bool,
         pub missed_ticks: bool,
         pub stall_left: bool,
@@ -201,7 +201,7 @@ mod wire {
     impl From<super::Faults> for Faults {
         fn from(f: super::Faults) -> Self {
             Faults {
-                core: FaultFlags {
+                core: ControllerFaults {
                     encoder_jump: f.has(Fault::EncoderJump),
                     non_finite: f.has(Fault::NonFinite),
                 },
@@ -288,7 +288,7 @@ mod tests {
     #[test]
     fn latch_core_adds_the_controllers_faults() {
         let mut f = Faults::NONE.with(Fault::Saturated);
-        f.latch_core(FaultFlags {
+        f.latch_core(ControllerFaults {
             encoder_jump: false,
             non_finite: true,
         });
@@ -296,7 +296,7 @@ mod tests {
             f,
             Faults::NONE.with(Fault::Saturated).with(Fault::NonFinite)
         );
-        f.latch_core(FaultFlags::default());
+        f.latch_core(ControllerFaults::default());
         assert!(f.has(Fault::NonFinite));
     }
 

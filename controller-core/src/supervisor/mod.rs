@@ -78,7 +78,7 @@
 //! ## The watchdog-feeding rule
 //!
 //! The firmware feeds the independent watchdog only from the control task, and only when
-//! [`Supervised::feed_watchdog`] says so. It is true unless
+//! [`SupervisorOutput::feed_watchdog`] says so. It is true unless
 //!
 //! - the control loop is late: the last [`SupervisorConfig::max_consecutive_overruns`]
 //!   steps all overran, or
@@ -204,7 +204,7 @@ pub enum State {
     derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
 )]
 pub enum Bridge {
-    /// Enabled, driving [`Supervised::duty`] (slow decay: 0 is a short brake).
+    /// Enabled, driving [`SupervisorOutput::duty`] (slow decay: 0 is a short brake).
     Drive,
     /// Enabled with both duties 0: the motors short-brake.
     Brake,
@@ -326,7 +326,7 @@ pub enum Event {
     Armed(RunMode),
     /// Motors disarmed.
     Disarmed(DisarmReason),
-    /// A fault stopped the motors; the flags are in [`Supervised::faults`].
+    /// A fault stopped the motors; the flags are in [`SupervisorOutput::faults`].
     Faulted,
     /// The faults were acknowledged; the robot is Disarmed.
     FaultsCleared,
@@ -400,18 +400,18 @@ pub enum Command {
     feature = "serde",
     derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
 )]
-pub enum Refusal {
+pub enum CommandRefusal {
     /// Not in this state (e.g. arming while Armed, Faulted or Persisting).
     WrongState(State),
     /// The button is held: the local kill wins over the link.
     ButtonHeld,
 }
 
-impl core::fmt::Display for Refusal {
+impl core::fmt::Display for CommandRefusal {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
-            Refusal::WrongState(state) => write!(f, "not possible while {state:?}"),
-            Refusal::ButtonHeld => f.write_str("the robot's button is held (local stop)"),
+            CommandRefusal::WrongState(state) => write!(f, "not possible while {state:?}"),
+            CommandRefusal::ButtonHeld => f.write_str("the robot's button is held (local stop)"),
         }
     }
 }
@@ -454,7 +454,7 @@ impl Inputs {
 /// What the supervisor decided in one step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Supervised {
+pub struct SupervisorOutput {
     /// Duties to write now, each in [−1, 1]; exactly 0 unless Armed.
     pub duty: MotorCommand,
     /// What the bridge does (drive, brake, coast).
@@ -476,7 +476,7 @@ pub struct Supervised {
     /// The state change of this step, if any.
     pub event: Option<Event>,
     /// The outcome of this step's [`Inputs::command`], if there was one.
-    pub command_result: Option<Result<(), Refusal>>,
+    pub command_result: Option<Result<(), CommandRefusal>>,
     /// The controller's duties of this step, before the supervisor zeroed anything (its
     /// telemetry is [`Controller::telemetry`]).
     pub controller_duty: MotorCommand,
@@ -645,7 +645,7 @@ impl Supervisor {
         &mut self,
         controller: &mut Controller<S>,
         input: Inputs,
-    ) -> Supervised {
+    ) -> SupervisorOutput {
         self.steps_since_boot = self.steps_since_boot.saturating_add(1);
         self.track_liveness(&input);
 
@@ -698,7 +698,7 @@ impl Supervisor {
         } else {
             Bridge::Coast
         };
-        Supervised {
+        SupervisorOutput {
             duty: if driving {
                 controller_duty
             } else {
@@ -747,12 +747,12 @@ impl Supervisor {
         &mut self,
         controller: &mut Controller<S>,
         request: ArmRequest,
-    ) -> Result<Event, Refusal> {
+    ) -> Result<Event, CommandRefusal> {
         if self.state != State::Disarmed {
-            return Err(Refusal::WrongState(self.state));
+            return Err(CommandRefusal::WrongState(self.state));
         }
         if self.button.pressed() {
-            return Err(Refusal::ButtonHeld);
+            return Err(CommandRefusal::ButtonHeld);
         }
         Ok(self.arm(controller, request, false))
     }
@@ -897,8 +897,8 @@ impl Supervisor {
         &mut self,
         command: Command,
         controller: &mut Controller<S>,
-    ) -> (Result<(), Refusal>, Option<Event>) {
-        let wrong_state = Err(Refusal::WrongState(self.state));
+    ) -> (Result<(), CommandRefusal>, Option<Event>) {
+        let wrong_state = Err(CommandRefusal::WrongState(self.state));
         match (command, self.state) {
             (Command::Heartbeat, _) => {
                 self.steps_since_link_heartbeat = 0;
@@ -909,7 +909,7 @@ impl Supervisor {
                 (Ok(()), None)
             }
             (Command::Arm(_), State::Disarmed) if self.button.pressed() => {
-                (Err(Refusal::ButtonHeld), None)
+                (Err(CommandRefusal::ButtonHeld), None)
             }
             (Command::Arm(request), State::Disarmed) => {
                 self.auto_arm_pending = false;

@@ -69,7 +69,7 @@ impl Rig {
         }
     }
 
-    fn step_with(&mut self, ticks: TickDeltas) -> Supervised {
+    fn step_with(&mut self, ticks: TickDeltas) -> SupervisorOutput {
         if self.background_alive {
             self.heartbeat = self.heartbeat.wrapping_add(1);
         }
@@ -86,7 +86,7 @@ impl Rig {
         self.sup.step(&mut self.ctl, input)
     }
 
-    fn step(&mut self) -> Supervised {
+    fn step(&mut self) -> SupervisorOutput {
         let mut ticks = TickDeltas::default();
         if self.moving {
             // 5 rad/s × 1 ms / (2π / 1440 rad per tick) ≈ 1.146 ticks per step.
@@ -102,12 +102,12 @@ impl Rig {
     }
 
     /// Runs `n` steps, returning every output.
-    fn run(&mut self, n: u32) -> Vec<Supervised> {
+    fn run(&mut self, n: u32) -> Vec<SupervisorOutput> {
         (0..n).map(|_| self.step()).collect()
     }
 
     /// Presses for `held` steps then releases for 50 steps; returns all outputs.
-    fn press(&mut self, held: u32) -> Vec<Supervised> {
+    fn press(&mut self, held: u32) -> Vec<SupervisorOutput> {
         self.button = true;
         let mut out = self.run(held);
         self.button = false;
@@ -116,7 +116,7 @@ impl Rig {
     }
 }
 
-fn events(outs: &[Supervised]) -> Vec<Event> {
+fn events(outs: &[SupervisorOutput]) -> Vec<Event> {
     outs.iter().filter_map(|o| o.event).collect()
 }
 
@@ -260,7 +260,7 @@ fn long_press_while_disarmed_switches_mode_without_arming() {
 }
 
 /// Long presses until the tune is selected, then a short press: armed in tune mode.
-fn arm_tune_by_button(r: &mut Rig) -> Vec<Supervised> {
+fn arm_tune_by_button(r: &mut Rig) -> Vec<SupervisorOutput> {
     r.press(1200);
     r.press(1200);
     assert_eq!(r.sup.run_mode(), RunMode::Tune);
@@ -652,7 +652,7 @@ fn config_validation_names_the_problem() {
 
 impl Rig {
     /// One step with `command` from the link.
-    fn command(&mut self, command: Command) -> Supervised {
+    fn command(&mut self, command: Command) -> SupervisorOutput {
         self.command = Some(command);
         self.step()
     }
@@ -718,7 +718,7 @@ fn the_button_is_a_local_kill_the_link_cannot_override() {
         .any(|o| o.event == Some(Event::Disarmed(DisarmReason::Button))));
     // While it is held, the link cannot arm.
     let out = r.command(Command::Arm(ArmRequest::follow_path()));
-    assert_eq!(out.command_result, Some(Err(Refusal::ButtonHeld)));
+    assert_eq!(out.command_result, Some(Err(CommandRefusal::ButtonHeld)));
     assert_eq!(out.state, State::Disarmed);
     // Released, the link may arm again.
     r.button = false;
@@ -733,24 +733,24 @@ fn commands_in_the_wrong_state_are_refused_and_change_nothing() {
     let out = r.command(Command::ClearFaults);
     assert_eq!(
         out.command_result,
-        Some(Err(Refusal::WrongState(State::Disarmed)))
+        Some(Err(CommandRefusal::WrongState(State::Disarmed)))
     );
     r.command(Command::Arm(ArmRequest::follow_path()));
     let out = r.command(Command::Arm(ArmRequest::follow_path()));
     assert_eq!(
         out.command_result,
-        Some(Err(Refusal::WrongState(State::Armed)))
+        Some(Err(CommandRefusal::WrongState(State::Armed)))
     );
     let out = r.command(Command::BeginPersist);
     assert_eq!(
         out.command_result,
-        Some(Err(Refusal::WrongState(State::Armed)))
+        Some(Err(CommandRefusal::WrongState(State::Armed)))
     );
     assert_eq!(out.state, State::Armed);
     // Disarm of a disarmed robot is simply done.
     r.command(Command::Disarm);
     assert_eq!(r.command(Command::Disarm).command_result, Some(Ok(())));
-    assert!(format!("{}", Refusal::ButtonHeld).contains("button"));
+    assert!(format!("{}", CommandRefusal::ButtonHeld).contains("button"));
 }
 
 #[test]
@@ -873,7 +873,7 @@ fn missed_ticks_while_persisting_are_not_a_fault() {
     let out = r.command(Command::Arm(ArmRequest::follow_path()));
     assert_eq!(
         out.command_result,
-        Some(Err(Refusal::WrongState(State::Persisting)))
+        Some(Err(CommandRefusal::WrongState(State::Persisting)))
     );
 }
 
@@ -1056,14 +1056,14 @@ fn a_local_arm_needs_no_heartbeat_and_only_from_disarmed() {
     assert!(r.run(3000).iter().all(|o| o.state == State::Armed));
     assert_eq!(
         r.sup.arm_locally(&mut r.ctl, ArmRequest::follow_path()),
-        Err(Refusal::WrongState(State::Armed))
+        Err(CommandRefusal::WrongState(State::Armed))
     );
     r.command(Command::Disarm);
     r.button = true;
     r.run(30);
     assert_eq!(
         r.sup.arm_locally(&mut r.ctl, ArmRequest::follow_path()),
-        Err(Refusal::ButtonHeld)
+        Err(CommandRefusal::ButtonHeld)
     );
 }
 

@@ -16,7 +16,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use controller_core::controller::MotorCommand;
-use controller_core::supervisor::{ArmRequest, Bridge, Event, State, Supervised};
+use controller_core::supervisor::{ArmRequest, Bridge, Event, State, SupervisorOutput};
 use robot_app::lockstep::{
     BoardDecoder, BoardReport, BoardStep, FromBoard, PlantStep, FINISH, PLANT_STEP_MAX_LEN,
 };
@@ -214,7 +214,7 @@ impl RobotLogic for Firmware {
         self.watch_link_loss(&answer);
         self.steps += 1;
         Ok(Decision {
-            out: Supervised {
+            out: SupervisorOutput {
                 duty: answer.duty,
                 bridge: answer.bridge,
                 feed_watchdog: true,

@@ -111,7 +111,7 @@ pub enum OpKind {
 /// Why the control side did not do what it was asked (the link side turns it into a
 /// [`link::Refusal`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Refused {
+pub enum ControlRefusal {
     /// The robot is armed.
     Armed,
     /// Faults are latched.
@@ -135,7 +135,7 @@ pub enum ToLink {
         /// What it was.
         op: OpKind,
         /// Done, or why not.
-        result: Result<(), Refused>,
+        result: Result<(), ControlRefusal>,
     },
     /// A supervisor state change.
     Event {

@@ -40,7 +40,7 @@ use link::{
 
 use crate::channel::mailbox::Sender;
 use crate::channel::{
-    ControlStatus, LinkEnd, Op, OpKind, Refused, Report, Staged, ToControl, ToLink,
+    ControlRefusal, ControlStatus, LinkEnd, Op, OpKind, Report, Staged, ToControl, ToLink,
     COMMAND_CAPACITY,
 };
 
@@ -572,7 +572,7 @@ impl<'a> LinkService<'a> {
     }
 
     /// The control side answered the request `seq`.
-    fn complete(&mut self, seq: u16, op: OpKind, result: Result<(), Refused>) {
+    fn complete(&mut self, seq: u16, op: OpKind, result: Result<(), ControlRefusal>) {
         let reply = match op {
             OpKind::Command => Some(result.map(|()| Reply::Ack).map_err(refusal)),
             OpKind::Install => Some(self.installed(result)),
@@ -589,7 +589,7 @@ impl<'a> LinkService<'a> {
     // Cold and large (a path or a configuration by value): kept out of the link task's
     // frame, which a control step preempting it adds to.
     #[inline(never)]
-    fn installed(&mut self, result: Result<(), Refused>) -> Result<Reply, Refusal> {
+    fn installed(&mut self, result: Result<(), ControlRefusal>) -> Result<Reply, Refusal> {
         let reply = match (result, self.end.staging.done()) {
             (Err(refused), _) => Err(refusal(refused)),
             (Ok(()), None) => Err(Refusal::Busy),
@@ -652,13 +652,13 @@ fn arm_request(
 }
 
 /// The link's refusal for the control side's.
-fn refusal(refused: Refused) -> Refusal {
+fn refusal(refused: ControlRefusal) -> Refusal {
     match refused {
-        Refused::Armed => Refusal::Armed,
-        Refused::Faulted => Refusal::Faulted,
-        Refused::Busy => Refusal::Busy,
-        Refused::ButtonHeld => Refusal::NotPermitted(NotPermitted::ButtonHeld),
-        Refused::Invalid => Refusal::InvalidParams(FieldProblem {
+        ControlRefusal::Armed => Refusal::Armed,
+        ControlRefusal::Faulted => Refusal::Faulted,
+        ControlRefusal::Busy => Refusal::Busy,
+        ControlRefusal::ButtonHeld => Refusal::NotPermitted(NotPermitted::ButtonHeld),
+        ControlRefusal::Invalid => Refusal::InvalidParams(FieldProblem {
             field: link::bounded("supervisor"),
             problem: link::bounded("is not valid"),
         }),
@@ -770,11 +770,11 @@ mod tests {
             Ok(Reply::PathCommitted(summary)),
         ];
         for refused in [
-            Refused::Armed,
-            Refused::Faulted,
-            Refused::Busy,
-            Refused::ButtonHeld,
-            Refused::Invalid,
+            ControlRefusal::Armed,
+            ControlRefusal::Faulted,
+            ControlRefusal::Busy,
+            ControlRefusal::ButtonHeld,
+            ControlRefusal::Invalid,
         ] {
             results.push(Err(refusal(refused)));
         }

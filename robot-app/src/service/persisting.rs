@@ -17,7 +17,7 @@ use controller_core::supervisor::State;
 use link::{NotPermitted, ParamSet, Refusal, Reply};
 
 use super::LinkService;
-use crate::channel::{Op, Refused};
+use crate::channel::{ControlRefusal, Op};
 
 /// Where a `PersistParams` is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -89,7 +89,7 @@ impl LinkService<'_> {
     pub(super) fn persist_started(
         &mut self,
         seq: u16,
-        result: Result<(), Refused>,
+        result: Result<(), ControlRefusal>,
     ) -> Option<Result<Reply, Refusal>> {
         match result {
             Ok(()) => {

@@ -9,7 +9,7 @@
 //! supply ─► filter ──────────────────────────────────────────► wheel loops (volts) ─► duty
 //! ```
 //!
-//! The outer loop ([`crate::steering`]) runs on a job the inner loop hands over at a step
+//! The outer loop ([`crate::outer_loop`]) runs on a job the inner loop hands over at a step
 //! where the law is due, and its outcome starts the set-point ramp at the next step: a
 //! one-period hand-over, so that on the robot the outer loop can run outside the control
 //! interrupt and still do exactly what it does here. The first step of path following
@@ -36,10 +36,10 @@ use crate::law::{LawKind, LawOutput};
 use crate::limits::LimitFlags;
 use crate::math;
 use crate::odometry::Odometry;
+use crate::outer_loop::{OuterLoop, OuterLoopAway, OuterLoopHolder, OuterLoopJob};
 use crate::params::Params;
 use crate::pid::PidParts;
 use crate::reference::{Reference, ReferenceState};
-use crate::steering::{Steering, SteeringAway, SteeringJob, SteeringSeat};
 
 /// Signed encoder ticks counted during one step, forward positive.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -154,7 +154,7 @@ pub struct Telemetry {
     /// Control periods this step covered (1 on time).
     pub periods: u32,
     /// True when this step applied a steering outcome (the law ran on the previous
-    /// step's pose: the one-period hand-over of [`crate::steering`]).
+    /// step's pose: the one-period hand-over of [`crate::outer_loop`]).
     pub steering_updated: bool,
     /// Odometry pose estimate, world frame.
     pub pose: Pose,
@@ -201,7 +201,7 @@ struct Schedule {
 /// The whole control stack for one robot (see the module doc).
 #[derive(Clone, Debug)]
 #[repr(C)]
-pub struct Controller<S = Steering> {
+pub struct Controller<S = OuterLoop> {
     // Laid out by hand: the state every step touches first, the large path last, so the
     // hot fields sit within the M4F's short load offsets (`repr(C)` keeps this order).
     /// Latest telemetry; the state carried between steps (set-points, last law output).
@@ -221,7 +221,7 @@ pub struct Controller<S = Steering> {
     job_elapsed_periods: u32,
     /// The outcome in telemetry starts a new set-point ramp in this step.
     outcome_in_telemetry: bool,
-    /// The outer loop's [`Steering::outcome`] waits to be applied (a lent outer loop's,
+    /// The outer loop's [`OuterLoop::outcome`] waits to be applied (a lent outer loop's,
     /// or one run aside).
     outcome_ready: bool,
     /// Counts restarts of the loops: an outcome of a job from before the last restart is
@@ -238,12 +238,12 @@ pub struct Controller<S = Steering> {
     steering: S,
 }
 
-impl Controller<Steering> {
+impl Controller<OuterLoop> {
     /// A controller for `params`, following `reference` with `law`, believing the robot
     /// starts at `start` (world frame). It starts in [`Mode::Idle`] (motors off). It owns
-    /// its outer loop and runs it itself (see [`crate::steering`]).
+    /// its outer loop and runs it itself (see [`crate::outer_loop`]).
     pub fn new(params: Params, reference: Reference, law: LawKind, start: Pose) -> Self {
-        let steering = Steering::new(&params, reference, law);
+        let steering = OuterLoop::new(&params, reference, law);
         Self::with_seat(params, steering, start)
     }
 
@@ -258,7 +258,7 @@ impl Controller<Steering> {
     }
 }
 
-impl<S: SteeringSeat> Controller<S> {
+impl<S: OuterLoopHolder> Controller<S> {
     /// A controller for `params` whose outer loop is `steering` (built for the same
     /// `params`), believing the robot starts at `start` (world frame), in [`Mode::Idle`].
     pub fn with_seat(params: Params, steering: S, start: Pose) -> Self {
@@ -301,7 +301,7 @@ impl<S: SteeringSeat> Controller<S> {
         params: &Params,
         law: LawKind,
         start: Pose,
-    ) -> Result<(), SteeringAway> {
+    ) -> Result<(), OuterLoopAway> {
         self.outer_loop_for_a_change()?.restart(params, law);
         self.params = *params;
         self.restart_from_params(start);
@@ -315,7 +315,7 @@ impl<S: SteeringSeat> Controller<S> {
         reference: &Reference,
         law: LawKind,
         start: Pose,
-    ) -> Result<(), SteeringAway> {
+    ) -> Result<(), OuterLoopAway> {
         self.outer_loop_for_a_change()?.follow(reference);
         if let Some(steering) = self.steering.seated_mut() {
             steering.restart(&self.params, law);
@@ -366,7 +366,7 @@ impl<S: SteeringSeat> Controller<S> {
     }
 
     /// The outer loop, unless it is lent.
-    pub fn steering(&self) -> Option<&Steering> {
+    pub fn steering(&self) -> Option<&OuterLoop> {
         self.steering.seated()
     }
 
@@ -376,12 +376,12 @@ impl<S: SteeringSeat> Controller<S> {
     }
 
     /// Where the outer loop is: to lend it and to seat it again.
-    pub fn seat_mut(&mut self) -> &mut S {
+    pub fn holder_mut(&mut self) -> &mut S {
         &mut self.steering
     }
 
     /// Lends the outer loop out with the job the last step handed over, when its seat
-    /// lends it (see [`crate::steering`]); true if it did. Call it after the step.
+    /// lends it (see [`crate::outer_loop`]); true if it did. Call it after the step.
     pub fn lend_steering(&mut self) -> bool {
         if !self.job_due {
             return false;
@@ -456,7 +456,7 @@ impl<S: SteeringSeat> Controller<S> {
 
     /// Selects another steering law (takes effect at the next steering step). Refused
     /// while the outer loop is lent.
-    pub fn set_law(&mut self, law: LawKind) -> Result<(), SteeringAway> {
+    pub fn set_law(&mut self, law: LawKind) -> Result<(), OuterLoopAway> {
         self.outer_loop_for_a_change()?.set_law(law);
         Ok(())
     }
@@ -663,8 +663,8 @@ impl<S: SteeringSeat> Controller<S> {
     /// place until the next step begins: nothing else moves the pose, the heading or the
     /// supply, and what could change the job first runs it, see
     /// [`Controller::run_due_job_aside`]).
-    fn steering_job(&self) -> SteeringJob {
-        SteeringJob {
+    fn steering_job(&self) -> OuterLoopJob {
+        OuterLoopJob {
             pose: self.telemetry.pose,
             heading_sin_cos: self.odometry.heading_sin_cos(),
             elapsed_periods: self.job_elapsed_periods,
@@ -677,10 +677,10 @@ impl<S: SteeringSeat> Controller<S> {
 
     /// The outer loop, to change it: refused while it is lent; a due job runs first, on
     /// the outer loop as it was (see [`Controller::run_due_job_aside`]).
-    fn outer_loop_for_a_change(&mut self) -> Result<&mut Steering, SteeringAway> {
-        self.steering.seated().ok_or(SteeringAway)?;
+    fn outer_loop_for_a_change(&mut self) -> Result<&mut OuterLoop, OuterLoopAway> {
+        self.steering.seated().ok_or(OuterLoopAway)?;
         self.run_due_job_aside();
-        self.steering.seated_mut().ok_or(SteeringAway)
+        self.steering.seated_mut().ok_or(OuterLoopAway)
     }
 
     /// The due job went to the outer loop, with the restarts it carried.
@@ -720,7 +720,7 @@ impl<S: SteeringSeat> Controller<S> {
     /// job: from the outer loop into telemetry (seated again, or it ran aside, before
     /// this step).
     fn apply_steering(&mut self) {
-        let Some(outcome) = self.steering.seated().map(Steering::outcome) else {
+        let Some(outcome) = self.steering.seated().map(OuterLoop::outcome) else {
             return;
         };
         let t = &mut self.telemetry;
@@ -841,7 +841,7 @@ pub(crate) mod tests {
     const SUPPLY_V: f32 = 6.0;
 
     /// One on-time step with `ticks` on the test supply.
-    fn step<S: SteeringSeat>(c: &mut Controller<S>, ticks: TickDeltas) -> MotorCommand {
+    fn step<S: OuterLoopHolder>(c: &mut Controller<S>, ticks: TickDeltas) -> MotorCommand {
         c.step(StepInput::on_time(ticks, SUPPLY_V))
     }
 
@@ -939,9 +939,9 @@ pub(crate) mod tests {
         let mut c = on_a_line(5.0);
         c.set_pose(Pose::new(0.0, 0.05, 0.1));
         c.set_mode(Mode::FollowPath);
-        let mut outer = Steering::new(c.params(), c.reference().clone(), c.law());
+        let mut outer = OuterLoop::new(c.params(), c.reference().clone(), c.law());
         step(&mut c, ticks(3, 5));
-        let job = SteeringJob {
+        let job = OuterLoopJob {
             pose: c.pose(),
             heading_sin_cos: c.odometry.heading_sin_cos(),
             elapsed_periods: 0,
@@ -973,9 +973,9 @@ pub(crate) mod tests {
     /// the firmware's lower-priority task does).
     #[derive(Clone, Debug)]
     struct Lending {
-        home: Option<Steering>,
+        home: Option<OuterLoop>,
         /// Lent: the outer loop, its job, and whether it ran.
-        away: Option<(Steering, SteeringJob, bool)>,
+        away: Option<(OuterLoop, OuterLoopJob, bool)>,
     }
 
     impl Lending {
@@ -987,12 +987,12 @@ pub(crate) mod tests {
         }
     }
 
-    impl SteeringSeat for Lending {
-        fn seated(&self) -> Option<&Steering> {
+    impl OuterLoopHolder for Lending {
+        fn seated(&self) -> Option<&OuterLoop> {
             self.home.as_ref()
         }
 
-        fn seated_mut(&mut self) -> Option<&mut Steering> {
+        fn seated_mut(&mut self) -> Option<&mut OuterLoop> {
             self.home.as_mut()
         }
 
@@ -1000,7 +1000,7 @@ pub(crate) mod tests {
             false
         }
 
-        fn lend(&mut self, job: &SteeringJob) -> bool {
+        fn lend(&mut self, job: &OuterLoopJob) -> bool {
             let Some(steering) = self.home.take() else {
                 return false;
             };
@@ -1024,7 +1024,7 @@ pub(crate) mod tests {
 
     /// `owned` as it was built, with a lending seat.
     fn lending(owned: &Controller) -> Controller<Lending> {
-        let steering = Steering::new(owned.params(), owned.reference().clone(), owned.law());
+        let steering = OuterLoop::new(owned.params(), owned.reference().clone(), owned.law());
         let seat = Lending {
             home: Some(steering),
             away: None,
@@ -1043,7 +1043,7 @@ pub(crate) mod tests {
         let mut jobs = 0;
         for k in 0..300 {
             assert!(lent.collect_steering(), "step {k}: the outer loop is back");
-            assert_eq!(lent.steering().map(Steering::law), Some(owned.law()));
+            assert_eq!(lent.steering().map(OuterLoop::law), Some(owned.law()));
             if k == 151 {
                 // An external fix between a due step (150) and the next: the job keeps
                 // the pose it was due with, as the lent one did.
@@ -1061,12 +1061,12 @@ pub(crate) mod tests {
                 let params = *lent.params();
                 assert!(!lent.collect_steering());
                 assert!(lent.steering().is_none());
-                assert_eq!(lent.set_law(LawKind::Paper), Err(SteeringAway));
+                assert_eq!(lent.set_law(LawKind::Paper), Err(OuterLoopAway));
                 assert_eq!(
                     lent.rebuild(&params, LawKind::Paper, Pose::default()),
-                    Err(SteeringAway)
+                    Err(OuterLoopAway)
                 );
-                lent.seat_mut().run_away();
+                lent.holder_mut().run_away();
             }
             assert!(!lent.lend_steering(), "one job per due step");
         }
@@ -1104,7 +1104,7 @@ pub(crate) mod tests {
         c.set_mode(Mode::FollowPath);
         step(&mut c, ticks(0, 0));
         assert!(c.lend_steering());
-        c.seat_mut().run_away();
+        c.holder_mut().run_away();
         // Disarmed and armed again while the job ran.
         c.set_mode(Mode::Idle);
         c.set_mode(Mode::FollowPath);
@@ -1113,7 +1113,7 @@ pub(crate) mod tests {
         assert!(!c.telemetry().steering_updated);
         // The new run's own first job is lent, and its outcome applied.
         assert!(c.lend_steering());
-        c.seat_mut().run_away();
+        c.holder_mut().run_away();
         assert!(c.collect_steering());
         step(&mut c, ticks(0, 0));
         assert!(c.telemetry().steering_updated);

@@ -77,7 +77,7 @@ mod app {
 
     use controller_core::supervisor::{Event, State};
     use robot_app::channel::ring::Ring;
-    use robot_app::outer::SteeringWorker;
+    use robot_app::outer::OuterLoopWorker;
     use robot_app::panic_record::PanicRecord;
     use robot_app::{start, Channels, ControlSide};
     use stm32f4xx_hal::pac;
@@ -109,7 +109,7 @@ mod app {
     struct Local {
         io: board::ControlIo,
         control: ControlSide<'static>,
-        steering: SteeringWorker<'static>,
+        steering: OuterLoopWorker<'static>,
         uart: LinkUart,
         link: LinkWorker,
         #[cfg(feature = "qemu")]

@@ -17,8 +17,8 @@
 use core::num::NonZeroU32;
 
 use controller_core::controller::{Controller, MotorCommand, TickDeltas};
+use controller_core::outer_loop::{OuterLoop, OuterLoopAway};
 use controller_core::pid::PidParts as CorePidParts;
-use controller_core::steering::{Steering, SteeringAway};
 use controller_core::supervisor::{
     Bridge, Command, CommandRefusal, Event, Faults, Inputs, RunMode, State, Supervisor,
     SupervisorOutput, SupervisorSetError,
@@ -27,7 +27,7 @@ use link::{PidParts, RunReport, TelemetryFrame, TuneReport};
 
 use crate::channel::{ControlEnd, ControlRefusal, Op, Published, Report, Staged, ToLink};
 use crate::metrics::{ErrorSample, ErrorStats, ErrorSummary};
-use crate::outer::{OuterLoopSeat, SteeringWorker};
+use crate::outer::{OuterLoopMailbox, OuterLoopWorker};
 
 /// What the board read for this control step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -88,7 +88,7 @@ pub struct Actuation {
     /// Something was queued for the link side in this step: wake its task.
     pub link_has_work: bool,
     /// The outer loop was lent with a job in this step: run the
-    /// [`SteeringWorker`] before the next step.
+    /// [`OuterLoopWorker`] before the next step.
     pub steering_lent: bool,
 }
 
@@ -171,9 +171,9 @@ impl TelemetryClock {
 /// The control side (see the module doc). Owned by the control interrupt.
 pub struct ControlSide<'a> {
     end: ControlEnd<'a>,
-    controller: Controller<OuterLoopSeat<'a>>,
+    controller: Controller<OuterLoopMailbox<'a>>,
     /// The outer loop's other end, until [`ControlSide::lend_outer_loop`] hands it out.
-    worker: Option<SteeringWorker<'a>>,
+    worker: Option<OuterLoopWorker<'a>>,
     supervisor: Supervisor,
     metrics: ErrorStats,
     rate: NonZeroU32,
@@ -201,9 +201,9 @@ impl<'a> ControlSide<'a> {
     /// [`crate::start`] builds both sides from one configuration.
     pub(crate) fn new(
         end: ControlEnd<'a>,
-        controller: Controller<OuterLoopSeat<'a>>,
+        controller: Controller<OuterLoopMailbox<'a>>,
         supervisor: Supervisor,
-        worker: SteeringWorker<'a>,
+        worker: OuterLoopWorker<'a>,
     ) -> Self {
         let rate = controller.params().control_rate();
         Self {
@@ -230,16 +230,16 @@ impl<'a> ControlSide<'a> {
     }
 
     /// The controller (its telemetry, parameters, and its outer loop while seated).
-    pub const fn controller(&self) -> &Controller<OuterLoopSeat<'a>> {
+    pub const fn controller(&self) -> &Controller<OuterLoopMailbox<'a>> {
         &self.controller
     }
 
     /// From now on, lends the outer loop with each job to the returned worker, to run in
     /// a lower-priority task between two steps (`crate::outer`), instead of running it
     /// in the step. `None` if it was handed out already.
-    pub fn lend_outer_loop(&mut self) -> Option<SteeringWorker<'a>> {
+    pub fn lend_outer_loop(&mut self) -> Option<OuterLoopWorker<'a>> {
         let worker = self.worker.take()?;
-        self.controller.seat_mut().lend_from_now_on();
+        self.controller.holder_mut().lend_from_now_on();
         Some(worker)
     }
 
@@ -493,7 +493,7 @@ impl<'a> ControlSide<'a> {
 /// The telemetry sample of step `step`: the supervisor's outputs `out` and `controller`'s
 /// telemetry (pose and error in the world frame, m and rad; wheel speeds in rad/s).
 fn telemetry_frame(
-    controller: &Controller<OuterLoopSeat<'_>>,
+    controller: &Controller<OuterLoopMailbox<'_>>,
     step: u32,
     out: &SupervisorOutput,
 ) -> TelemetryFrame {
@@ -548,12 +548,12 @@ pub fn pid_parts(parts: CorePidParts) -> PidParts {
 #[inline(never)]
 fn install(
     staged: &Staged,
-    controller: &mut Controller<OuterLoopSeat<'_>>,
+    controller: &mut Controller<OuterLoopMailbox<'_>>,
     supervisor: &mut Supervisor,
 ) -> Result<(), ControlRefusal> {
     // The step takes no request while the outer loop is away; checked first all the same,
     // so that the supervisor and the controller both change or neither does.
-    let Some(law) = controller.steering().map(Steering::law) else {
+    let Some(law) = controller.steering().map(OuterLoop::law) else {
         return Err(ControlRefusal::Busy);
     };
     match staged {
@@ -568,7 +568,7 @@ fn install(
             let pose = controller.pose();
             controller
                 .rebuild(params, law, pose)
-                .map_err(|SteeringAway| ControlRefusal::Busy)?;
+                .map_err(|OuterLoopAway| ControlRefusal::Busy)?;
         }
         Staged::Path(path) => {
             supervisor
@@ -576,7 +576,7 @@ fn install(
                 .map_err(set_refusal)?;
             controller
                 .follow(&path.reference, path.law, path.supervisor.start_pose)
-                .map_err(|SteeringAway| ControlRefusal::Busy)?;
+                .map_err(|OuterLoopAway| ControlRefusal::Busy)?;
         }
         // The link side never publishes an upload being assembled.
         Staged::Assembling(_) => return Err(ControlRefusal::Busy),

@@ -2,14 +2,14 @@
 //! how it is lent to a lower-priority task.
 //!
 //! The outer loop lives in a mailbox of the [`Channels`](crate::Channels), with room for
-//! its job and its outcome ([`OuterLoop`]). The control side's controller holds the
-//! mailbox's sending end as its seat ([`OuterLoopSeat`]):
+//! its job and its outcome ([`OuterLoopWithJob`]). The control side's controller holds the
+//! mailbox's sending end as its seat ([`OuterLoopMailbox`]):
 //!
 //! - By default the controller runs each job itself, at the start of the next step,
 //!   straight into its telemetry (the virtual robot does this).
 //! - After [`ControlSide::lend_outer_loop`](crate::ControlSide::lend_outer_loop) (the
 //!   firmware does this), a step that hands over a job writes it into the mailbox and
-//!   publishes it; the [`SteeringWorker`], in a lower-priority task, runs it in place and
+//!   publishes it; the [`OuterLoopWorker`], in a lower-priority task, runs it in place and
 //!   hands the mailbox back; the next step seats it again and applies the outcome it
 //!   keeps.
 //!
@@ -17,14 +17,14 @@
 //! copied but the 44-byte job in and, once, the 100-byte outcome from the outer loop into
 //! the controller's telemetry: the outer loop itself, path and all, stays where it is.
 
-use controller_core::steering::{Steering, SteeringJob, SteeringSeat};
+use controller_core::outer_loop::{OuterLoop, OuterLoopHolder, OuterLoopJob};
 
 use crate::channel::mailbox::{Receiver, Sender};
 
 /// The outer loop (which keeps its outcome) with room for its job.
-pub struct OuterLoop {
-    steering: Steering,
-    job: SteeringJob,
+pub struct OuterLoopWithJob {
+    steering: OuterLoop,
+    job: OuterLoopJob,
 }
 
 /// The outer loop's room in the [`Channels`](crate::Channels): empty until
@@ -34,30 +34,30 @@ pub struct OuterLoop {
 #[repr(u8)]
 // The room is the outer loop's only place; there is no heap to box it.
 #[allow(clippy::large_enum_variant)]
-pub enum OuterLoopRoom {
+pub enum OuterLoopSlot {
     /// Nothing built yet (the seat behaves as if the outer loop were away).
     Empty,
     /// The outer loop.
-    Built(OuterLoop),
+    Built(OuterLoopWithJob),
 }
 
-impl OuterLoopRoom {
+impl OuterLoopSlot {
     /// The outer loop `steering` in the room, with nothing handed over yet.
-    pub(crate) fn built(steering: Steering) -> Self {
-        Self::Built(OuterLoop {
+    pub(crate) fn built(steering: OuterLoop) -> Self {
+        Self::Built(OuterLoopWithJob {
             steering,
-            job: SteeringJob::default(),
+            job: OuterLoopJob::default(),
         })
     }
 
-    fn outer(&self) -> Option<&OuterLoop> {
+    fn outer(&self) -> Option<&OuterLoopWithJob> {
         match self {
             Self::Built(outer) => Some(outer),
             Self::Empty => None,
         }
     }
 
-    fn outer_mut(&mut self) -> Option<&mut OuterLoop> {
+    fn outer_mut(&mut self) -> Option<&mut OuterLoopWithJob> {
         match self {
             Self::Built(outer) => Some(outer),
             Self::Empty => None,
@@ -67,14 +67,14 @@ impl OuterLoopRoom {
 
 /// The control side's controller's seat for the outer loop: the mailbox's sending end.
 /// Seated while the mailbox is empty; lent while it is published or not yet collected.
-pub struct OuterLoopSeat<'a> {
-    sender: Sender<'a, OuterLoopRoom>,
-    /// Jobs are lent to the [`SteeringWorker`] rather than run by the controller.
+pub struct OuterLoopMailbox<'a> {
+    sender: Sender<'a, OuterLoopSlot>,
+    /// Jobs are lent to the [`OuterLoopWorker`] rather than run by the controller.
     lends: bool,
 }
 
-impl<'a> OuterLoopSeat<'a> {
-    pub(crate) fn new(sender: Sender<'a, OuterLoopRoom>) -> Self {
+impl<'a> OuterLoopMailbox<'a> {
+    pub(crate) fn new(sender: Sender<'a, OuterLoopSlot>) -> Self {
         Self {
             sender,
             lends: false,
@@ -82,7 +82,7 @@ impl<'a> OuterLoopSeat<'a> {
     }
 
     /// The room, while the outer loop is seated (or not built yet).
-    pub(crate) fn room_mut(&mut self) -> Option<&mut OuterLoopRoom> {
+    pub(crate) fn room_mut(&mut self) -> Option<&mut OuterLoopSlot> {
         self.sender.item_mut()
     }
 
@@ -91,18 +91,18 @@ impl<'a> OuterLoopSeat<'a> {
     }
 }
 
-impl SteeringSeat for OuterLoopSeat<'_> {
-    fn seated(&self) -> Option<&Steering> {
+impl OuterLoopHolder for OuterLoopMailbox<'_> {
+    fn seated(&self) -> Option<&OuterLoop> {
         self.sender
             .item()
-            .and_then(OuterLoopRoom::outer)
+            .and_then(OuterLoopSlot::outer)
             .map(|o| &o.steering)
     }
 
-    fn seated_mut(&mut self) -> Option<&mut Steering> {
+    fn seated_mut(&mut self) -> Option<&mut OuterLoop> {
         self.sender
             .item_mut()
-            .and_then(OuterLoopRoom::outer_mut)
+            .and_then(OuterLoopSlot::outer_mut)
             .map(|o| &mut o.steering)
     }
 
@@ -110,11 +110,11 @@ impl SteeringSeat for OuterLoopSeat<'_> {
         !self.lends
     }
 
-    fn lend(&mut self, job: &SteeringJob) -> bool {
+    fn lend(&mut self, job: &OuterLoopJob) -> bool {
         if !self.lends {
             return false;
         }
-        let Some(outer) = self.sender.item_mut().and_then(OuterLoopRoom::outer_mut) else {
+        let Some(outer) = self.sender.item_mut().and_then(OuterLoopSlot::outer_mut) else {
             return false;
         };
         outer.job = *job;
@@ -131,12 +131,12 @@ impl SteeringSeat for OuterLoopSeat<'_> {
 }
 
 /// The outer loop's end in a lower-priority task (see the module doc).
-pub struct SteeringWorker<'a> {
-    receiver: Receiver<'a, OuterLoopRoom>,
+pub struct OuterLoopWorker<'a> {
+    receiver: Receiver<'a, OuterLoopSlot>,
 }
 
-impl<'a> SteeringWorker<'a> {
-    pub(crate) fn new(receiver: Receiver<'a, OuterLoopRoom>) -> Self {
+impl<'a> OuterLoopWorker<'a> {
+    pub(crate) fn new(receiver: Receiver<'a, OuterLoopSlot>) -> Self {
         Self { receiver }
     }
 
@@ -146,7 +146,7 @@ impl<'a> SteeringWorker<'a> {
         let Some(room) = self.receiver.staged_mut() else {
             return false;
         };
-        if let Some(OuterLoop { steering, job }) = room.outer_mut() {
+        if let Some(OuterLoopWithJob { steering, job }) = room.outer_mut() {
             steering.run(job);
         }
         self.receiver.finish();

@@ -4,15 +4,15 @@ use core::fmt;
 
 use controller_core::controller::Controller;
 use controller_core::law::LawKind;
+use controller_core::outer_loop::OuterLoop;
 use controller_core::params::{ParamError, Params};
 use controller_core::reference::Reference;
-use controller_core::steering::Steering;
 use controller_core::supervisor::{ResetCause, Supervisor, SupervisorConfigError};
 use link::{FieldProblem, ParamSet};
 
 use crate::channel::Channels;
 use crate::control::ControlSide;
-use crate::outer::{OuterLoopRoom, OuterLoopSeat, SteeringWorker};
+use crate::outer::{OuterLoopMailbox, OuterLoopSlot, OuterLoopWorker};
 use crate::service::{Identity, LinkOptions, LinkService};
 
 /// Everything the board decides at start.
@@ -67,9 +67,9 @@ pub fn start(
     let (link_end, control_end, (outer_sender, outer_receiver)) = channels.split_all();
     // The outer loop goes into its room in the channels (just split, so it is the
     // seat's), built once, at start.
-    let mut seat = OuterLoopSeat::new(outer_sender);
+    let mut seat = OuterLoopMailbox::new(outer_sender);
     if let Some(room) = seat.room_mut() {
-        *room = OuterLoopRoom::built(Steering::new(&params, config.reference, config.law));
+        *room = OuterLoopSlot::built(OuterLoop::new(&params, config.reference, config.law));
     }
     let controller = Controller::with_seat(params, seat, supervisor_config.start_pose);
     Ok((
@@ -77,7 +77,7 @@ pub fn start(
             control_end,
             controller,
             supervisor,
-            SteeringWorker::new(outer_receiver),
+            OuterLoopWorker::new(outer_receiver),
         ),
         LinkService::new(link_end, config.identity, config.params, config.link),
     ))

@@ -141,8 +141,8 @@ use crate::controller::{Controller, Mode, MotorCommand, StepInput, TickDeltas};
 use crate::drive::WheelVolts;
 use crate::kinematics::{BodyVelocity, WheelSpeeds};
 use crate::math;
+use crate::outer_loop::OuterLoopHolder;
 use crate::params::Params;
-use crate::steering::SteeringSeat;
 use crate::tune::{TuneAbort, TuneConfig, TuneConfigError, TuneResult, TuneStep, Tuner};
 
 use button::{Debouncer, Press};
@@ -641,7 +641,7 @@ impl Supervisor {
 
     /// One control period: processes `input`, sets `controller`'s mode, steps it, checks
     /// the result and returns what the motors, the bridge and the watchdog get.
-    pub fn step<S: SteeringSeat>(
+    pub fn step<S: OuterLoopHolder>(
         &mut self,
         controller: &mut Controller<S>,
         input: Inputs,
@@ -720,7 +720,7 @@ impl Supervisor {
 
     /// One step of the tune while armed in [`RunMode::Tune`]: the voltages for the next
     /// step, or the end (brake and disarm).
-    fn tune_step<S: SteeringSeat>(
+    fn tune_step<S: OuterLoopHolder>(
         &mut self,
         controller: &mut Controller<S>,
         periods: NonZeroU32,
@@ -743,7 +743,7 @@ impl Supervisor {
     /// heartbeat. Only from Disarmed, and not while the button is held. Call it between
     /// two steps: the controller starts at once, and the next [`Supervisor::step`]
     /// drives.
-    pub fn arm_locally<S: SteeringSeat>(
+    pub fn arm_locally<S: OuterLoopHolder>(
         &mut self,
         controller: &mut Controller<S>,
         request: ArmRequest,
@@ -781,7 +781,7 @@ impl Supervisor {
     }
 
     /// Every check of step 3; sets the latched flags.
-    fn check_faults<S: SteeringSeat>(
+    fn check_faults<S: OuterLoopHolder>(
         &mut self,
         controller: &Controller<S>,
         duty: MotorCommand,
@@ -852,7 +852,7 @@ impl Supervisor {
         Some(Event::BatteryLow)
     }
 
-    fn handle_button<S: SteeringSeat>(
+    fn handle_button<S: OuterLoopHolder>(
         &mut self,
         raw: bool,
         controller: &mut Controller<S>,
@@ -893,7 +893,7 @@ impl Supervisor {
         }
     }
 
-    fn handle_command<S: SteeringSeat>(
+    fn handle_command<S: OuterLoopHolder>(
         &mut self,
         command: Command,
         controller: &mut Controller<S>,
@@ -937,7 +937,10 @@ impl Supervisor {
         }
     }
 
-    fn handle_timers<S: SteeringSeat>(&mut self, controller: &mut Controller<S>) -> Option<Event> {
+    fn handle_timers<S: OuterLoopHolder>(
+        &mut self,
+        controller: &mut Controller<S>,
+    ) -> Option<Event> {
         match self.state {
             State::Disarmed if self.auto_arm_pending => {
                 let due = self.config.auto_arm_after_steps.unwrap_or(u32::MAX);
@@ -979,7 +982,7 @@ impl Supervisor {
     /// Arms with `request` (the link's when `by_link`) and prepares `controller` for the
     /// run: the start pose, a tune's start or the motion a run starts with. The step
     /// then switches it to the run's mode, which restarts its loops.
-    fn arm<S: SteeringSeat>(
+    fn arm<S: OuterLoopHolder>(
         &mut self,
         controller: &mut Controller<S>,
         request: ArmRequest,
@@ -1027,7 +1030,7 @@ impl Supervisor {
         }
     }
 
-    fn disarm<S: SteeringSeat>(&mut self, controller: &mut Controller<S>) {
+    fn disarm<S: OuterLoopHolder>(&mut self, controller: &mut Controller<S>) {
         self.tuner.abort(TuneAbort::Stopped);
         self.state = State::Disarmed;
         self.armed_by_link = false;
@@ -1039,7 +1042,7 @@ impl Supervisor {
         self.brake_steps_left = self.config.brake_steps;
     }
 
-    fn clear_faults<S: SteeringSeat>(&mut self, controller: &mut Controller<S>) -> Event {
+    fn clear_faults<S: OuterLoopHolder>(&mut self, controller: &mut Controller<S>) -> Event {
         self.faults = Faults::NONE;
         self.consecutive_overruns = 0;
         self.missed.restart_window();

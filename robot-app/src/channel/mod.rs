@@ -38,7 +38,7 @@ use link::{CommitSummary, RunReport, TelemetryFrame, TuneReport, UploadSegments}
 
 use self::mailbox::{Mailbox, Receiver, Sender};
 use self::ring::{Consumer, Producer, Ring};
-use crate::outer::OuterLoopRoom;
+use crate::outer::OuterLoopSlot;
 
 /// Commands the link side may queue for the control side, which takes at most one per
 /// control step.
@@ -306,7 +306,7 @@ pub struct Channels {
     reports: Ring<Report, REPORT_CAPACITY>,
     staging: Mailbox<Staged>,
     status: Status,
-    outer_loop: Mailbox<OuterLoopRoom>,
+    outer_loop: Mailbox<OuterLoopSlot>,
 }
 
 impl Default for Channels {
@@ -325,7 +325,7 @@ impl Channels {
             reports: Ring::new(),
             staging: Mailbox::new(Staged::Assembling(UploadSegments::new())),
             status: Status::new(),
-            outer_loop: Mailbox::new(OuterLoopRoom::Empty),
+            outer_loop: Mailbox::new(OuterLoopSlot::Empty),
         }
     }
 
@@ -342,7 +342,7 @@ impl Channels {
     ) -> (
         LinkEnd<'_>,
         ControlEnd<'_>,
-        (Sender<'_, OuterLoopRoom>, Receiver<'_, OuterLoopRoom>),
+        (Sender<'_, OuterLoopSlot>, Receiver<'_, OuterLoopSlot>),
     ) {
         let Channels {
             commands,

@@ -17,7 +17,7 @@ use link::{
     encode, Decoder, Downlink, ParamSet, Received, Refusal, Reply, Request, TelemetryFrame, Uplink,
     MAX_FRAME_LEN,
 };
-use robot_app::outer::SteeringWorker;
+use robot_app::outer::OuterLoopWorker;
 use robot_app::{
     start, Actuation, AppConfig, Channels, ControlSide, Identity, LinkOptions, LinkService,
     NoBoardStats, Sensors,
@@ -166,7 +166,7 @@ pub struct Rig<'a> {
     /// The last actuation.
     pub last: Option<Actuation>,
     /// The outer loop's worker when the control side lends it (as the firmware does).
-    pub worker: Option<SteeringWorker<'a>>,
+    pub worker: Option<OuterLoopWorker<'a>>,
     /// Leave the outer loop unrun after the next step that lends it (it overruns the
     /// period).
     pub stall_worker_once: bool,

@@ -2,9 +2,9 @@
 //! steering period.
 //!
 //! The inner loop ([`crate::controller::Controller`]) runs every control period. When the
-//! steering law is due it hands over a [`SteeringJob`]: the pose estimate of that step
-//! and what else the law needs, as a small value. [`Steering::run`] turns it into a
-//! [`SteeringOutcome`], and the inner loop applies that at its **next** step: it starts
+//! steering law is due it hands over a [`OuterLoopJob`]: the pose estimate of that step
+//! and what else the law needs, as a small value. [`OuterLoop::run`] turns it into a
+//! [`OuterLoopOutcome`], and the inner loop applies that at its **next** step: it starts
 //! the set-point ramp towards the command's wheel speeds there.
 //!
 //! That one-period hand-over is the design, everywhere: in the simulator, in the tests
@@ -12,18 +12,18 @@
 //! and the law's trigonometry, run anywhere between two control steps, not inside the
 //! control interrupt; and the robot still does exactly what the simulator does.
 //!
-//! Where the outer loop lives is the controller's [`SteeringSeat`]. A
-//! `Controller<Steering>` owns it and runs each job itself at the start of the next step,
+//! Where the outer loop lives is the controller's [`OuterLoopHolder`]. A
+//! `Controller<OuterLoop>` owns it and runs each job itself at the start of the next step,
 //! from the due step's state (still in place then) straight into its telemetry (the
 //! simulator, the tests). A seat that lends it (the firmware's) takes the job as a value
 //! and runs it elsewhere, in a lower-priority task, between the two steps; the outcome
-//! stays with the outer loop (`Steering::outcome`), and the next step seats the outer
+//! stays with the outer loop (`OuterLoop::outcome`), and the next step seats the outer
 //! loop again and copies the outcome from there into telemetry. Both give the same
 //! result.
 //!
 //! ```text
 //!  step k (inner loop)          between k and k+1           step k+1 (inner loop)
-//!  odometry ─► pose ─► SteeringJob ─► Steering::run ─► SteeringOutcome ─► ramp starts
+//!  odometry ─► pose ─► OuterLoopJob ─► OuterLoop::run ─► OuterLoopOutcome ─► ramp starts
 //! ```
 
 use core::num::NonZeroU32;
@@ -36,7 +36,7 @@ use crate::reference::{Reference, ReferenceState};
 
 /// What the inner loop hands to the outer loop at a step where the steering law is due.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SteeringJob {
+pub struct OuterLoopJob {
     /// Odometry pose estimate at that step, world frame.
     pub pose: Pose,
     /// (sin θ, cos θ) of that pose's heading, as odometry keeps them.
@@ -59,7 +59,7 @@ pub struct SteeringJob {
 /// What the outer loop hands back: the steering law's command after its limits, and how
 /// it got there (for telemetry).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SteeringOutcome {
+pub struct OuterLoopOutcome {
     /// The reference sampled for the job's pose.
     pub reference: ReferenceState,
     /// Tracking error (9), robot frame.
@@ -79,37 +79,37 @@ pub struct SteeringOutcome {
 /// The outer loop was lent out (it is running a job elsewhere): what needs it must wait
 /// for it to be seated again, one control period at most.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct SteeringAway;
+pub struct OuterLoopAway;
 
 /// Where a controller's outer loop is (see the module doc).
-pub trait SteeringSeat {
+pub trait OuterLoopHolder {
     /// The outer loop, if it is seated.
-    fn seated(&self) -> Option<&Steering>;
+    fn seated(&self) -> Option<&OuterLoop>;
     /// The outer loop, if it is seated.
-    fn seated_mut(&mut self) -> Option<&mut Steering>;
+    fn seated_mut(&mut self) -> Option<&mut OuterLoop>;
     /// True when `Controller::step` runs a due job itself before it returns; false when
     /// the job waits for `Controller::lend_steering`.
     fn runs_jobs(&self) -> bool;
     /// Lends the outer loop out with `job`, to run elsewhere; false (nothing done) when
     /// this seat does not lend or the outer loop is away.
-    fn lend(&mut self, job: &SteeringJob) -> bool {
+    fn lend(&mut self, job: &OuterLoopJob) -> bool {
         let _ = job;
         false
     }
     /// Seats the outer loop again if it has come back (with the outcome of the job it ran
-    /// in `Steering::outcome`); false when it has not come back (or was never lent).
+    /// in `OuterLoop::outcome`); false when it has not come back (or was never lent).
     fn collect(&mut self) -> bool {
         false
     }
 }
 
 /// Owned: always seated, and runs each job at once.
-impl SteeringSeat for Steering {
-    fn seated(&self) -> Option<&Steering> {
+impl OuterLoopHolder for OuterLoop {
+    fn seated(&self) -> Option<&OuterLoop> {
         Some(self)
     }
 
-    fn seated_mut(&mut self) -> Option<&mut Steering> {
+    fn seated_mut(&mut self) -> Option<&mut OuterLoop> {
         Some(self)
     }
 
@@ -140,17 +140,17 @@ impl SteeringParams {
 }
 
 /// The outer loop's state: the reference being followed, the law and its gains, the
-/// limiter's last command, and the outcome of the last job [`Steering::run`] ran.
+/// limiter's last command, and the outcome of the last job [`OuterLoop::run`] ran.
 #[derive(Clone, Debug)]
-pub struct Steering {
+pub struct OuterLoop {
     law: LawKind,
     params: SteeringParams,
     limiter: CommandLimiter,
     reference: Reference,
-    outcome: SteeringOutcome,
+    outcome: OuterLoopOutcome,
 }
 
-impl Steering {
+impl OuterLoop {
     /// The outer loop for `params`, following `reference` with `law`, its limiter at rest.
     pub fn new(params: &Params, reference: Reference, law: LawKind) -> Self {
         Self {
@@ -158,11 +158,11 @@ impl Steering {
             params: SteeringParams::of(params),
             limiter: CommandLimiter::new(params.config().limits),
             reference,
-            outcome: SteeringOutcome::default(),
+            outcome: OuterLoopOutcome::default(),
         }
     }
 
-    /// Restarts in place as [`Steering::new`] would with `params` and `law`, keeping the
+    /// Restarts in place as [`OuterLoop::new`] would with `params` and `law`, keeping the
     /// reference.
     pub fn restart(&mut self, params: &Params, law: LawKind) {
         self.law = law;
@@ -191,12 +191,12 @@ impl Steering {
         &self.reference
     }
 
-    /// One steering update for `job`, into `Steering::outcome` (kept here, where a lent
+    /// One steering update for `job`, into `OuterLoop::outcome` (kept here, where a lent
     /// outer loop comes back with it: the 100 bytes are copied once, into the inner loop's
     /// telemetry), with the geometry, rates, gains and limits of the parameters it was
     /// built or restarted with. Never panics; a non-finite input gives a non-finite
     /// command, which the inner loop latches as a fault when it applies it.
-    pub fn run(&mut self, job: &SteeringJob) {
+    pub fn run(&mut self, job: &OuterLoopJob) {
         let Self {
             law,
             params,
@@ -214,18 +214,18 @@ impl Steering {
         outcome.epoch = job.epoch;
     }
 
-    /// The outcome of the last job [`Steering::run`] ran (a job the controller runs
+    /// The outcome of the last job [`OuterLoop::run`] ran (a job the controller runs
     /// straight into its telemetry is not kept here, so this is for the controller
     /// only: its telemetry is where the outcome in force is).
-    pub(crate) const fn outcome(&self) -> &SteeringOutcome {
+    pub(crate) const fn outcome(&self) -> &OuterLoopOutcome {
         &self.outcome
     }
 
-    /// [`Steering::run`], writing each part of the outcome where it is wanted (the
+    /// [`OuterLoop::run`], writing each part of the outcome where it is wanted (the
     /// controller's telemetry, when it runs its jobs itself: no copy of the outcome).
     pub(crate) fn run_into(
         &mut self,
-        job: &SteeringJob,
+        job: &OuterLoopJob,
         law_parts: (&mut ReferenceState, &mut TrackingError, &mut LawOutput),
         command_parts: (&mut BodyVelocity, &mut LimitFlags),
     ) {
@@ -252,7 +252,7 @@ fn update(
         &mut CommandLimiter,
         &mut Reference,
     ),
-    job: &SteeringJob,
+    job: &OuterLoopJob,
     (reference, error, law): (&mut ReferenceState, &mut TrackingError, &mut LawOutput),
     (command, limit_flags): (&mut BodyVelocity, &mut LimitFlags),
 ) {

@@ -6,7 +6,7 @@
 use core::ptr::addr_of;
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use robot_app::hw::stack::{high_water_bytes, PAINT};
+use robot_app::stm32f4::stack::{high_water_bytes, PAINT};
 use robot_app::BoardStats;
 
 use crate::board;
@@ -58,8 +58,8 @@ impl TaskTiming {
     /// Runs recorded, the longest and the total (reported by the emulated board's
     /// plant port, whose work unit is the instruction).
     #[cfg(feature = "qemu")]
-    pub fn figures(&self) -> robot_app::lockstep::TaskFigures {
-        robot_app::lockstep::TaskFigures {
+    pub fn figures(&self) -> lockstep::TaskFigures {
+        lockstep::TaskFigures {
             runs: self.runs.load(Ordering::Relaxed),
             max_instructions: self.max_units(),
             total_instructions: board::work_units(self.total_raw.load(Ordering::Relaxed)),
@@ -93,7 +93,7 @@ fn stack_region() -> (*const u32, usize) {
 }
 
 /// Bytes of stack used since start-up ended: the painted stack region scanned from the
-/// bottom for the first word the stack reached (`robot_app::hw::stack`), after
+/// bottom for the first word the stack reached (`robot_app::stm32f4::stack`), after
 /// [`repaint_after_start`] painted again what `init` used. Reads up to the whole region
 /// (about 124 KiB): call it from the link task, not the control task.
 pub fn stack_high_water_bytes() -> u32 {

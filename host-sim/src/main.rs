@@ -639,7 +639,7 @@ fn cmd_pil(
         dir.join("summary.json"),
         serde_json::to_string_pretty(&summary)? + "\n",
     )?;
-    let task = |t: &robot_app::lockstep::TaskFigures| {
+    let task = |t: &lockstep::TaskFigures| {
         serde_json::json!({
             "runs": t.runs,
             "max_instructions": t.max_instructions,

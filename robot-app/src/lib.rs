@@ -12,8 +12,7 @@
 //! | [`channel`] | [`Channels`]: lock-free queues, the staging mailbox and status atomics between the two | both (one end each) |
 //! | [`persist`] | the parameter record in flash and the two-page rotation, as pure functions | the link task (and `init`) |
 //! | [`metrics`] | run metrics (settle time, final and windowed errors) in fixed memory | the control interrupt |
-//! | [`hw`] | register arithmetic of the STM32F4 boards, with host tests | `init` |
-//! | [`lockstep`] | the emulated board's port to a simulated plant (processor in the loop) | the `qemu` board, `host-sim pil` |
+//! | [`stm32f4`] | the STM32F4's register arithmetic (clocks, timers, watchdog, ADC, USART, flash, reset flags), with host tests | `init` |
 //! | [`panic_record`] | the record of the last panic or hard fault kept in RAM across a reset | panic handler, `init` |
 //!
 //! # How a board wires it
@@ -140,14 +139,13 @@
 
 pub mod channel;
 pub mod control;
-pub mod hw;
-pub mod lockstep;
 pub mod metrics;
 pub mod outer;
 pub mod panic_record;
 pub mod persist;
 pub mod service;
 mod start;
+pub mod stm32f4;
 
 pub use crate::channel::{Channels, ControlEnd, LinkEnd};
 pub use crate::control::{Actuation, ControlSide, Sensors};

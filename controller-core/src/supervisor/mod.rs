@@ -244,47 +244,7 @@ pub enum ResetCause {
     Unknown,
 }
 
-/// The raw reset flags of an STM32F4's RCC_CSR, one `bool` per flag.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct ResetFlags {
-    /// LPWRRSTF: low-power reset.
-    pub low_power: bool,
-    /// WWDGRSTF: window watchdog reset.
-    pub window_watchdog: bool,
-    /// IWDGRSTF: independent watchdog reset.
-    pub independent_watchdog: bool,
-    /// SFTRSTF: software reset.
-    pub software: bool,
-    /// PORRSTF: power-on / power-down reset.
-    pub power_on: bool,
-    /// PINRSTF: NRST pin reset (also set by every other reset source, which drives NRST).
-    pub pin: bool,
-    /// BORRSTF: brown-out reset (also set by a power-on reset, together with PORRSTF).
-    pub brown_out: bool,
-}
-
 impl ResetCause {
-    /// The cause that explains `flags`. Every internal reset also pulls NRST low and so
-    /// sets the pin flag, so the pin is the cause only when nothing else is set. A
-    /// power-on sets both POR and BOR; BOR alone is a brown-out while running.
-    pub const fn from_flags(flags: ResetFlags) -> ResetCause {
-        if flags.independent_watchdog || flags.window_watchdog {
-            ResetCause::Watchdog
-        } else if flags.software {
-            ResetCause::Software
-        } else if flags.low_power {
-            ResetCause::LowPower
-        } else if flags.power_on {
-            ResetCause::PowerOn
-        } else if flags.brown_out {
-            ResetCause::BrownOut
-        } else if flags.pin {
-            ResetCause::Pin
-        } else {
-            ResetCause::Unknown
-        }
-    }
-
     /// True for the resets a person causes on purpose (power-on, reset pin): the only
     /// ones after which [`SupervisorConfig::auto_arm_after_steps`] may arm the motors.
     pub const fn allows_auto_arm(self) -> bool {

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use controller_core::controller::MotorCommand;
 use controller_core::supervisor::{ArmRequest, Bridge, Event, State, SupervisorOutput};
-use robot_app::lockstep::{
+use lockstep::{
     BoardDecoder, BoardReport, BoardStep, FromBoard, PlantStep, FINISH, PLANT_STEP_MAX_LEN,
 };
 

@@ -12,7 +12,7 @@
 //!
 //! - **The plant port** is lockstep: each control step's sensors go out, the firmware runs
 //!   exactly one control step on them and answers with its duties and decision, and only
-//!   then does the plant move ([`firmware`], `robot_app::lockstep`). The run is the same
+//!   then does the plant move ([`firmware`], `lockstep`). The run is the same
 //!   computation however fast the host or the emulator is.
 //! - **The station port** carries the runtime link, as the robot's serial line does; a
 //!   station uploads the path, arms and watches ([`relay`]). The plant holds still until
@@ -44,7 +44,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, ensure, Context as _, Result};
 use controller_core::law::LawKind;
-use robot_app::lockstep::{BoardReport, READY};
+use lockstep::{BoardReport, READY};
 
 use self::firmware::{Firmware, LinkLoss};
 use self::relay::{LinkSwitch, Relay};

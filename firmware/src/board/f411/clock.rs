@@ -33,8 +33,8 @@
 
 use core::fmt;
 
-use robot_app::hw::chip::VoltageScale;
-use robot_app::hw::clock::{ClockTree, PllConfig, SWS_PLL};
+use robot_app::stm32f4::chip::VoltageScale;
+use robot_app::stm32f4::clock::{ClockTree, PllConfig, SWS_PLL};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::{self, Rcc};

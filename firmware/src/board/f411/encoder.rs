@@ -6,7 +6,7 @@
 //! switching at 20 kHz. [`Encoders::new`] then sets IC1F and IC2F (bits 7:4 and 15:12,
 //! read-modify-write, nothing else touched; RM0383 allows changing ICxF at any time,
 //! only CCxS needs the channel off) to the strongest filter that still passes the
-//! shortest real pulse four times over (`robot_app::hw::encoder_filter`): at 200 rad/s,
+//! shortest real pulse four times over (`robot_app::stm32f4::encoder_filter`): at 200 rad/s,
 //! twice the core's plausibility limit and 2.6 times the motor's no-load speed on a full
 //! 3S pack, a 12-line encoder behind 1:30 runs at 11.5 kHz per channel, whose high or low
 //! time is 21.8 µs even at a 25 % duty cycle. With the timer at 100 MHz and CKD = 00 that
@@ -15,7 +15,7 @@
 
 use controller_core::controller::TickDeltas;
 use controller_core::encoder::WrappingCounter;
-use robot_app::hw::encoder_filter::{self, Ckd, FilterTiming};
+use robot_app::stm32f4::encoder_filter::{self, Ckd, FilterTiming};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::qei::Qei;

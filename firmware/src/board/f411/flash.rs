@@ -11,7 +11,7 @@
 //! 3. **Erase** the sector: FLASH_CR.PSIZE = 10 (x32 parallelism: allowed at V_DD
 //!    2.7–3.6 V; both boards run at 3.3 V), SER = 1, SNB = the sector; then STRT = 1;
 //!    wait for BSY = 0. Every fetch from flash stalls meanwhile (single bank): 1–2 s for
-//!    a 128 KiB sector (`robot_app::hw::flash`), which is why the caller has lengthened
+//!    a 128 KiB sector (`robot_app::stm32f4::flash`), which is why the caller has lengthened
 //!    the watchdog to [`WATCHDOG_PERSIST`] first.
 //! 4. **Program** word by word: SER = 0, PG = 1, each 32-bit word written to its
 //!    address (a word access, as PSIZE = x32 requires), wait for BSY = 0 after each
@@ -21,9 +21,9 @@
 //!    RM0383 allows DCRST only while the cache is off): a line holding the sector's old
 //!    contents would otherwise be what the read-back sees.
 
-use robot_app::hw::flash::{persist_watchdog_timeout_us, StorageSectors, STORAGE_F411};
-use robot_app::hw::watchdog::IwdgConfig;
 use robot_app::persist::{Slot, MAX_RECORD_LEN};
+use robot_app::stm32f4::flash::{persist_watchdog_timeout_us, StorageSectors, STORAGE_F411};
+use robot_app::stm32f4::watchdog::IwdgConfig;
 use stm32f4xx_hal::pac;
 
 use super::CHIP;
@@ -37,7 +37,7 @@ const KEYS: [u32; 2] = [0x4567_0123, 0xCDEF_89AB];
 /// The independent watchdog while a record is written: it outlasts the longest erase of
 /// a storage sector and the programming of the largest record even at the fastest LSI
 /// (47 kHz): ÷32, reload 3023, 2.06 s there, 3.0 s at the typical 32 kHz, 5.7 s at
-/// 17 kHz (`robot_app::hw::flash::persist_watchdog_timeout_us`).
+/// 17 kHz (`robot_app::stm32f4::flash::persist_watchdog_timeout_us`).
 pub const WATCHDOG_PERSIST: IwdgConfig = {
     let needed = match persist_watchdog_timeout_us(&STORAGE.a, MAX_RECORD_LEN) {
         Some(us) => us,
@@ -69,7 +69,7 @@ pub struct Storage {
 
 impl Storage {
     /// The storage on this chip: sectors 6 and 7 of the F411 and F446; none on the
-    /// F401 (see `robot_app::hw::flash`).
+    /// F401 (see `robot_app::stm32f4::flash`).
     pub fn new(flash: pac::FLASH) -> Option<Self> {
         if cfg!(feature = "stm32f401") {
             return None;
@@ -81,7 +81,7 @@ impl Storage {
     pub fn page(&self, slot: Slot) -> &'static [u8] {
         let start = STORAGE.sector(slot).address as usize as *const u8;
         // SAFETY: the sector lies inside the chip's flash (sectors 6 and 7 of a 512 KiB
-        // part, `robot_app::hw::flash` checks the map), which is always readable and
+        // part, `robot_app::stm32f4::flash` checks the map), which is always readable and
         // outside every section of this program (`memory.x` ends FLASH below it); it
         // only changes under `erase_and_program`, which takes `&mut self`, so no such
         // slice is read while it runs (the caller holds none across it).
@@ -140,7 +140,7 @@ impl Storage {
         // Errors left over from before are not this erase's: clear them.
         let _ = self.wait_idle();
         // SAFETY: SNB is a 4-bit field and `sector` is a sector number of this chip
-        // (6 or 7, from `robot_app::hw::flash`).
+        // (6 or 7, from `robot_app::stm32f4::flash`).
         self.flash.cr().modify(|_, w| unsafe {
             w.pg()
                 .clear_bit()

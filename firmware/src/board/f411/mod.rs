@@ -32,7 +32,7 @@
 //! PA1 to GND ([`supply`]).
 //!
 //! Everything chip-specific the firmware writes is derived here from [`CHIP`] and
-//! [`SYSCLK_HZ`] through `robot_app::hw`, whose host tests check it against the
+//! [`SYSCLK_HZ`] through `robot_app::stm32f4`, whose host tests check it against the
 //! reference manuals.
 
 mod clock;
@@ -48,11 +48,11 @@ use core::num::NonZeroU32;
 
 use controller_core::supervisor::ResetCause;
 use cortex_m::peripheral::DWT;
-use robot_app::hw::chip::{Chip, HSI_HZ};
-use robot_app::hw::clock::{self as clock_plan, ClockPlan};
-use robot_app::hw::supply::{AdcPrescaler, Divider, SampleTime};
-use robot_app::hw::usart::BaudSetting;
-use robot_app::hw::watchdog::IwdgConfig;
+use robot_app::stm32f4::chip::{Chip, HSI_HZ};
+use robot_app::stm32f4::clock::{self as clock_plan, ClockPlan};
+use robot_app::stm32f4::supply::{AdcPrescaler, Divider, SampleTime};
+use robot_app::stm32f4::usart::BaudSetting;
+use robot_app::stm32f4::watchdog::IwdgConfig;
 use robot_app::{Actuation, ControlSide, Sensors};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
@@ -95,7 +95,7 @@ pub const SYSCLK_HZ: u32 = 100_000_000;
 pub const SYSCLK_HZ: u32 = 72_000_000;
 
 /// The clock configuration for [`CHIP`] at [`SYSCLK_HZ`]: PLL, bus dividers, flash wait
-/// states, voltage scale (`robot_app::hw::clock::plan`). `clock::configure` checks the
+/// states, voltage scale (`robot_app::stm32f4::clock::plan`). `clock::configure` checks the
 /// registers against it after the HAL has written them.
 pub const CLOCK_PLAN: ClockPlan = match clock_plan::plan(CHIP, HSI_HZ, SYSCLK_HZ) {
     Ok(plan) => plan,
@@ -214,7 +214,7 @@ pub struct Board {
 /// The control tick is not started yet ([`ControlIo::start`]).
 pub fn init(dp: pac::Peripherals, mut cp: cortex_m::Peripherals) -> Board {
     // Why did we reset? Read (and clear) before anything else touches RCC.
-    let reset = ResetCause::from_flags(pins::take_reset_flags(&dp.RCC));
+    let reset = pins::take_reset_flags(&dp.RCC).cause();
 
     // The watchdog first, with a long timeout, so that no wait below (the HAL's PLL
     // lock included) can hang init: it resets the chip with the motors never enabled.
@@ -294,7 +294,7 @@ pub fn init(dp: pac::Peripherals, mut cp: cortex_m::Peripherals) -> Board {
 
     // The link: USART2 at LINK_BAUD, 8N1 (RM0383 §19.6). RCC_APB1ENR.USART2EN on, the
     // peripheral reset (CR1–CR3 = 0: 8 data bits, no parity, 1 stop bit, 16×
-    // oversampling, no flow control, no DMA); BRR from `robot_app::hw::usart`; then
+    // oversampling, no flow control, no DMA); BRR from `robot_app::stm32f4::usart`; then
     // CR1 = UE | TE | RE | RXNEIE (the transmit interrupt is the driver's to switch).
     let _link_pins = (pins.link_tx, pins.link_rx);
     pac::USART2::enable(&mut rcc);

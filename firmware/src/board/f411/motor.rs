@@ -3,7 +3,7 @@
 //! Both drivers run in slow decay: duty 0 with the driver enabled is a **short brake**, a
 //! disabled driver (TB6612FNG STBY low, DRV8833 nSLEEP low) lets the motors **coast**.
 //! The input states and the order of transitions are decided in
-//! `robot_app::hw::bridge` (host-tested); this module writes them to pins.
+//! `robot_app::stm32f4::bridge` (host-tested); this module writes them to pins.
 //!
 //! | command | TB6612FNG IN1 / IN2 / PWM | DRV8833 IN1 / IN2 |
 //! |---|---|---|
@@ -15,7 +15,7 @@
 //! The PWM timer's compare registers are preloaded (stm32f4xx-hal sets OCxPE): a new
 //! compare takes effect at the next update event, within one 50 µs PWM period, while
 //! the TB6612's direction pins act at once. [`DriveTrain`] runs every command through
-//! `robot_app::hw::bridge::DriveSequencer`, so a change of direction first spends one
+//! `robot_app::stm32f4::bridge::DriveSequencer`, so a change of direction first spends one
 //! control step (1 ms, twenty PWM periods) in brake: the direction pins only flip when the
 //! latched compare is 0 (TB6612), and a DRV8833 channel never changes both of its inputs
 //! in one step. Arming spends one step putting the inputs in brake before the enable
@@ -30,7 +30,7 @@ use core::convert::Infallible;
 use controller_core::controller::MotorCommand;
 use embedded_hal::digital::OutputPin;
 use embedded_hal::pwm::SetDutyCycle;
-use robot_app::hw::bridge::{
+use robot_app::stm32f4::bridge::{
     command_for, drv8833_inputs, tb6612_inputs, BridgeCommand, DriveSequencer, Drv8833Inputs,
 };
 

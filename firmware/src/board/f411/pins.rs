@@ -193,16 +193,12 @@ pub unsafe fn force_motors_off() {
     }
 }
 
-/// Why the chip reset, read from RCC_CSR; clears the flags for the next boot.
-///
-/// RM0383 §6.3, RCC_CSR: BORRSTF is set "when a POR/PDR or BOR reset occurs", so after a
-/// power-on both PORRSTF and BORRSTF are set; a brown-out alone is BORRSTF without
-/// PORRSTF. Every internal reset also drives NRST low, so PINRSTF accompanies the other
-/// flags; a pin reset alone is PINRSTF with nothing else. (With the factory option bytes
-/// BOR is off and only the POR/PDR threshold resets the chip.)
-pub fn take_reset_flags(rcc: &pac::RCC) -> controller_core::supervisor::ResetFlags {
+/// The reset flags of RCC_CSR (`robot_app::stm32f4::reset` decodes them); clears them
+/// for the next boot. (With the factory option bytes BOR is off and only the POR/PDR
+/// threshold resets the chip.)
+pub fn take_reset_flags(rcc: &pac::RCC) -> robot_app::stm32f4::reset::ResetFlags {
     let csr = rcc.csr().read();
-    let flags = controller_core::supervisor::ResetFlags {
+    let flags = robot_app::stm32f4::reset::ResetFlags {
         low_power: csr.lpwrrstf().bit_is_set(),
         window_watchdog: csr.wwdgrstf().bit_is_set(),
         independent_watchdog: csr.wdgrstf().bit_is_set(),

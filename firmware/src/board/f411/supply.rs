@@ -11,7 +11,7 @@
 //! (one conversion); SQR3.SQ1 = 1. The first conversion starts at the end of the first
 //! control step, well after the ADC's power-up time (t_STAB, a few µs).
 
-use robot_app::hw::supply::supply_volts;
+use robot_app::stm32f4::supply::supply_volts;
 use stm32f4xx_hal::gpio::{Analog, PA1};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::rcc::{Enable, Rcc, Reset};

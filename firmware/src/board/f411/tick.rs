@@ -1,6 +1,6 @@
 //! The control tick: TIM5 (32 bits) counting freely at
 //! `board::TICK_TIMER_HZ`, its channel-1 compare interrupt at the
-//! next point of a fixed grid (`robot_app::hw::tick`).
+//! next point of a fixed grid (`robot_app::stm32f4::tick`).
 //!
 //! Registers (RM0383 §13.4, TIM2–TIM5): PSC = f_TIM / 1 MHz − 1 (99 on the F411), loaded
 //! by an update event (EGR.UG); ARR = 0xFFFF_FFFF (reset value: the counter wraps after
@@ -16,7 +16,7 @@
 
 use core::num::NonZeroU32;
 
-use robot_app::hw::tick::{has_reached, TickSchedule};
+use robot_app::stm32f4::tick::{has_reached, TickSchedule};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::rcc::{Enable, Rcc, Reset};
 

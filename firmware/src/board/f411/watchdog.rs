@@ -1,5 +1,5 @@
 //! The independent watchdog, written directly (IWDG_KR, IWDG_PR, IWDG_RLR, IWDG_SR) with
-//! the settings of `robot_app::hw::watchdog`.
+//! the settings of `robot_app::stm32f4::watchdog`.
 //!
 //! RM0383 §17.3: writing 0xCCCC to IWDG_KR starts the watchdog and forces the LSI on; the
 //! counter then starts from 0xFFF at the current prescaler (÷4 after reset: 512 ms at
@@ -14,7 +14,7 @@
 
 use core::fmt;
 
-use robot_app::hw::watchdog::IwdgConfig;
+use robot_app::stm32f4::watchdog::IwdgConfig;
 use stm32f4xx_hal::pac;
 
 /// Reads of IWDG_SR before an update counts as stuck: at least 10 ms at one read per

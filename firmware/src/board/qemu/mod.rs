@@ -36,10 +36,10 @@ mod instructions;
 mod plant_port;
 
 use controller_core::supervisor::ResetCause;
+use lockstep::{BoardStep, PlantStep};
 use robot_app::channel::ring::{Consumer, Producer, Ring};
-use robot_app::hw::watchdog::{IwdgConfig, IwdgPrescaler};
-use robot_app::lockstep::{BoardStep, PlantStep};
 use robot_app::persist::Slot;
+use robot_app::stm32f4::watchdog::{IwdgConfig, IwdgPrescaler};
 use robot_app::{Actuation, ControlSide, Sensors};
 use stm32f4xx_hal::pac;
 
@@ -135,7 +135,7 @@ pub fn steering_done() {
 }
 
 /// Tells the plant that the firmware is up: both USARTs are enabled, so nothing it
-/// sends from now on is lost (`robot_app::lockstep::READY`).
+/// sends from now on is lost (`lockstep::READY`).
 pub fn announce_ready() {
     plant_port::send_ready();
 }

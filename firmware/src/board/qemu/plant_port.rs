@@ -1,5 +1,5 @@
 //! The plant port: USART1, QEMU's first `-serial`, connected to `host-sim pil`, speaking
-//! `robot_app::lockstep`.
+//! `lockstep`.
 //!
 //! Its interrupt (same priority as the control task, so neither preempts the other):
 //!
@@ -15,11 +15,11 @@
 
 use core::sync::atomic::{AtomicBool, Ordering};
 
-use robot_app::channel::ring::{Consumer, Producer};
-use robot_app::lockstep::{
+use lockstep::{
     BoardEncoder, BoardReport, BoardStep, PlantStep, StepDecoder, ToBoard, BOARD_STEP_MAX_LEN,
     READY,
 };
+use robot_app::channel::ring::{Consumer, Producer};
 use stm32f4xx_hal::pac;
 
 use super::STEP_SLOTS;

@@ -172,7 +172,7 @@ impl IwdgConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hw::chip::Chip;
+    use crate::stm32f4::chip::Chip;
 
     const LSI: (u32, u32, u32) = (17_000, 32_000, 47_000);
 

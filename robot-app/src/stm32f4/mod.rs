@@ -1,7 +1,7 @@
-//! Register arithmetic of the STM32F4 boards, as pure functions with host tests, so that
-//! every value the firmware writes to a clock, timer, watchdog or ADC register is
-//! computed and checked here, against the reference manual's and the datasheet's figures,
-//! without hardware.
+//! The STM32F4's register arithmetic, as pure functions with host tests, so that every
+//! value the firmware writes to a clock, timer, watchdog or ADC register, and every flag
+//! it reads, is computed and checked here, against the reference manual's and the
+//! datasheet's figures, without hardware.
 //!
 //! | module | what it decides |
 //! |---|---|
@@ -14,6 +14,7 @@
 //! | [`supply`] | the supply divider, ADC clock and sampling time, raw reading to volts |
 //! | [`usart`] | USART_BRR for a baud rate, and the rate's error |
 //! | [`flash`] | the storage sectors, erase and program times, the watchdog that outlasts them |
+//! | [`reset`] | the reset cause from RCC_CSR's flags |
 //! | [`stack`] | the stack's high-water mark from the painted stack |
 
 pub mod bridge;
@@ -21,6 +22,7 @@ pub mod chip;
 pub mod clock;
 pub mod encoder_filter;
 pub mod flash;
+pub mod reset;
 pub mod stack;
 pub mod supply;
 pub mod tick;

@@ -31,6 +31,10 @@
 //! count is 0, is dropped and counted ([`StepDecoder::errors`]), and the plant then times
 //! out waiting for the answer.
 
+#![cfg_attr(not(test), no_std)]
+#![deny(missing_docs)]
+#![forbid(unsafe_code)]
+
 use core::num::NonZeroU32;
 
 use controller_core::controller::{MotorCommand, TickDeltas};

@@ -171,9 +171,9 @@ pub const fn persist_watchdog_timeout_us(sector: &Sector, record_len: usize) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hw::chip::Chip;
-    use crate::hw::watchdog::{IwdgConfig, IwdgPrescaler};
     use crate::persist::{Slot, MAX_RECORD_LEN};
+    use crate::stm32f4::chip::Chip;
+    use crate::stm32f4::watchdog::{IwdgConfig, IwdgPrescaler};
 
     #[test]
     fn the_sectors_tile_512_kib_without_gaps() {

@@ -391,7 +391,7 @@ pub const fn plan(chip: Chip, source_hz: u32, sysclk_hz: u32) -> Result<ClockPla
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hw::chip::HSI_HZ;
+    use crate::stm32f4::chip::HSI_HZ;
 
     #[test]
     fn f411_at_100_mhz_from_hsi() {

@@ -212,7 +212,7 @@ pub fn encode_body<T: Serialize + ?Sized>(value: &T, out: &mut [u8]) -> Result<u
 ///
 /// Pushing a byte is deliberately not inlined: postcard calls it from every field of
 /// every message, and inlining it there multiplies the code (measured on
-/// `tests/qemu-link` at opt-level 3, an inlined CRC-and-COBS output took 49 024 B of
+/// `cortex-m4f/qemu-link` at opt-level 3, an inlined CRC-and-COBS output took 49 024 B of
 /// `.text`, an out-of-line one 39 328 B).
 struct Body<'a> {
     out: &'a mut [u8],

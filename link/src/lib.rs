@@ -149,7 +149,7 @@
 //!
 //! # Cost on the target
 //!
-//! Measured on the Cortex-M4F program `tests/qemu-link` (built like the firmware:
+//! Measured on the Cortex-M4F program `cortex-m4f/qemu-link` (built like the firmware:
 //! `opt-level = "s"` for the program, fat LTO), whose `.text`/`.bss` `cargo xtask
 //! link-qemu` prints:
 //!

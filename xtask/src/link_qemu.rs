@@ -1,4 +1,4 @@
-//! The link on an emulated Cortex-M4F: builds `tests/qemu-link`, runs it under
+//! The link on an emulated Cortex-M4F: builds `cortex-m4f/qemu-link`, runs it under
 //! `qemu-system-arm` (netduinoplus2) with its USART1 connected to a TCP socket of this
 //! process, and talks to it through the `link` crate:
 //!

@@ -1,4 +1,4 @@
-//! The core on an emulated Cortex-M4F: builds `tests/qemu-m4f`, runs it under
+//! The core on an emulated Cortex-M4F: builds `cortex-m4f/qemu-m4f`, runs it under
 //! `qemu-system-arm` (netduinoplus2, semihosting, `-icount shift=0`), and checks that
 //!
 //! - its trajectory digest equals the one the host computes for the same scenario

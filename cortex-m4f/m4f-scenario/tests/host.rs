@@ -1,4 +1,4 @@
-//! The QEMU scenario (`tests/m4f-scenario`) on the host.
+//! The scenario on the host.
 //!
 //! `cargo xtask ci` runs the same scenario on an emulated Cortex-M4F and demands the same
 //! digest, bit for bit. These tests make sure the scenario is worth comparing: it is

@@ -3,8 +3,8 @@
 //! One closed-loop run of `controller-core` against a small deterministic plant, reduced
 //! to a [`Digest`] of its trajectory. The same code runs
 //!
-//! - on the host (the `tests` crate and `cargo xtask ci` call [`run_scenario`] directly),
-//! - on an emulated Cortex-M4F (`tests/qemu-m4f`, run by `cargo xtask ci` under QEMU),
+//! - on the host (this crate's tests and `cargo xtask ci` call [`run_scenario`] directly),
+//! - on an emulated Cortex-M4F (`cortex-m4f/qemu-m4f`, run by `cargo xtask ci` under QEMU),
 //!
 //! and the two digests must be bit-identical: that is the proof that the core computes the
 //! same numbers on the robot as in every host test and simulation.

@@ -107,29 +107,15 @@
 //!
 //! # RAM
 //!
-//! On `thumbv7em-none-eabihf`, as the firmware's symbols show them (`cargo xtask size`):
-//! [`ControlSide`] 3 560 B (the controller with its active path, about 1 KiB, and two
-//! wheel-speed windows of 64 steps; the supervisor with the wheel-loop tune's state),
-//! [`LinkService`] 1 560 B (the frame decoder, the transmit buffer of
-//! [`service::TX_CAPACITY`] = 576 B, the active configuration, the last run and tune
-//! reports), [`Channels`] 1 592 B (mostly the staging area's room for a path). A path is
-//! held twice: once active in the controller, and in the staging area, where the link
-//! side also assembles uploads (`Staged::Assembling`), so it needs no room of its own.
-//! `cargo run -p robot-app --example wiring` prints the host's sizes (a little larger:
-//! 8-byte pointers); the budgets below are checked at compile time on every target.
-
-//! # Flash
-//!
-//! Measured with the same test program (`opt-level = "s"`, fat LTO, `.text`): a loop of
-//! supervisor and controller steps alone 15.2 KiB; the same loop through [`ControlSide`]
-//! with a [`LinkService`] (the link's codec, validation, path assembly and geometry)
-//! 50.3 KiB; with the persistence record's encode, decode and page rotation too,
-//! 54.2 KiB. No float formatting is linked (`core::fmt` float code absent from the
-//! binary). The binary's only panic paths are inside the link's codec (bounds checks in
-//! the `cobs` decoder, postcard's COBS output and the frame encoder's `finalize`), on the
-//! link side: none is reachable from [`ControlSide::step`] (checked by following its
-//! calls in the disassembly; the firmware's `cargo xtask panic-check` will check it for
-//! real once the firmware calls it).
+//! Everything is static: no heap. The control side holds the controller (with two
+//! wheel-speed windows) and the supervisor (with the wheel-loop tune's state); the link
+//! service the frame decoder, the transmit buffer of [`service::TX_CAPACITY`] bytes, the
+//! active configuration and the last run and tune reports; the channels the staging area
+//! (room for one path, where uploads are also assembled) and the outer loop with its
+//! reference and path. A path is held twice: active in the outer loop, and staged. The
+//! budgets below are checked at compile time wherever the crate is built; `cargo run -p
+//! robot-app --example wiring` prints the sizes, and `cargo xtask size` the firmware's
+//! static RAM against its budget.
 
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
@@ -153,13 +139,8 @@ pub use crate::service::{BoardStats, Identity, LinkOptions, LinkService, NoBoard
 pub use crate::start::{start, AppConfig, StartError};
 
 /// RAM budgets, checked wherever the crate is compiled (the target's sizes are a little
-/// below the host's).
+/// below the host's, whose pointers are 8 bytes).
 const _: () = {
-    // The wheel-loop tune's state (`controller_core::tune::Tuner`, 552 B on the host) is
-    // part of the supervisor; the steering law's job and outcome (148 B), held between
-    // two control steps, are part of the controller. The outer loop itself (its reference
-    // and a path) is in the channels, where it can be lent (`crate::outer`).
-    // 2 840, 1 616 and 2 832 B on a 64-bit host; 2 784, 1 560 and 2 784 B on the target.
     assert!(core::mem::size_of::<ControlSide<'static>>() <= 2_880);
     assert!(core::mem::size_of::<LinkService<'static>>() <= 1_664);
     assert!(core::mem::size_of::<Channels>() <= 2_880);

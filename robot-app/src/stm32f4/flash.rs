@@ -9,8 +9,8 @@
 //! 64 KiB at 0x0801_0000, sectors 5–7 of 128 KiB from 0x0802_0000. The records
 //! ([`crate::persist`], two pages used in turn) go to the last two sectors, 6 and 7
 //! ([`STORAGE_F411`]), so the code may use sectors 0–5: the firmware's `memory.x`
-//! gives it [`code_flash_len`] = 256 KiB. A debug build (much larger than the release
-//! build's ≤ 32 KiB) still links.
+//! gives it [`code_flash_len`] = 256 KiB. A debug build, much larger than the firmware
+//! build (which `cargo xtask size` holds to sectors 0–4, 128 KiB), still links.
 //!
 //! The STM32F401 port example has no storage: the F401CC of the WeAct board has only
 //! sectors 0–5 (256 KiB), all of which a debug build may need.

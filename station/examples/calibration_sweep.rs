@@ -13,13 +13,13 @@
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use controller_core::law::LawKind;
-use host_sim::rng::Rng;
 use host_sim::run::{plant_params, run_scenario_with, RunOptions};
 use host_sim::serve::VirtualRobot;
 use host_sim::sweep::{perturb, Percentiles};
-use host_sim::Scenario;
 use link::ParamSet;
 use robot_app::Channels;
+use robot_files::rng::Rng;
+use robot_files::scenario::Scenario;
 use station::calibrate::{calibrate, CalibrateArgs, Measure};
 use station::client::Client;
 use station::transport::InProcess;

@@ -10,11 +10,14 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
-use host_sim::cli::Law;
-use host_sim::output::{self, settle_text};
-use host_sim::Scenario;
+use host_sim::output;
 use indicatif::{ProgressBar, ProgressStyle};
 use link::{Reply, Request, Uplink};
+use robot_files::cli::Law;
+use robot_files::metrics::{fault_names, ErrorReport};
+use robot_files::output::settle_text;
+use robot_files::scenario::Scenario;
+use robot_files::trace::trace_csv;
 use station::client::Client;
 use station::record::{self, RunPlan};
 use station::transport::{self, Serial, Tcp, Transport};
@@ -434,7 +437,7 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
             f.duty.left,
             f.duty.right,
             f.supply_v,
-            host_sim::metrics::fault_names(&f.faults).join("|"),
+            fault_names(&f.faults).join("|"),
         );
     };
     eprintln!(
@@ -534,7 +537,7 @@ the robot's (`station params set` sends a robot file)"
         let mut as_truth = result.clone();
         as_truth.trace = record::estimate_as_truth(&result.trace);
         output::write_run(out, &shown, &as_truth)?;
-        std::fs::write(out.join("trace.csv"), output::trace_csv(&result.trace))?;
+        std::fs::write(out.join("trace.csv"), trace_csv(&result.trace))?;
         let json = serde_json::to_string_pretty(&result.summary)?;
         std::fs::write(out.join("summary.json"), json + "\n")?;
     }
@@ -552,7 +555,7 @@ the robot's (`station params set` sends a robot file)"
             None => String::new(),
         }
     );
-    let line = |which: &str, e: &host_sim::ErrorReport| {
+    let line = |which: &str, e: &ErrorReport| {
         format!(
             "  {which}: settle {}, final {:.4} m / {:+.2}°, last 10 s RMS {:.4} m, max {:.4} m",
             settle_text(e.settle_time_s),

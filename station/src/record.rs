@@ -9,13 +9,14 @@ use controller_core::kinematics::Pose;
 use controller_core::law::LawKind;
 use controller_core::params::Params;
 use controller_core::supervisor::{Event, Faults, RunMode, State};
-use host_sim::metrics::{ErrorReport, Summary, SupervisorReport};
-use host_sim::plant::TruePose;
-use host_sim::run::{tracking_error_f64, true_error, RunResult, TraceRow, TrueReference};
-use host_sim::Scenario;
+use host_sim::run::RunResult;
 use link::{
     GroundTruth, ParamSet, Reply, Request, RunReport, TelemetryFrame, TrueRunReport, Uplink,
 };
+use robot_files::metrics::{ErrorReport, Summary, SupervisorReport};
+use robot_files::scenario::Scenario;
+use robot_files::trace::TraceRow;
+use robot_files::truth::{tracking_error_f64, true_error, TruePose, TrueReference};
 
 use crate::client::{Client, StationError};
 use crate::ops;

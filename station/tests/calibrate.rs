@@ -1,10 +1,10 @@
 //! UMBmark through the station against the virtual robot with injected mismatches: the
 //! recovered geometry against the plant's truth.
 
-use host_sim::rng::Rng;
 use host_sim::serve::VirtualRobot;
-use host_sim::Scenario;
 use robot_app::Channels;
+use robot_files::rng::Rng;
+use robot_files::scenario::Scenario;
 use station::calibrate::{calibrate, CalibrateArgs, Measure};
 use station::client::Client;
 use station::transport::InProcess;

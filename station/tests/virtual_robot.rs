@@ -5,8 +5,8 @@ use std::sync::atomic::AtomicBool;
 
 use controller_core::law::LawKind;
 use host_sim::serve::VirtualRobot;
-use host_sim::Scenario;
 use robot_app::Channels;
+use robot_files::scenario::Scenario;
 use station::client::Client;
 use station::record::{self, RunPlan};
 use station::transport::InProcess;
@@ -158,7 +158,7 @@ fn a_tune_through_the_station_identifies_the_simulated_wheels() {
     // The text pastes into a robot file and applies.
     let text = station::ops::describe_tune(&report);
     assert!(text.contains("[robot.left_wheel]") && text.contains("kp_v_per_rad_s = "));
-    let file = host_sim::robot_file::RobotFile::from_toml(&text).expect("a robot file");
+    let file = robot_files::robot_file::RobotFile::from_toml(&text).expect("a robot file");
     assert_eq!(
         file.robot.left_wheel.kp_v_per_rad_s,
         Some(result.loops[0].kp_v_per_rad_s)

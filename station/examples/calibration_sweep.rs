@@ -10,6 +10,9 @@
 //! geometry), calibrated, and with the geometry known exactly (what is left is slip and
 //! everything else). Prints the true final position error's percentiles.
 
+#[path = "../tests/support/mod.rs"]
+mod support;
+
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use controller_core::law::LawKind;
@@ -22,7 +25,7 @@ use robot_files::rng::Rng;
 use robot_files::scenario::Scenario;
 use station::calibrate::{calibrate, CalibrateArgs, Measure};
 use station::client::Client;
-use station::transport::InProcess;
+use support::InProcess;
 
 /// `scenario` with the controller believing `robot`, the plant's true geometry unchanged.
 fn believing(scenario: &Scenario, robot: controller_core::params::RobotConfig) -> Scenario {

@@ -1,6 +1,10 @@
 //! The `[robot]` and `[supervisor]` TOML sections: one schema, parsed by this module for
-//! host-sim's scenarios and for the ground station's `params get` / `params set`, so a
-//! robot file tuned in the simulator is the robot file the real robot takes.
+//! the scenarios ([`crate::scenario`]) and for the ground station's `params get` /
+//! `params set`, so a robot file tuned in the simulator is the robot file the real robot
+//! takes.
+//!
+//! `robot.rs` holds `[robot]` (what the controller believes), `supervisor.rs`
+//! `[supervisor]` (its settings in seconds); this file the whole file and the errors.
 //!
 //! ```toml
 //! [robot]                      # every key optional; the rest from RobotConfig::REFERENCE_ROBOT

@@ -11,9 +11,11 @@
 use std::time::Instant;
 
 use controller_core::prelude::*;
-use host_sim::plant::{Plant, TruePose};
+use host_sim::plant::Plant;
 use host_sim::run::plant_params;
-use host_sim::{run_scenario_with, RunOptions, Scenario};
+use host_sim::{run_scenario_with, RunOptions};
+use robot_files::scenario::Scenario;
+use robot_files::truth::TruePose;
 
 fn best_of<F: FnMut() -> f64>(runs: usize, mut f: F) -> f64 {
     (0..runs).map(|_| f()).fold(f64::INFINITY, f64::min)

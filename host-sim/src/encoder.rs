@@ -14,7 +14,7 @@
 //! [`Encoder::read_delta`] returns the signed ticks since the previous reading, which is
 //! exactly what the firmware hands to the controller each step.
 
-use crate::rng::Rng;
+use robot_files::rng::Rng;
 
 /// ⌊x⌋ as an integer. `f64::floor` is a library call on the baseline x86-64 target (no
 /// SSE4.1), and this runs twice per control step; the cast truncates toward zero and

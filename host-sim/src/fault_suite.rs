@@ -15,12 +15,12 @@
 //! the supply measurement); the simulator's truth only measures what the fault did.
 
 use controller_core::law::LawKind;
+use robot_files::faults::{Fault, FaultKind, Wheel};
+use robot_files::metrics::FaultReport;
+use robot_files::scenario::Scenario;
 use serde::Serialize;
 
-use crate::faults::{Fault, FaultKind, Wheel};
-use crate::metrics::FaultReport;
 use crate::run::{run_scenario_with, RunError, RunOptions};
-use crate::scenario::Scenario;
 
 /// When each case's fault is injected, s (after the paper's circle's 5.5 s divergence
 /// settling window).

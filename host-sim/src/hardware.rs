@@ -1,9 +1,9 @@
 //! The simulated robot's hardware, as the firmware sees it: encoder counts, the supply
 //! measurement and the button going in; duties and the bridge's state coming out.
 //!
-//! [`SimHardware`] wraps the [`Plant`] with the encoders, the supply
-//! sensor and the injected [`faults`](crate::faults). Whatever runs the robot's logic —
-//! the simulator's own loop ([`crate::run`]), the virtual robot, or the real firmware
+//! [`SimHardware`] wraps the [`Plant`] with the encoders, the supply sensor and the
+//! injected [`faults`](robot_files::faults). Whatever runs the robot's logic — the
+//! simulator's own loop ([`crate::run`]), the virtual robot, or the real firmware
 //! under QEMU — calls it the same way, once per control step:
 //!
 //! 1. [`SimHardware::periods_until_next_step`]: how many control periods the next step
@@ -17,12 +17,14 @@
 
 use controller_core::controller::{MotorCommand, TickDeltas};
 use controller_core::supervisor::Bridge;
+use robot_files::faults::{Fault, FaultKind};
+use robot_files::plant::Wheel;
+use robot_files::rng::Rng;
+use robot_files::scenario::Scenario;
+use robot_files::truth::TruePose;
 
 use crate::encoder::Encoder;
-use crate::faults::{Fault, FaultKind};
-use crate::plant::{Plant, PlantError, TruePose, Wheel};
-use crate::rng::Rng;
-use crate::scenario::Scenario;
+use crate::plant::{Plant, PlantError};
 
 /// What the firmware reads in one control step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -96,7 +98,7 @@ impl SimHardware {
             TruePose {
                 x_m: s.x_m,
                 y_m: s.y_m,
-                theta_rad: crate::plant::robot::wrap_angle(s.theta_rad),
+                theta_rad: robot_files::truth::wrap_angle(s.theta_rad),
             },
             [0.0; 2],
         );

@@ -13,34 +13,34 @@
 //!   rate; wheel slip; fault hooks (disconnected motor, jammed wheel, slip patch, supply
 //!   sag); the true pose.
 //! - [`encoder`] — quadrature quantisation (lines × 4 × gear) with optional edge jitter.
-//! - [`robot_file`] — the `[robot]` and `[supervisor]` TOML sections, shared with the
-//!   ground station's robot files.
-//! - [`scenario`] — TOML scenarios with every quantity in SI units, validated with errors
-//!   that name the key; five built in (`paper-circle`, `paper-line`, `square-waypoints`,
-//!   `figure-eight`, and `longest-path`, the most segments a path may have).
 //! - [`hardware`] — the simulated robot as the firmware sees it: encoder ticks, the supply
 //!   measurement and the button in, duties and the bridge state (drive, brake, coast) out,
-//!   with [`faults`] injected on a timeline.
+//!   with the scenario's faults injected on a timeline.
 //! - [`run`] — the loop that runs the firmware's decision path, the supervisor around the
-//!   controller, against that hardware, and [`metrics`] of the result.
+//!   controller, against that hardware, and the metrics of the result.
 //! - [`fault_suite`] — every kind of fault, one at a time, against its detector's limit.
 //! - [`pil`] — processor in the loop: the firmware itself, on an emulated Cortex-M4F
 //!   (QEMU), against this plant in lockstep, driven by a ground station over its link.
 //! - [`margins`] — the wheel loop's gain and phase margins, from its linearised model and
 //!   measured by a frequency sweep on the simulated robot.
-//! - [`plot`] — SVG figures in the style of the paper's Figs. 5–7.
+//! - [`output`] — a run's files (trace, summary, Figs. 5–7) and its human summary.
+//! - [`plot`] — SVG figures of the wheel loop's step response.
 //! - [`sweep`] — Monte-Carlo over mismatch, noise and start pose, on every core.
 //! - [`robustness`] — the wheel loop with fixed gains against supplies from 4.8 to 12.6 V
 //!   and motors ±30 % off.
 //! - [`tune`] — the core's wheel-loop tune on the simulated robot, its identification
 //!   against the linearised plant and the tuned loop's step response.
-//! - [`cli`] — command-line values shared with the ground station.
 //! - [`serve`] — the virtual robot: robot-app's control and link sides against the
 //!   simulated hardware, speaking the runtime link over TCP, with ground truth.
 //!
+//! What it reads and writes — scenarios and robot files, the fault timeline, the plant's
+//! parameter types, a run's trace, metrics and Figs. 5–7 — is the `robot_files` crate's,
+//! shared with the ground station.
+//!
 //! ```no_run
 //! use controller_core::law::LawKind;
-//! use host_sim::{run_scenario, Scenario};
+//! use host_sim::run_scenario;
+//! use robot_files::scenario::Scenario;
 //!
 //! let scenario = Scenario::load("paper-circle")?;
 //! let result = run_scenario(&scenario, LawKind::Tracking)?;
@@ -51,26 +51,18 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
-pub mod cli;
 pub mod encoder;
 pub mod fault_suite;
-pub mod faults;
 pub mod hardware;
 pub mod margins;
-pub mod metrics;
 pub mod output;
 pub mod pil;
 pub mod plant;
 pub mod plot;
-pub mod rng;
-pub mod robot_file;
 pub mod robustness;
 pub mod run;
-pub mod scenario;
 pub mod serve;
 pub mod sweep;
 pub mod tune;
 
-pub use metrics::{ErrorReport, Summary};
 pub use run::{run_scenario, run_scenario_with, RunError, RunOptions, RunResult};
-pub use scenario::{Scenario, ScenarioError};

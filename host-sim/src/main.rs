@@ -7,12 +7,14 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use controller_core::law::LawKind;
-use host_sim::cli::Law;
-use host_sim::output::{self, settle_text};
+use host_sim::output;
 use host_sim::run::{run_scenario, wheel_step_response, RunResult};
-use host_sim::scenario::BUILTIN;
-use host_sim::{plot, sweep, Scenario};
+use host_sim::{plot, sweep};
 use indicatif::{ProgressBar, ProgressStyle};
+use robot_files::cli::Law;
+use robot_files::output::settle_text;
+use robot_files::scenario::{Scenario, ScenarioError, BUILTIN};
+use robot_files::trace::TraceRow;
 
 /// Differential-drive robot simulator for the Jin & Tack (2011) path-following stack.
 #[derive(Parser)]
@@ -249,7 +251,7 @@ fn default_dir(scenario: &Scenario, leaf: &str) -> PathBuf {
 fn load(name: &str) -> Result<Scenario> {
     Scenario::load(name).map_err(|e| match e {
         // Say which file a value error is in (syntax errors already do).
-        host_sim::ScenarioError::Invalid { .. } => anyhow::Error::new(e).context(name.to_string()),
+        ScenarioError::Invalid { .. } => anyhow::Error::new(e).context(name.to_string()),
         other => other.into(),
     })
 }
@@ -350,11 +352,11 @@ fn write_overlay(
 ) -> Result<PathBuf> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let file = dir.join("compare.svg");
-    let runs: Vec<(&str, &[host_sim::run::TraceRow])> = results
+    let runs: Vec<(&str, &[TraceRow])> = results
         .iter()
         .map(|(law, r)| (law.name(), r.trace.as_slice()))
         .collect();
-    plot::compare(&file, &scenario.name, &scenario.path, &runs)?;
+    robot_files::figures::compare(&file, &scenario.name, &scenario.path, &runs)?;
     Ok(file)
 }
 
@@ -695,7 +697,7 @@ fn cmd_tune(scenario: &str, options: TuneOptions) -> Result<()> {
     } = options;
     let mut scenario = load(scenario)?;
     if lifted {
-        scenario.plant.load = host_sim::plant::Load::Lifted;
+        scenario.plant.load = robot_files::plant::Load::Lifted;
     }
     let mut config = tune::config_for(&scenario);
     if let Some(x) = tau_c_per_dead_time {
@@ -749,11 +751,14 @@ fn cmd_tune(scenario: &str, options: TuneOptions) -> Result<()> {
         );
     }
     say!("\nthe tuned wheel loops (SIMC PI with feed-forward), for the robot file:\n");
-    say!("{}", tune::robot_file_sections(&result).trim_end());
+    say!(
+        "{}",
+        robot_files::robot_file::tuned_wheel_sections(&result).trim_end()
+    );
 
     // The tuned loop against the scenario's own, on the ground at 6 V.
     let mut ground = scenario.clone();
-    ground.plant.load = host_sim::plant::Load::Ground;
+    ground.plant.load = robot_files::plant::Load::Ground;
     ground.plant.driver.supply_v = 6.0;
     let tuned = tune::with_tuned_loops(&ground, &result);
     let hand_step = wheel_step_response(&ground, 15.0, 0.4)?;
@@ -771,7 +776,7 @@ fn cmd_tune(scenario: &str, options: TuneOptions) -> Result<()> {
         );
     }
     let mut on_scenario = scenario.clone();
-    on_scenario.plant.load = host_sim::plant::Load::Ground;
+    on_scenario.plant.load = robot_files::plant::Load::Ground;
     let hand_run = run_scenario(&on_scenario, LawKind::Tracking)?;
     let tuned_run = run_scenario(
         &tune::with_tuned_loops(&on_scenario, &result),
@@ -1085,7 +1090,7 @@ fn main() -> ExitCode {
                 say!("{}", text.trim_end());
                 Ok(())
             })(),
-            None => Err(anyhow::anyhow!(host_sim::ScenarioError::Unknown(name))),
+            None => Err(anyhow::anyhow!(ScenarioError::Unknown(name))),
         },
     };
     match result {

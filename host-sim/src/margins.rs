@@ -12,9 +12,9 @@
 //! instead of × η back-driven), c the damping (electrical plus viscous, [`PowerFlow`]) and
 //! J the inertia the wheel sees: a + b of the chassis' inertia matrix driving straight,
 //! a − b turning on the spot (with identical wheel loops the two wheels' loops split
-//! exactly into these two modes), the wheel's own inertia lifted ([`crate::plant::Load`]).
-//! Coulomb friction is a constant offset and drops out; the feed-forward acts on the
-//! set-point, outside the loop.
+//! exactly into these two modes), the wheel's own inertia lifted
+//! ([`robot_files::plant::Load`]). Coulomb friction is a constant offset and drops out;
+//! the feed-forward acts on the set-point, outside the loop.
 //!
 //! Discretised exactly at the control period T with the voltage held over the period
 //! (zero-order hold, as the PWM does), with the wheel angle φ as a second state (the
@@ -59,10 +59,11 @@ use controller_core::law::LawKind;
 use controller_core::params::Params;
 use controller_core::pid::PidGains;
 use controller_core::supervisor::{ArmRequest, RunMode};
+use robot_files::plant::Load;
+use robot_files::scenario::Scenario;
 
-use crate::plant::{Load, Plant, PlantError, PlantParams, PowerFlow};
+use crate::plant::{Plant, PlantError, PlantParams, PowerFlow};
 use crate::run::{plant_params, RunError};
-use crate::scenario::Scenario;
 
 /// A complex number, for frequency responses.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -248,7 +249,7 @@ impl Margins {
 
 /// `a` wrapped to (−π, π], rad.
 fn wrap_pi(a: f64) -> f64 {
-    crate::plant::robot::wrap_angle(a)
+    robot_files::truth::wrap_angle(a)
 }
 
 /// The linearised wheel loop (module doc).

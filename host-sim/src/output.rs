@@ -1,61 +1,29 @@
-//! Files and text a run leaves behind: `trace.csv`, `summary.json`, the figures, and a
-//! short human summary.
+//! What a simulated run leaves behind: its files (`trace.csv`, `summary.json` and Figs.
+//! 5–7, written by [`robot_files::output`] and [`robot_files::figures`], as the ground
+//! station writes a recorded run's) and a short human summary.
 
-use std::fs;
 use std::path::{Path as FsPath, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
+use robot_files::metrics::{SETTLE_HEADING_RAD, SETTLE_POSITION_M};
+use robot_files::output::settle_text;
+use robot_files::scenario::Scenario;
 
-use crate::metrics::{SETTLE_HEADING_RAD, SETTLE_POSITION_M};
-use crate::plot;
-use crate::run::{RunResult, TraceRow};
-use crate::scenario::Scenario;
-
-/// The trace as CSV text: a header (units in the column names) and one line per row.
-pub fn trace_csv(trace: &[TraceRow]) -> String {
-    let mut out = String::with_capacity(64 + trace.len() * 300);
-    out.push_str(TraceRow::CSV_HEADER);
-    out.push('\n');
-    for row in trace {
-        row.write_csv(&mut out);
-        out.push('\n');
-    }
-    out
-}
+use crate::run::RunResult;
 
 /// Writes `trace.csv`, `summary.json`, `fig5_path.svg`, `fig6_errors.svg` and
-/// `fig7_inputs.svg` into `dir` (created if needed). Returns the files written.
+/// `fig7_inputs.svg` of `result`, a run of `scenario`, into `dir` (created if needed).
+/// Returns the files written.
 pub fn write_run(dir: &FsPath, scenario: &Scenario, result: &RunResult) -> Result<Vec<PathBuf>> {
-    fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut written = Vec::new();
-    let trace = dir.join("trace.csv");
-    fs::write(&trace, trace_csv(&result.trace))
-        .with_context(|| format!("writing {}", trace.display()))?;
-    written.push(trace);
-    let summary = dir.join("summary.json");
-    let json = serde_json::to_string_pretty(&result.summary).context("serialising the summary")?;
-    fs::write(&summary, json + "\n").with_context(|| format!("writing {}", summary.display()))?;
-    written.push(summary);
-    let title = format!("{}, {} law", scenario.name, result.summary.law);
-    let settle = result.summary.headline_error().settle_time_s;
-    let fig5 = dir.join("fig5_path.svg");
-    plot::fig5_path(&fig5, &title, &scenario.path, &result.trace)?;
-    written.push(fig5);
-    let fig6 = dir.join("fig6_errors.svg");
-    plot::fig6_errors(&fig6, &title, &result.trace, settle)?;
-    written.push(fig6);
-    let fig7 = dir.join("fig7_inputs.svg");
-    plot::fig7_inputs(&fig7, &title, &result.trace, settle)?;
-    written.push(fig7);
+    let mut written =
+        robot_files::output::write_trace_and_summary(dir, &result.summary, &result.trace)?;
+    written.extend(robot_files::figures::write_run_figures(
+        dir,
+        scenario,
+        &result.summary,
+        &result.trace,
+    )?);
     Ok(written)
-}
-
-/// `Some(x)` as "x.xx s", `None` as "not settled".
-pub fn settle_text(settle: Option<f64>) -> String {
-    match settle {
-        Some(t) => format!("{t:.2} s"),
-        None => "not settled".to_string(),
-    }
 }
 
 /// A few lines for a person: what ran, whether and when it settled, the final errors,

@@ -24,12 +24,13 @@
 
 use controller_core::law::LawKind;
 use rayon::prelude::*;
+use robot_files::plant::Load;
+use robot_files::scenario::Scenario;
 use serde::Serialize;
 
 use crate::margins::{self, LoadCase, Motion};
-use crate::plant::{Load, PowerFlow};
+use crate::plant::PowerFlow;
 use crate::run::{run_scenario_with, wheel_step_response, RunError, RunOptions};
-use crate::scenario::Scenario;
 
 /// A final-10 s wheel-speed error RMS above this is an oscillation, rad/s. The nominal
 /// loop holds 0.03 rad/s on the circle (`host-sim param-sweep`); one tick of the speed
@@ -260,7 +261,7 @@ pub fn run_case(scenario: &Scenario, variation: Variation) -> Result<CaseResult,
         },
     )?;
     let rate = f64::from(s.robot.control_rate_hz);
-    let final_from = s.duration_s - crate::metrics::FINAL_WINDOW_S;
+    let final_from = s.duration_s - robot_files::metrics::FINAL_WINDOW_S;
     let (mut all, mut all_n, mut last, mut last_n) = (0.0, 0u64, 0.0, 0u64);
     for row in &run.trace {
         let e = [

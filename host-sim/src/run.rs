@@ -36,7 +36,7 @@
 //! the reference point at that time and its heading; in path-following mode, where the
 //! controller may aim ahead on purpose, the closest point of the path and the path's
 //! heading there. The controller's own estimate is measured against its own reference at
-//! its steering updates. See [`crate::metrics`].
+//! its steering updates. See [`robot_files::metrics`].
 
 use std::time::Instant;
 
@@ -47,115 +47,20 @@ use controller_core::supervisor::{
 };
 use m4f_scenario::{Digest, Fnv1a64};
 use robot_app::metrics::{ErrorSample, ErrorStats};
+use robot_files::faults::Fault;
+use robot_files::metrics::{
+    fault_names, ErrorReport, FaultReport, HourlyRms, Summary, SupervisorReport,
+};
+use robot_files::scenario::{Scenario, ScenarioError};
+use robot_files::trace::TraceRow;
+use robot_files::truth::{tracking_error_f64, TruePose, TrueReference};
 
-use crate::faults::Fault;
 use crate::hardware::{Actuation, Sensors, SimHardware};
-use crate::metrics::{fault_names, ErrorReport, FaultReport, HourlyRms, Summary, SupervisorReport};
-use crate::plant::{PlantError, PlantParams, TrueGeometry, TruePose};
-use crate::scenario::{Scenario, ScenarioError};
+use crate::plant::{PlantError, PlantParams, TrueGeometry};
 
 /// Most trace rows a run keeps: longer runs are decimated to about this many, so memory
 /// and file sizes stay flat however long the run.
 pub const MAX_TRACE_ROWS: u64 = 30_000;
-
-/// One row of `trace.csv`. World frame for poses (m, rad); robot frame for x_e, y_e.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TraceRow {
-    /// Time since the start, s.
-    pub t_s: f64,
-    /// True pose.
-    pub true_pose: TruePose,
-    /// The controller's odometry estimate.
-    pub est_pose: Pose,
-    /// Reference pose of the true-error measurement.
-    pub reference: Pose,
-    /// The controller's tracking error (9) of its estimate: x_e, y_e (m), θ_e (rad).
-    pub error: TrackingError,
-    /// True position error (m) and heading error (rad) as the metrics use them.
-    pub true_error: (f64, f64),
-    /// Tracking error (9) of the true pose against the reference: x_e, y_e (m, robot
-    /// frame), θ_e (rad).
-    pub true_tracking: [f64; 3],
-    /// The steering law's Lyapunov function V.
-    pub lyapunov: f32,
-    /// Body command after limits: v (m/s), ω (rad/s).
-    pub command: BodyVelocity,
-    /// True body velocity: v (m/s), ω (rad/s).
-    pub true_velocity: (f64, f64),
-    /// Wheel-speed set-points, rad/s.
-    pub setpoint: WheelSpeeds,
-    /// The controller's wheel-speed estimate, rad/s.
-    pub measured: WheelSpeeds,
-    /// True wheel speeds [left, right], rad/s.
-    pub true_wheel: [f64; 2],
-    /// Armature voltages the wheel loops commanded [left, right], V.
-    pub volts: [f32; 2],
-    /// Commanded duties, −1…1.
-    pub duty: MotorCommand,
-    /// The filtered supply the controller used, V.
-    pub supply_v: f32,
-    /// The supervisor's state.
-    pub state: State,
-}
-
-impl TraceRow {
-    /// Column names of [`TraceRow::write_csv`], comma-separated (units in the names).
-    pub const CSV_HEADER: &'static str = "t_s,x_m,y_m,theta_rad,x_est_m,y_est_m,theta_est_rad,\
-x_ref_m,y_ref_m,theta_ref_rad,x_e_m,y_e_m,theta_e_rad,x_e_true_m,y_e_true_m,theta_e_true_rad,\
-pos_err_true_m,heading_err_true_rad,\
-lyapunov_v,v_cmd_m_s,omega_cmd_rad_s,v_true_m_s,omega_true_rad_s,\
-setpoint_left_rad_s,setpoint_right_rad_s,speed_est_left_rad_s,speed_est_right_rad_s,\
-speed_true_left_rad_s,speed_true_right_rad_s,volts_left_v,volts_right_v,duty_left,duty_right,\
-supply_v,state";
-
-    /// Appends this row as CSV (no newline) to `out`.
-    pub fn write_csv(&self, out: &mut String) {
-        use std::fmt::Write;
-        let p = &self.true_pose;
-        // Writing to a String cannot fail.
-        let _ = write!(
-            out,
-            "{:.3},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},\
-{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.5},{:.5},{:.5},{:.5},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},\
-{:.4},{:.4},{:.4},{:.4},{:.3},{:?}",
-            self.t_s,
-            p.x_m,
-            p.y_m,
-            p.theta_rad,
-            self.est_pose.x_m,
-            self.est_pose.y_m,
-            self.est_pose.theta_rad,
-            self.reference.x_m,
-            self.reference.y_m,
-            self.reference.theta_rad,
-            self.error.x_e_m,
-            self.error.y_e_m,
-            self.error.theta_e_rad,
-            self.true_tracking[0],
-            self.true_tracking[1],
-            self.true_tracking[2],
-            self.true_error.0,
-            self.true_error.1,
-            self.lyapunov,
-            self.command.v_m_s,
-            self.command.omega_rad_s,
-            self.true_velocity.0,
-            self.true_velocity.1,
-            self.setpoint.left_rad_s,
-            self.setpoint.right_rad_s,
-            self.measured.left_rad_s,
-            self.measured.right_rad_s,
-            self.true_wheel[0],
-            self.true_wheel[1],
-            self.volts[0],
-            self.volts[1],
-            self.duty.left,
-            self.duty.right,
-            self.supply_v,
-            self.state,
-        );
-    }
-}
 
 /// Why a run could not start.
 #[derive(Debug, thiserror::Error)]
@@ -257,88 +162,6 @@ pub fn plant_params(scenario: &Scenario) -> PlantParams {
 /// every steering update.
 pub fn run_scenario(scenario: &Scenario, law: LawKind) -> Result<RunResult, RunError> {
     run_scenario_with(scenario, law, RunOptions::at_steering_rate(scenario))
-}
-
-/// Eq. (9) in f64: the reference seen from the true pose, robot frame: [x_e m, y_e m,
-/// θ_e rad].
-pub fn tracking_error_f64(pose: &TruePose, reference: &Pose) -> [f64; 3] {
-    let dx = f64::from(reference.x_m) - pose.x_m;
-    let dy = f64::from(reference.y_m) - pose.y_m;
-    let (s, c) = pose.theta_rad.sin_cos();
-    [
-        c * dx + s * dy,
-        -s * dx + c * dy,
-        crate::plant::robot::wrap_angle(f64::from(reference.theta_rad) - pose.theta_rad),
-    ]
-}
-
-/// The true error as the metrics use it: the distance from the true pose to `reference`
-/// (m) and the heading error θ_r − θ wrapped to (−π, π] (rad).
-pub fn true_error(reference: &Pose, pose: &TruePose) -> (f64, f64) {
-    let dx = f64::from(reference.x_m) - pose.x_m;
-    let dy = f64::from(reference.y_m) - pose.y_m;
-    let heading = crate::plant::robot::wrap_angle(f64::from(reference.theta_rad) - pose.theta_rad);
-    (dx.hypot(dy), heading)
-}
-
-/// The reference the true error is measured against (module doc), evaluated by the
-/// simulator itself, in `f64` where the controller uses fixed point: in time-indexed mode
-/// the arc length s₀ + v_r·k/rate (k control periods since arming) modulo the lap, so a
-/// reference that drifts in the controller shows up in the true error. The virtual robot
-/// and the station measure against it too.
-#[derive(Clone, Debug)]
-pub struct TrueReference {
-    path: Path,
-    /// Time-indexed: (start offset m, speed m/s, control rate Hz); None when following.
-    time_indexed: Option<(f64, f64, f64)>,
-}
-
-impl TrueReference {
-    fn new(scenario: &Scenario, control_rate_hz: u32) -> Self {
-        Self::of(
-            scenario.path.clone(),
-            scenario.reference_speed_m_s,
-            scenario.reference_mode,
-            control_rate_hz,
-        )
-    }
-
-    /// The reference along `path` at `speed_m_s` (m/s) in `mode`, on a loop of
-    /// `control_rate_hz` control periods per second.
-    pub fn of(path: Path, speed_m_s: f32, mode: ReferenceMode, control_rate_hz: u32) -> Self {
-        let time_indexed = match mode {
-            ReferenceMode::TimeIndexed { start_offset_m } => Some((
-                f64::from(path.normalize_m(start_offset_m)),
-                f64::from(speed_m_s),
-                f64::from(control_rate_hz),
-            )),
-            ReferenceMode::PathFollowing { .. } => None,
-        };
-        Self { path, time_indexed }
-    }
-
-    /// The reference pose (world frame, m and rad) `periods` control periods after
-    /// arming, for a robot at `pose`.
-    pub fn at(&self, periods: u64, pose: &TruePose) -> Pose {
-        let path = &self.path;
-        let s_m = match self.time_indexed {
-            Some((start_m, speed_m_s, rate_hz)) => {
-                let s = start_m + speed_m_s * periods as f64 / rate_hz;
-                let length = f64::from(path.length_m());
-                if path.is_closed() {
-                    s.rem_euclid(length) as f32
-                } else {
-                    s.min(length) as f32
-                }
-            }
-            None => {
-                let p = Point::new(pose.x_m as f32, pose.y_m as f32);
-                path.project(p, 0.0, f32::INFINITY, f32::INFINITY)
-            }
-        };
-        let sample = path.sample(s_m);
-        Pose::new(sample.point.x_m, sample.point.y_m, sample.heading_rad)
-    }
 }
 
 /// The controller's estimate after a step, as the loop records it.
@@ -726,7 +549,7 @@ pub fn run_with_logic<L: RobotLogic>(
                 reference_pose = truth.at(k, &pose);
                 let dx = f64::from(reference_pose.x_m) - pose.x_m;
                 let dy = f64::from(reference_pose.y_m) - pose.y_m;
-                let heading = crate::plant::robot::wrap_angle(
+                let heading = robot_files::truth::wrap_angle(
                     f64::from(reference_pose.theta_rad) - pose.theta_rad,
                 );
                 true_sample = (dx.hypot(dy), heading);
@@ -856,8 +679,9 @@ pub fn wheel_step_response(
     setpoint_rad_s: f64,
     duration_s: f64,
 ) -> Result<StepResponse, RunError> {
-    let max_s = crate::scenario::MAX_CONTROL_STEPS / f64::from(scenario.robot.control_rate_hz);
-    if !(duration_s > 0.0 && duration_s <= max_s.min(crate::scenario::MAX_DURATION_S)) {
+    let max_s =
+        robot_files::scenario::MAX_CONTROL_STEPS / f64::from(scenario.robot.control_rate_hz);
+    if !(duration_s > 0.0 && duration_s <= max_s.min(robot_files::scenario::MAX_DURATION_S)) {
         return Err(RunError::Argument {
             name: "duration_s",
             rule: "must be > 0 and within the scenario's step and time limits",

@@ -1,6 +1,6 @@
 //! Monte-Carlo: the same scenario many times over a spread of robots and starts.
 //!
-//! Each run draws, uniformly within the scenario's [`SweepSpec`](crate::scenario::SweepSpec) and on top of its own
+//! Each run draws, uniformly within the scenario's [`SweepSpec`](robot_files::scenario::SweepSpec) and on top of its own
 //! values: wheel-radius and track-width mismatch, a left/right radius difference, supply
 //! voltage, Coulomb friction, wheel slip, encoder jitter, and an offset of the start pose.
 //! Runs are independent (each has its own random stream, derived from the sweep seed and
@@ -14,13 +14,13 @@
 
 use controller_core::law::LawKind;
 use rayon::prelude::*;
+use robot_files::metrics::ErrorReport;
+use robot_files::metrics::Summary;
+use robot_files::rng::Rng;
+use robot_files::scenario::Scenario;
 use serde::Serialize;
 
-use crate::metrics::ErrorReport;
-use crate::rng::Rng;
 use crate::run::{run_scenario_with, RunError, RunOptions};
-use crate::scenario::Scenario;
-use crate::Summary;
 
 /// What one run drew (offsets from the scenario's own values).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
@@ -128,7 +128,7 @@ pub struct SweepReport {
     pub details: Vec<SweepRun>,
 }
 
-/// `base` perturbed by one draw from its [`SweepSpec`](crate::scenario::SweepSpec).
+/// `base` perturbed by one draw from its [`SweepSpec`](robot_files::scenario::SweepSpec).
 pub fn perturb(base: &Scenario, rng: &mut Rng) -> (Scenario, Draws) {
     let s = base.sweep;
     let d = Draws {

@@ -23,12 +23,13 @@ use controller_core::supervisor::{ArmRequest, RunMode, State};
 use controller_core::tune::{TuneAbort, TuneConfig, TuneLoad, TuneResult};
 
 use rayon::prelude::*;
+use robot_files::plant::Load;
+use robot_files::scenario::Scenario;
 
 use crate::margins::{Motion, WheelPlant};
-use crate::plant::{Load, Plant, PowerFlow};
+use crate::plant::{Plant, PowerFlow};
 use crate::robustness::Variation;
 use crate::run::{plant_params, Robot, RunError};
-use crate::scenario::Scenario;
 
 /// Longest a tune may run on the simulated robot, s.
 pub const MAX_TUNE_S: f64 = 60.0;
@@ -156,20 +157,6 @@ pub fn with_tuned_loops(scenario: &Scenario, result: &TuneResult) -> Scenario {
 /// Relative error of `x` against `truth`, %.
 pub fn error_pct(x: f64, truth: f64) -> f64 {
     (x - truth) / truth * 100.0
-}
-
-/// The tuned wheel loops as robot-file sections (`[robot.left_wheel]`,
-/// `[robot.right_wheel]`), ready to paste into a robot file's `[robot]` part.
-pub fn robot_file_sections(result: &TuneResult) -> String {
-    let mut out = String::new();
-    for (name, w) in ["left_wheel", "right_wheel"].iter().zip(result.loops) {
-        out.push_str(&format!(
-            "[robot.{name}]\nks_v = {}\nkv_v_per_rad_s = {}\nkp_v_per_rad_s = {}\nti_s = {}\n\
-td_s = {}\nd_filter_tau_s = {}\n",
-            w.ks_v, w.kv_v_per_rad_s, w.kp_v_per_rad_s, w.ti_s, w.td_s, w.d_filter_tau_s
-        ));
-    }
-    out
 }
 
 /// The supplies of the identification sweep, V: from a weak 4×AA pack to a full 3S.

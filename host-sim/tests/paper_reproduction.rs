@@ -1,7 +1,8 @@
 //! The paper's experiments on the simulated robot, against theory-derived bounds.
 
 use controller_core::law::LawKind;
-use host_sim::{run_scenario, run_scenario_with, RunOptions, Scenario};
+use host_sim::{run_scenario, run_scenario_with, RunOptions};
+use robot_files::scenario::Scenario;
 
 fn scenario(name: &str) -> Scenario {
     Scenario::load(name).expect("built-in scenario")
@@ -59,7 +60,7 @@ fn paper_circle_starts_in_motion() {
     let one_tick_m_s =
         f64::from(params.geometry().wheel_radius_left_m() * params.rad_per_tick()) / window_s;
     let geometry = params.geometry();
-    let v = |row: &host_sim::run::TraceRow| f64::from(geometry.forward(row.measured).v_m_s);
+    let v = |row: &robot_files::trace::TraceRow| f64::from(geometry.forward(row.measured).v_m_s);
     assert!(
         (v(&first) - 0.4 * 19.0 / 20.0).abs() <= one_tick_m_s,
         "{}",

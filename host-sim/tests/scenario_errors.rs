@@ -1,9 +1,9 @@
 //! A bad scenario file gets an error that names the key and the problem, and never
 //! panics.
 
-use host_sim::plant::DriverKind;
-use host_sim::scenario::BUILTIN;
-use host_sim::{run_scenario_with, RunOptions, Scenario};
+use host_sim::{run_scenario_with, RunOptions};
+use robot_files::plant::DriverKind;
+use robot_files::scenario::{Scenario, BUILTIN};
 
 /// The paper-circle scenario with `table` appended (TOML tables can be re-opened only
 /// once, so the tests use keys the built-in does not set).
@@ -432,7 +432,7 @@ fn driver_supply_and_centre_of_mass_are_checked_with_their_key() {
 
 #[test]
 fn the_plant_can_be_lifted_and_only_by_name() {
-    use host_sim::plant::Load;
+    use robot_files::plant::Load;
     assert_eq!(with("").unwrap().plant.load, Load::Ground);
     let lifted = with("[plant]\nload = \"lifted\"").unwrap();
     assert_eq!(lifted.plant.load, Load::Lifted);

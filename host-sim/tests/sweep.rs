@@ -1,7 +1,8 @@
 //! A small Monte-Carlo sweep closes the loop on perturbed robots.
 
 use controller_core::law::LawKind;
-use host_sim::{sweep, Scenario};
+use host_sim::sweep;
+use robot_files::scenario::Scenario;
 
 #[test]
 fn small_sweep_closes_the_loop() {

@@ -10,19 +10,22 @@
 //! geometry), calibrated, and with the geometry known exactly (what is left is slip and
 //! everything else). Prints the true final position error's percentiles.
 
+#[path = "../tests/support/mod.rs"]
+mod support;
+
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use controller_core::law::LawKind;
-use host_sim::rng::Rng;
 use host_sim::run::{plant_params, run_scenario_with, RunOptions};
 use host_sim::serve::VirtualRobot;
 use host_sim::sweep::{perturb, Percentiles};
-use host_sim::Scenario;
 use link::ParamSet;
 use robot_app::Channels;
+use robot_files::rng::Rng;
+use robot_files::scenario::Scenario;
 use station::calibrate::{calibrate, CalibrateArgs, Measure};
 use station::client::Client;
-use station::transport::InProcess;
+use support::InProcess;
 
 /// `scenario` with the controller believing `robot`, the plant's true geometry unchanged.
 fn believing(scenario: &Scenario, robot: controller_core::params::RobotConfig) -> Scenario {

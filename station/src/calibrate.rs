@@ -34,9 +34,10 @@ use controller_core::kinematics::{Point, Pose};
 use controller_core::law::LawKind;
 use controller_core::path::Path;
 use controller_core::reference::ReferenceMode;
-use host_sim::rng::Rng;
-use host_sim::Scenario;
 use link::{ParamSet, Request};
+use robot_files::rng::Rng;
+use robot_files::scenario::Scenario;
+use robot_files::truth::wrap_angle;
 
 use crate::client::{Client, StationError};
 use crate::record::{self, RunPlan};
@@ -180,7 +181,7 @@ pub fn predicted_error(path: &Path, track_m: f64, d: f64, e_b: f64) -> (f64, f64
     (
         x - f64::from(end.point.x_m),
         y - f64::from(end.point.y_m),
-        host_sim::plant::robot::wrap_angle(th - f64::from(end.heading_rad)),
+        wrap_angle(th - f64::from(end.heading_rad)),
     )
 }
 
@@ -266,9 +267,8 @@ pub fn estimate(
         let v: Option<Vec<f64>> = runs
             .iter()
             .map(|r| {
-                r.true_heading.map(|h| {
-                    host_sim::plant::robot::wrap_angle(h - f64::from(r.odometry.theta_rad))
-                })
+                r.true_heading
+                    .map(|h| wrap_angle(h - f64::from(r.odometry.theta_rad)))
             })
             .collect();
         v.filter(|v| !v.is_empty())

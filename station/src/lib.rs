@@ -6,16 +6,17 @@
 //!
 //! | module | what it is |
 //! |---|---|
-//! | [`transport`] | serial port, TCP, or the virtual robot in this process (lockstep) |
+//! | [`transport`] | serial port or TCP, behind one trait |
 //! | [`client`] | requests and replies: numbering, re-sending, matching by `seq`, errors |
-//! | [`ops`] | one function per request: info, parameters (host-sim's robot-file code), path upload, arming |
+//! | [`ops`] | one function per request: info, parameters (the robot-file code of `robot_files`), path upload, arming |
 //! | [`record`] | a scenario run: heartbeats paced by the robot's step counter, trace rows, the robot's run report as the simulator's summary |
 //! | [`watch`] | the live terminal view of the telemetry |
 //! | [`calibrate`] | UMBmark odometry calibration: the squares, the fit for filleted corners, the corrected geometry |
 //!
-//! A run recorded through the station is written with host-sim's own output code
-//! (`trace.csv`, `summary.json`, Figs. 5–7), so a robot's run and a simulated one read the
-//! same. A real robot knows only its estimate: its summary has `estimated_error` and no
+//! A run recorded through the station is written with the simulator's own output code,
+//! `robot_files` (`trace.csv`, `summary.json`, and Figs. 5–7 with the `figures` feature,
+//! the default), so a robot's run and a simulated one read the same; the station does not
+//! build the simulator itself. A real robot knows only its estimate: its summary has `estimated_error` and no
 //! `true_error`. The virtual robot also sends its ground truth, and its summary then has
 //! both. Per-step metrics (settle time, RMS) come from the robot, computed at the control
 //! rate ([`link::RunReport`]), never from decimated telemetry.

@@ -10,13 +10,14 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
-use host_sim::cli::Law;
-use host_sim::output::{self, settle_text};
-use host_sim::Scenario;
 use indicatif::{ProgressBar, ProgressStyle};
 use link::{Reply, Request, Uplink};
+use robot_files::cli::Law;
+use robot_files::metrics::{fault_names, ErrorReport};
+use robot_files::output::{self, settle_text};
+use robot_files::scenario::Scenario;
 use station::client::Client;
-use station::record::{self, RunPlan};
+use station::record::{self, Recording, RunPlan};
 use station::transport::{self, Serial, Tcp, Transport};
 use station::{calibrate, ops, watch};
 
@@ -434,7 +435,7 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
             f.duty.left,
             f.duty.right,
             f.supply_v,
-            host_sim::metrics::fault_names(&f.faults).join("|"),
+            fault_names(&f.faults).join("|"),
         );
     };
     eprintln!(
@@ -524,21 +525,9 @@ the robot's (`station params set` sends a robot file)"
         }
         other => other?,
     };
-    let result = &recording.result;
-    if recording.has_truth {
-        output::write_run(out, &scenario, result)?;
-    } else {
-        // Figures from the estimate (titled so), trace.csv with the true columns empty.
-        let mut shown = scenario.clone();
-        shown.name = format!("{} (robot's odometry, no ground truth)", scenario.name);
-        let mut as_truth = result.clone();
-        as_truth.trace = record::estimate_as_truth(&result.trace);
-        output::write_run(out, &shown, &as_truth)?;
-        std::fs::write(out.join("trace.csv"), output::trace_csv(&result.trace))?;
-        let json = serde_json::to_string_pretty(&result.summary)?;
-        std::fs::write(out.join("summary.json"), json + "\n")?;
-    }
-    let s = &result.summary;
+    let mut files = output::write_trace_and_summary(out, &recording.summary, &recording.trace)?;
+    files.extend(write_figures(out, &scenario, &recording)?);
+    let s = &recording.summary;
     say!(
         "{} with the {} law on {}: {:.1} s recorded in {:.1} s ({} trace rows){}",
         s.scenario,
@@ -546,13 +535,13 @@ the robot's (`station params set` sends a robot file)"
         s.source,
         s.sim_time_s,
         s.wall_time_s,
-        result.trace.len(),
+        recording.trace.len(),
         match recording.ended_by {
             Some(event) => format!(", ended by {event:?}"),
             None => String::new(),
         }
     );
-    let line = |which: &str, e: &host_sim::ErrorReport| {
+    let line = |which: &str, e: &ErrorReport| {
         format!(
             "  {which}: settle {}, final {:.4} m / {:+.2}°, last 10 s RMS {:.4} m, max {:.4} m",
             settle_text(e.settle_time_s),
@@ -578,11 +567,36 @@ the robot's (`station params set` sends a robot file)"
             format!(", faults {}", s.supervisor.faults.join(", "))
         }
     );
-    say!(
-        "  wrote trace.csv, summary.json, fig5_path.svg, fig6_errors.svg, fig7_inputs.svg to {}",
-        out.display()
-    );
+    let names: Vec<String> = files
+        .iter()
+        .filter_map(|f| f.file_name())
+        .map(|n| n.to_string_lossy().into_owned())
+        .collect();
+    say!("  wrote {} to {}", names.join(", "), out.display());
     Ok(())
+}
+
+/// Writes Figs. 5–7 of `recording`, a run of `scenario`, into `out` (which exists): from
+/// the ground truth when the robot sent it, else from its odometry, titled so (its
+/// `trace.csv` keeps the true columns empty). Returns the files written.
+#[cfg(feature = "figures")]
+fn write_figures(out: &FsPath, scenario: &Scenario, recording: &Recording) -> Result<Vec<PathBuf>> {
+    use robot_files::figures::write_run_figures;
+    let summary = &recording.summary;
+    if recording.has_truth {
+        return Ok(write_run_figures(out, scenario, summary, &recording.trace)?);
+    }
+    let mut shown = scenario.clone();
+    shown.name = format!("{} (robot's odometry, no ground truth)", scenario.name);
+    let as_truth = record::estimate_as_truth(&recording.trace);
+    Ok(write_run_figures(out, &shown, summary, &as_truth)?)
+}
+
+/// A station built without its `figures` feature draws no figures; it says so.
+#[cfg(not(feature = "figures"))]
+fn write_figures(_: &FsPath, _: &Scenario, _: &Recording) -> Result<Vec<PathBuf>> {
+    eprintln!("note: no figures (this station was built without its `figures` feature)");
+    Ok(Vec::new())
 }
 
 fn main() -> ExitCode {

@@ -1,16 +1,18 @@
 //! The station's requests, one function each: who the robot is, its parameters (through
-//! host-sim's robot-file code), path upload from a scenario, arming.
+//! the robot-file code of `robot_files`), path upload from a scenario, arming.
 
 use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::law::LawKind;
 use controller_core::params::Params;
 use controller_core::supervisor::Event;
-use host_sim::robot_file::{DivergenceSetting, Keyword, NumberOr, RobotFile, SectionError};
-use host_sim::Scenario;
 use link::{
     path_checksum, upload, ArmMode, CommitSummary, ParamSet, PathBegin, PathCommit, Reply, Request,
     RobotInfo, TuneReport, Uplink,
 };
+use robot_files::robot_file::{
+    tuned_wheel_sections, DivergenceSetting, Keyword, NumberOr, RobotFile, SectionError,
+};
+use robot_files::scenario::Scenario;
 
 use crate::client::{Client, StationError};
 use crate::transport::Transport;
@@ -258,7 +260,7 @@ pub fn describe_tune(report: &TuneReport) -> String {
                     m.design_time_constant_s * 1e3
                 ));
             }
-            text.push_str(&host_sim::tune::robot_file_sections(&result));
+            text.push_str(&tuned_wheel_sections(&result));
             text
         }
     }

@@ -1,6 +1,7 @@
 //! Recording a run: heartbeats paced by the robot's own step counter, telemetry and
-//! ground truth joined into the simulator's trace rows, and the robot's run report
-//! (computed on the robot at the control rate) turned into the simulator's summary.
+//! ground truth joined into trace rows ([`TraceRow`], the simulator's `trace.csv`), and
+//! the robot's run report (computed on the robot at the control rate) turned into a
+//! [`Summary`] (the simulator's `summary.json`).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -9,13 +10,13 @@ use controller_core::kinematics::Pose;
 use controller_core::law::LawKind;
 use controller_core::params::Params;
 use controller_core::supervisor::{Event, Faults, RunMode, State};
-use host_sim::metrics::{ErrorReport, Summary, SupervisorReport};
-use host_sim::plant::TruePose;
-use host_sim::run::{tracking_error_f64, true_error, RunResult, TraceRow, TrueReference};
-use host_sim::Scenario;
 use link::{
     GroundTruth, ParamSet, Reply, Request, RunReport, TelemetryFrame, TrueRunReport, Uplink,
 };
+use robot_files::metrics::{ErrorReport, Summary, SupervisorReport};
+use robot_files::scenario::Scenario;
+use robot_files::trace::TraceRow;
+use robot_files::truth::{tracking_error_f64, true_error, TruePose, TrueReference};
 
 use crate::client::{Client, StationError};
 use crate::ops;
@@ -38,8 +39,14 @@ pub struct RunPlan<'a> {
 /// A recorded run.
 #[derive(Clone, Debug)]
 pub struct Recording {
-    /// In the simulator's own types: `trace`, `summary`.
-    pub result: RunResult,
+    /// What the run amounted to, as `summary.json` says it.
+    pub summary: Summary,
+    /// One row per telemetry frame of the run (with the same step's ground truth, when the
+    /// robot sent it), as `trace.csv` says it.
+    pub trace: Vec<TraceRow>,
+    /// Length of the path driven, m: the true one when the robot sent ground truth, else
+    /// the odometry's between telemetry frames.
+    pub distance_travelled_m: f64,
     /// True when the robot sent ground truth (the virtual robot).
     pub has_truth: bool,
     /// The robot's own report.
@@ -113,7 +120,7 @@ pub fn set_telemetry_rate<T: Transport>(
 /// Uploads `plan.scenario`'s path, arms (in motion when the scenario starts moving), and
 /// records until the robot ends the run — at the scenario's duration, which the robot
 /// counts itself (`max_armed_steps`, restored afterwards), or on a fault — or until
-/// Ctrl-C, which disarms first. Returns the recording in the simulator's types.
+/// Ctrl-C, which disarms first. Returns the recording.
 pub fn run<T: Transport>(
     client: &mut Client<T>,
     plan: &mut RunPlan<'_>,
@@ -446,14 +453,9 @@ impl<'a> Recorder<'a> {
             |t| f64::from(t.distance_m),
         );
         Recording {
-            result: RunResult {
-                summary,
-                max_current_a: f64::NAN,
-                distance_travelled_m: distance,
-                trace: self.rows,
-                // No digest: the recording has the robot's telemetry, not every step.
-                digest: None,
-            },
+            summary,
+            trace: self.rows,
+            distance_travelled_m: distance,
             has_truth: self.saw_truth,
             report,
             truth,

@@ -1,11 +1,10 @@
-//! How bytes reach the robot: a serial port, a TCP socket (the virtual robot), or the
-//! virtual robot in this process (tests and calibration sweeps, in lockstep).
+//! How bytes reach the robot: a serial port, or a TCP socket (the virtual robot of
+//! `host-sim serve`). Anything else that moves bytes can be a [`Transport`] too: the
+//! station's tests drive the virtual robot in their own process, in lockstep.
 
 use std::io::{self, ErrorKind, Read, Write};
 use std::net::TcpStream;
 use std::time::Duration;
-
-use host_sim::serve::VirtualRobot;
 
 /// A byte pipe to the robot.
 pub trait Transport {
@@ -184,45 +183,6 @@ impl Transport for Tcp {
 
     fn describe(&self) -> String {
         self.address.clone()
-    }
-}
-
-/// The virtual robot in this process, in lockstep: every `receive` runs it for one
-/// control period, so a run's outcome does not depend on the host's speed.
-pub struct InProcess<'r, 'a> {
-    robot: &'r mut VirtualRobot<'a>,
-}
-
-impl<'r, 'a> InProcess<'r, 'a> {
-    /// A pipe to `robot`.
-    pub fn new(robot: &'r mut VirtualRobot<'a>) -> Self {
-        Self { robot }
-    }
-
-    /// The robot behind the pipe.
-    pub fn robot(&self) -> &VirtualRobot<'a> {
-        self.robot
-    }
-}
-
-impl Transport for InProcess<'_, '_> {
-    fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
-        self.robot.receive(bytes);
-        Ok(())
-    }
-
-    fn receive(&mut self, buf: &mut [u8], _timeout: Duration) -> io::Result<usize> {
-        if self.robot.outgoing().is_empty() {
-            self.robot.step();
-        }
-        let n = self.robot.outgoing().len().min(buf.len());
-        buf[..n].copy_from_slice(&self.robot.outgoing()[..n]);
-        self.robot.consume(n);
-        Ok(n)
-    }
-
-    fn describe(&self) -> String {
-        "virtual robot (in process)".to_string()
     }
 }
 

@@ -10,7 +10,7 @@ use link::{GroundTruth, TelemetryFrame};
 pub fn screen(frame: &TelemetryFrame, truth: Option<&GroundTruth>, rate_hz: u32) -> String {
     let mut s = String::new();
     let t = f64::from(frame.step) / f64::from(rate_hz.max(1));
-    let faults = host_sim::metrics::fault_names(&frame.faults);
+    let faults = robot_files::metrics::fault_names(&frame.faults);
     let _ = writeln!(
         s,
         "step {:>10}  t {:>9.2} s   state {:?} ({:?})",

@@ -1,13 +1,15 @@
 //! UMBmark through the station against the virtual robot with injected mismatches: the
 //! recovered geometry against the plant's truth.
 
-use host_sim::rng::Rng;
+mod support;
+
 use host_sim::serve::VirtualRobot;
-use host_sim::Scenario;
 use robot_app::Channels;
+use robot_files::rng::Rng;
+use robot_files::scenario::Scenario;
 use station::calibrate::{calibrate, CalibrateArgs, Measure};
 use station::client::Client;
-use station::transport::InProcess;
+use support::InProcess;
 
 fn calibrated(left_right_pct: f64, track_pct: f64) -> (f64, f64, f64, f64) {
     let mut base = Scenario::load("square-waypoints").expect("built in");

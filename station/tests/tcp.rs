@@ -13,8 +13,8 @@ use std::time::Duration;
 use controller_core::law::LawKind;
 use controller_core::supervisor::{DisarmReason, Event};
 use host_sim::serve::{serve, ServeOptions, StepReport, VirtualRobot};
-use host_sim::Scenario;
 use robot_app::Channels;
+use robot_files::scenario::Scenario;
 
 /// Simulated time per wall-clock time: 30 s runs take 7.5 s; the station's heartbeats
 /// (every 100 robot steps) have 125 ms of wall-clock time before the 500-step timeout.

@@ -1,15 +1,17 @@
 //! The station against the virtual robot in this process, in lockstep (deterministic: no
 //! wall-clock timing decides anything here).
 
+mod support;
+
 use std::sync::atomic::AtomicBool;
 
 use controller_core::law::LawKind;
 use host_sim::serve::VirtualRobot;
-use host_sim::Scenario;
 use robot_app::Channels;
+use robot_files::scenario::Scenario;
 use station::client::Client;
 use station::record::{self, RunPlan};
-use station::transport::InProcess;
+use support::InProcess;
 
 #[test]
 fn a_run_through_the_station_matches_host_sim_run_bit_for_bit() {
@@ -33,7 +35,7 @@ fn a_run_through_the_station_matches_host_sim_run_bit_for_bit() {
     )
     .expect("the run completes");
 
-    let got = &recording.result.summary;
+    let got = &recording.summary;
     let want = &expected.summary;
     assert_eq!(got.source, "virtual-robot");
     let settle = got.true_error.and_then(|e| e.settle_time_s);
@@ -53,9 +55,9 @@ fn a_run_through_the_station_matches_host_sim_run_bit_for_bit() {
     assert!(got.supervisor.faults.is_empty());
     // The trace: one row per steering period (100 Hz telemetry on a 100 Hz steering loop).
     assert!(
-        recording.result.trace.len() as u64 >= want.steps / 10 - 2,
+        recording.trace.len() as u64 >= want.steps / 10 - 2,
         "{} rows",
-        recording.result.trace.len()
+        recording.trace.len()
     );
     // The robot's time limit was restored after the run.
     assert_eq!(
@@ -158,7 +160,7 @@ fn a_tune_through_the_station_identifies_the_simulated_wheels() {
     // The text pastes into a robot file and applies.
     let text = station::ops::describe_tune(&report);
     assert!(text.contains("[robot.left_wheel]") && text.contains("kp_v_per_rad_s = "));
-    let file = host_sim::robot_file::RobotFile::from_toml(&text).expect("a robot file");
+    let file = robot_files::robot_file::RobotFile::from_toml(&text).expect("a robot file");
     assert_eq!(
         file.robot.left_wheel.kp_v_per_rad_s,
         Some(result.loops[0].kp_v_per_rad_s)

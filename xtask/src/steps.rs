@@ -192,6 +192,19 @@ pub fn ci() -> Vec<Step> {
             args.extend(["--all-targets", "--", "-D", "warnings"]);
             run_command(&mut ctx.cargo(&args))
         }),
+        Step::new("clippy: the station without its figures", |ctx| {
+            // The figures (plotters) are a default feature: the build without them must not
+            // rot just because the default build skips it.
+            run_command(&mut ctx.cargo(&[
+                "clippy",
+                "--package",
+                "station",
+                "--no-default-features",
+                "--",
+                "-D",
+                "warnings",
+            ]))
+        }),
         Step::new("clippy: firmware (thumbv7em-none-eabihf)", |ctx| {
             clippy_for_target(ctx, "firmware", &[])
         }),

@@ -45,12 +45,12 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, ensure, Context as _, Result};
 use controller_core::law::LawKind;
 use lockstep::{BoardReport, READY};
+use robot_files::scenario::Scenario;
 
 use self::firmware::{Firmware, LinkLoss};
 use self::relay::{LinkSwitch, Relay};
 use self::station::{StationReport, StationScript};
 use crate::run::{run_with_logic, RunOptions, RunResult};
-use crate::scenario::Scenario;
 
 /// How a processor-in-the-loop run is set up.
 #[derive(Clone, Debug)]

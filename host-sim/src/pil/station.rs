@@ -30,7 +30,7 @@ use link::{
     Received, Refusal, Reply, Request, Uplink, MAX_FRAME_LEN,
 };
 
-use crate::scenario::Scenario;
+use robot_files::scenario::Scenario;
 
 /// How long one request waits for its reply before it is sent again.
 const REPLY_TIMEOUT: Duration = Duration::from_secs(5);

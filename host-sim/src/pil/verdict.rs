@@ -23,13 +23,13 @@ use serde_json::Value;
 /// firmware's supervisor, s (a 15-byte frame, one byte per guest main-loop turn, and up
 /// to two control steps; 17 ms at worst, see the module doc).
 pub const LINK_IN_FLIGHT_S: f64 = 0.020;
+use robot_files::metrics::Summary;
+use robot_files::scenario::Scenario;
 
 use super::firmware::LinkLoss;
 use super::PilOutcome;
 use crate::fault_suite::{cases, Expectation};
-use crate::metrics::Summary;
 use crate::run::RunResult;
-use crate::scenario::Scenario;
 
 /// One judged line.
 #[derive(Clone, Debug, PartialEq)]
@@ -256,7 +256,7 @@ fn largest_position_difference_m(a: &Summary, b: &Summary) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::metrics::{ErrorReport, SupervisorReport};
+    use robot_files::metrics::{ErrorReport, SupervisorReport};
 
     fn summary() -> Summary {
         Summary {

@@ -1,5 +1,7 @@
 //! The simulated robot: per-wheel H-bridge ([`driver`]), DC motor and gearbox
-//! ([`motor`]) on a chassis with slip, faults and a true pose ([`robot`]).
+//! ([`motor`]) on a chassis with slip, faults and a true pose ([`robot`]). Its parameters
+//! (the bridge chip and supply, the motor, the body, the load) are the types a scenario
+//! names, in [`robot_files::plant`]; the true pose is [`robot_files::truth::TruePose`].
 //!
 //! ## Default robot (all SI)
 //!
@@ -17,7 +19,7 @@
 //!
 //! Time constants (mechanical, at the wheel, with the motor's electrical damping while
 //! driven): forward motion 89 ms, turning on the spot 66 ms, lifted wheels
-//! ([`Load::Lifted`], on a stand) 26 ms. A short brake from 30 rad/s
+//! ([`Load::Lifted`](robot_files::plant::Load::Lifted), on a stand) 26 ms. A short brake from 30 rad/s
 //! decelerates the robot 12.7 × harder than coasting.
 
 pub mod driver;
@@ -26,6 +28,6 @@ pub mod motor;
 mod propagator;
 pub mod robot;
 
-pub use driver::{BridgeOutput, DriverKind, DriverParams};
-pub use motor::{MotorParams, PowerFlow, WheelDrive};
-pub use robot::{BodyParams, Load, Plant, PlantError, PlantParams, TrueGeometry, TruePose, Wheel};
+pub use driver::BridgeOutput;
+pub use motor::{PowerFlow, WheelDrive};
+pub use robot::{Plant, PlantError, PlantParams, TrueGeometry};

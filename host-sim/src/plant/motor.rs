@@ -9,7 +9,7 @@
 //! i = (u − K_e · N · ω) / (R_a + R_bridge)
 //!
 //! with ω the **wheel** speed (rad/s), N the gear ratio (motor turns per wheel turn) and
-//! R_bridge the driver's switch resistance ([`super::DriverKind::on_resistance_ohm`]).
+//! R_bridge the driver's switch resistance ([`DriverKind::on_resistance_ohm`](robot_files::plant::DriverKind::on_resistance_ohm)).
 //! With the bridge high impedance (coasting) i = 0.
 //!
 //! The gearbox loses a fraction of the power flowing through it, whichever way it flows:
@@ -28,50 +28,10 @@
 //! with viscous friction b and Coulomb friction τ_c, both referred to the wheel shaft. At
 //! rest (ω = 0) Coulomb friction is static friction; whether it holds the wheel is decided
 //! with the other wheel's pull through the chassis ([`super::robot`]).
+//!
+//! The constants are [`MotorParams`], a scenario's `[plant.motor]`.
 
-/// Motor and gearbox constants of one wheel, SI units.
-///
-/// The defaults ([`MotorParams::DEFAULT`]) describe a small 6 V brushed gear motor of the
-/// "N20 / TT, 1:30" class driving a 65 mm wheel. With 6 V across its terminals: 36.2 rad/s
-/// (1.18 m/s at the rim, 345 rpm) at no load, 1.5 A and 0.18 N·m at the wheel when
-/// stalled. Behind a TB6612's 0.5 Ω on a 6 V supply: 35.7 rad/s, 1.33 A, 0.16 N·m.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MotorParams {
-    /// Armature resistance R_a, Ω.
-    pub resistance_ohm: f64,
-    /// Torque constant K_t, N·m/A (motor shaft).
-    pub torque_constant_nm_per_a: f64,
-    /// Back-EMF constant K_e, V·s/rad (motor shaft). Equal to K_t in SI for an ideal motor.
-    pub back_emf_v_s_per_rad: f64,
-    /// Rotor inertia, kg·m² (motor shaft); reflected to the wheel as × N².
-    pub rotor_inertia_kg_m2: f64,
-    /// Gearbox efficiency η, 0 < η ≤ 1: × η on the torque when the motor drives the wheel,
-    /// ÷ η when the wheel drives the motor (see the module doc).
-    pub gear_efficiency: f64,
-    /// Viscous friction b at the wheel shaft, N·m·s/rad.
-    pub viscous_friction_nm_s_per_rad: f64,
-    /// Coulomb (and static) friction τ_c at the wheel shaft, N·m.
-    pub coulomb_friction_nm: f64,
-}
-
-impl MotorParams {
-    /// Default small 6 V gear motor (see the type's doc).
-    pub const DEFAULT: MotorParams = MotorParams {
-        resistance_ohm: 4.0,
-        torque_constant_nm_per_a: 0.005,
-        back_emf_v_s_per_rad: 0.005,
-        rotor_inertia_kg_m2: 1.0e-7,
-        gear_efficiency: 0.8,
-        viscous_friction_nm_s_per_rad: 2.0e-4,
-        coulomb_friction_nm: 0.01,
-    };
-}
-
-impl Default for MotorParams {
-    fn default() -> Self {
-        Self::DEFAULT
-    }
-}
+use robot_files::plant::MotorParams;
 
 /// Which way power flows through one wheel's gearbox, and so which torque formula holds
 /// (see the module doc).
@@ -191,7 +151,7 @@ impl WheelDrive {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plant::DriverKind;
+    use robot_files::plant::DriverKind;
 
     fn tb6612_drive() -> WheelDrive {
         WheelDrive::new(

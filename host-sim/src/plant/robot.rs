@@ -87,42 +87,13 @@
 //! cosine and sine are advanced by a small-angle rotation each step and re-derived from
 //! θ once per control period, so there is no trigonometry in the inner loop.
 
-use super::driver::{BridgeOutput, DriverParams};
+use robot_files::plant::{BodyParams, DriverParams, Load, MotorParams, Wheel};
+use robot_files::truth::{wrap_angle, TruePose};
+
+use super::driver::{self, BridgeOutput};
 use super::friction::{Friction, Grip, Inertia};
-use super::motor::{MotorParams, PowerFlow, WheelDrive};
+use super::motor::{PowerFlow, WheelDrive};
 use super::propagator::Propagator;
-
-/// Chassis mass properties, SI units.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BodyParams {
-    /// Total mass m, kg.
-    pub mass_kg: f64,
-    /// Yaw inertia I about the vertical axis through the wheel axle's midpoint, kg·m²
-    /// (includes m d² for a centre of mass a distance d off the axle).
-    pub yaw_inertia_kg_m2: f64,
-    /// Inertia of one wheel (with hub) about its axle, kg·m².
-    pub wheel_inertia_kg_m2: f64,
-    /// Distance d of the centre of mass ahead of the wheel axle, along the robot's x axis
-    /// (robot frame), m; negative behind. Needs m d² ≤ I.
-    pub com_ahead_of_axle_m: f64,
-}
-
-impl BodyParams {
-    /// A 0.5 kg robot with a 60 mm radius of gyration about the axle (I = 1.8e-3 kg·m²),
-    /// 20 g wheels (2e-5 kg·m² each) and its centre of mass on the axle.
-    pub const DEFAULT: BodyParams = BodyParams {
-        mass_kg: 0.5,
-        yaw_inertia_kg_m2: 1.8e-3,
-        wheel_inertia_kg_m2: 2.0e-5,
-        com_ahead_of_axle_m: 0.0,
-    };
-}
-
-impl Default for BodyParams {
-    fn default() -> Self {
-        Self::DEFAULT
-    }
-}
 
 /// The robot's true geometry (which may differ from what the controller believes), m.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -153,75 +124,6 @@ pub struct PlantParams {
     pub slip: [f64; 2],
     /// What the wheels drive: the robot on the floor, or nothing (on a stand).
     pub load: Load,
-}
-
-/// What the wheels drive, and so the inertia each motor sees.
-///
-/// On the ground the chassis' mass and yaw inertia are coupled to the wheels (the module
-/// doc's inertia matrix): the default robot's wheel sees 3.7e-4 kg·m² driving straight,
-/// τ ≈ 89 ms. Lifted (on a stand, wheels in the air, the way wheel loops are often tuned
-/// on a bench) each wheel sees only its own inertia and the reflected rotor's,
-/// 1.1e-4 kg·m², τ ≈ 26 ms, the wheels are not coupled and the robot does not move.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Load {
-    /// On the floor: the chassis is part of the load.
-    #[default]
-    Ground,
-    /// On a stand: each wheel turns freely against its own inertia and friction.
-    Lifted,
-}
-
-impl Load {
-    /// The name used in scenario files: `ground` or `lifted`.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Load::Ground => "ground",
-            Load::Lifted => "lifted",
-        }
-    }
-}
-
-/// The true pose, world frame: position in m, heading in rad (counter-clockwise from x,
-/// wrapped to (−π, π]).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct TruePose {
-    /// x, m.
-    pub x_m: f64,
-    /// y, m.
-    pub y_m: f64,
-    /// θ, rad, in (−π, π].
-    pub theta_rad: f64,
-}
-
-/// One of the two driven wheels.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Wheel {
-    /// The left wheel (index 0 in every `[left, right]` pair).
-    Left,
-    /// The right wheel (index 1).
-    Right,
-}
-
-impl Wheel {
-    /// The index of this wheel in `[left, right]` arrays.
-    pub const fn index(self) -> usize {
-        match self {
-            Wheel::Left => 0,
-            Wheel::Right => 1,
-        }
-    }
-}
-
-/// Wrap an angle to (−π, π], rad.
-pub fn wrap_angle(a: f64) -> f64 {
-    use core::f64::consts::{PI, TAU};
-    let w = a - TAU * ((a + PI) / TAU).floor();
-    // w is in [−π, π); map −π to π.
-    if w <= -PI {
-        w + TAU
-    } else {
-        w
-    }
 }
 
 /// The inertia matrix [a, b] of `params` (see [`Plant::inertia_kg_m2`]), kg·m².
@@ -506,12 +408,15 @@ impl Plant {
     }
 
     /// Sets both PWM duties (any f32, positive forward; see
-    /// [`DriverParams::applied_duty`]) for the following [`Plant::advance`] calls. While
+    /// [`driver::applied_duty`]) for the following [`Plant::advance`] calls. While
     /// the driver is enabled and a motor connected, its bridge drives in slow decay at
     /// u = d · V_s; a duty of 0 (or in the dead-band) is a short brake.
     pub fn set_duty(&mut self, left: f32, right: f32) {
-        let driver = &self.params.driver;
-        self.applied_duty = [driver.applied_duty(left), driver.applied_duty(right)];
+        let bridge = &self.params.driver;
+        self.applied_duty = [
+            driver::applied_duty(bridge, left),
+            driver::applied_duty(bridge, right),
+        ];
         self.update_bridge();
     }
 
@@ -626,7 +531,7 @@ impl Plant {
             let u = if self.coasting[i] {
                 0.0
             } else {
-                DriverParams::voltage_v(self.applied_duty[i], self.supply_v)
+                driver::voltage_v(self.applied_duty[i], self.supply_v)
             };
             self.volts[i] = u;
             self.zero_current_speed[i] = if self.coasting[i] {
@@ -894,8 +799,8 @@ fn sin_h_over_h(a: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::Rng;
     use core::f64::consts::PI;
+    use robot_files::rng::Rng;
 
     const H: f64 = 1e-4;
 
@@ -1387,15 +1292,5 @@ mod tests {
         pp.body.wheel_inertia_kg_m2 = 0.0;
         pp.motor.rotor_inertia_kg_m2 = 0.0;
         assert_eq!(Plant::new(pp).unwrap_err(), PlantError::SingularInertia);
-    }
-
-    #[test]
-    fn wrap_angle_range() {
-        for a in [-10.0, -PI, 0.0, PI, 3.5, 100.0] {
-            let w = wrap_angle(a);
-            assert!(w > -PI && w <= PI, "{a} -> {w}");
-            let turns = (a - w) / (2.0 * PI);
-            assert!((turns - turns.round()).abs() < 1e-9, "{a} -> {w}");
-        }
     }
 }

@@ -55,10 +55,10 @@ use robot_app::{
     start, AppConfig, Channels, ControlSide, Identity, LinkOptions, LinkService, NoBoardStats,
     Sensors,
 };
+use robot_files::scenario::{Scenario, StartState};
 
 use crate::hardware::{Actuation, SimHardware};
 use crate::plant::PlantError;
-use crate::scenario::{Scenario, StartState};
 
 pub use self::truth::TrueRun;
 

@@ -7,8 +7,7 @@ use controller_core::reference::Reference;
 use link::{ErrorSummary, TrueRunReport};
 use robot_app::metrics::{ErrorSample, ErrorStats};
 
-use crate::plant::TruePose;
-use crate::run::{true_error, TrueReference};
+use robot_files::truth::{true_error, TruePose, TrueReference};
 
 /// The true metrics of the run in progress.
 #[derive(Clone, Debug)]

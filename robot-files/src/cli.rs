@@ -1,4 +1,4 @@
-//! Command-line pieces shared by `host-sim` and the ground station (`station`).
+//! Command-line values both `host-sim` and the ground station (`station`) take.
 
 use clap::ValueEnum;
 use controller_core::law::LawKind;

@@ -9,6 +9,7 @@
 //! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
 //! | `link-qemu` | runs the link crate under QEMU and talks to it over its USART: replies, corrupted frames, counters |
 //! | `docs` | `cargo doc --no-deps` with warnings denied, for the host crates and the firmware |
+//! | `figures` | regenerates `docs/figures.md` from the simulator's JSON (`ci` fails when it is stale) |
 //! | `pil` | processor in the loop: the firmware (emulated `qemu` board) under QEMU against host-sim's plant, driven over its link: `paper-circle` and `longest-path` identical to `host-sim run`, the control interrupt's instructions and the stack, an encoder disconnect and a link loss stopping the motors in time |
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
 //! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt, the steering task and the link USART's interrupt reach no panic and no indirect call; then bounds the firmware's worst-case stack from the same call graph |
@@ -18,6 +19,7 @@
 //! Every step runs even if an earlier one failed, so one CI log shows every problem.
 
 mod elf_size;
+mod figures;
 #[cfg(test)]
 mod firmware_logger;
 mod link_qemu;
@@ -48,6 +50,7 @@ commands:
   link-qemu
           run the link on an emulated Cortex-M4F and talk to it over its USART
   docs    cargo doc --no-deps with warnings denied (host crates, firmware)
+  figures regenerate docs/figures.md from the simulator's JSON (CI fails when stale)
   pil     the firmware on an emulated Cortex-M4F against host-sim's plant (processor in
           the loop): paper-circle vs host-sim, instructions, stack, a fault, a link loss
   size-of ELF
@@ -93,6 +96,12 @@ fn run() -> Result<bool> {
         ["link-qemu"] => vec![steps::setup(), steps::link_qemu()],
         ["pil"] => vec![steps::setup(), steps::pil()],
         ["docs"] => vec![steps::setup(), steps::docs()],
+        ["figures"] => vec![Step::new("figures: regenerate docs/figures.md", |ctx| {
+            figures::run(ctx, false)
+        })],
+        ["figures", "--check"] => vec![Step::new("figures: docs/figures.md up to date", |ctx| {
+            figures::run(ctx, true)
+        })],
         ["size-of", elf] => {
             let elf = PathBuf::from(elf);
             vec![Step::new("size of an ELF", move |_| {

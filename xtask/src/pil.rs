@@ -394,7 +394,7 @@ fn budget_failures(w: &Figures) -> Vec<String> {
 }
 
 /// Builds `host-sim` (the dev profile the tests share); its executable.
-fn build_host_sim(ctx: &Context) -> Result<PathBuf> {
+pub fn build_host_sim(ctx: &Context) -> Result<PathBuf> {
     let mut cmd = ctx.cargo(&["build", "--package", "host-sim", "--bin", "host-sim"]);
     println!("$ {}", display_command(&cmd));
     let status = cmd.status().context("could not start cargo")?;
@@ -405,7 +405,7 @@ fn build_host_sim(ctx: &Context) -> Result<PathBuf> {
 }
 
 /// The workspace's target directory (`CARGO_TARGET_DIR` if set).
-fn target_dir(ctx: &Context) -> PathBuf {
+pub fn target_dir(ctx: &Context) -> PathBuf {
     std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| ctx.root.join("target"), PathBuf::from)
 }
 

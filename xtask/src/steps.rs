@@ -258,6 +258,10 @@ pub fn ci() -> Vec<Step> {
         link_qemu(),
         pil(),
         docs(),
+        Step::new(
+            "figures: docs/figures.md up to date with the simulator",
+            |ctx| crate::figures::run(ctx, true),
+        ),
     ]
 }
 

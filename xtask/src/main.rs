@@ -122,7 +122,8 @@ fn run() -> Result<bool> {
         }
         _ => bail!("unknown command {args:?}\n\n{USAGE}"),
     };
-    Ok(steps::run_all(&ctx, &selected))
+    let budget_s = (args == ["ci"]).then_some(steps::CI_BUDGET_S);
+    Ok(steps::run_all(&ctx, &selected, budget_s))
 }
 
 /// `ELF [--root NAME:IRQ]...` of `panic-check`: the ELF and the roots (default: the

@@ -146,9 +146,10 @@ impl Step {
     }
 }
 
-/// Runs every step (all of them, whatever fails), prints a summary and the closing line
-/// `N passed, N failed`. Returns true when all passed.
-pub fn run_all(ctx: &Context, steps: &[Step]) -> bool {
+/// Runs every step (all of them, whatever fails), prints a summary (with the total time
+/// against `budget_s`, if given) and the closing line `N passed, N failed`. Returns true
+/// when all passed.
+pub fn run_all(ctx: &Context, steps: &[Step], budget_s: Option<u32>) -> bool {
     let started = Instant::now();
     let mut results = Vec::with_capacity(steps.len());
     for (i, step) in steps.iter().enumerate() {
@@ -163,7 +164,14 @@ pub fn run_all(ctx: &Context, steps: &[Step]) -> bool {
         results.push((step.name, secs, result));
     }
 
-    println!("\n==> summary ({:.0} s)", started.elapsed().as_secs_f64());
+    let total_s = started.elapsed().as_secs_f64();
+    match budget_s {
+        Some(budget) => println!(
+            "\n==> summary ({total_s:.0} s; the budget is {budget} s on 2 cores, from a fresh \
+             clone)"
+        ),
+        None => println!("\n==> summary ({total_s:.0} s)"),
+    }
     for (name, secs, result) in &results {
         let verdict = if result.is_ok() { "ok    " } else { "FAILED" };
         println!("    {verdict} {name} ({secs:.1} s)");
@@ -172,6 +180,9 @@ pub fn run_all(ctx: &Context, steps: &[Step]) -> bool {
     println!("{} passed, {failed} failed", results.len() - failed);
     failed == 0
 }
+
+/// The time `cargo xtask ci` may take from a fresh clone on a 2-core machine, s.
+pub const CI_BUDGET_S: u32 = 15 * 60;
 
 /// proptest's seed variable, and the seed CI's host tests use.
 const PROPTEST_SEED_VAR: &str = "PROPTEST_RNG_SEED";

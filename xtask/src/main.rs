@@ -14,6 +14,7 @@
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
 //! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt, the steering task and the link USART's interrupt reach no panic and no indirect call; then bounds the firmware's worst-case stack from the same call graph |
 //! | `panic-check ELF [--root NAME:IRQ]…` | the same proof on a given ELF (no build), from the given interrupts (default `TIM5:50`, `EXTI3:9`, `USART2:38`) |
+//! | `long` | the checks too long for CI: a 1 000-run sweep and mutation testing (`long.rs`) |
 //! | `mutants [ARGS…]` | mutation testing of `controller-core` (and `link`) with cargo-mutants: score, missed list, wall time. Slow; not part of `ci` |
 //!
 //! Every step runs even if an earlier one failed, so one CI log shows every problem.
@@ -23,6 +24,7 @@ mod figures;
 #[cfg(test)]
 mod firmware_logger;
 mod link_qemu;
+mod long;
 mod mutants;
 mod panic_check;
 mod pil;
@@ -62,6 +64,8 @@ commands:
   panic-check ELF [--root NAME:IRQ]...
           the same proof on an ELF (no build), from the given interrupts (default TIM5:50,
           EXTI3:9, USART2:38)
+  long    the checks too long for CI: a 1 000-run sweep of paper-circle and mutation
+          testing (cargo xtask mutants)
   mutants [ARGS...]
           mutation testing of controller-core (and link, when the workspace has it) with
           cargo-mutants: prints the score, the missed mutants and the wall time; ARGS go to
@@ -86,6 +90,9 @@ fn run() -> Result<bool> {
     let ctx = Context::new(workspace_root()?);
     if args.first().map(String::as_str) == Some("mutants") {
         return mutants::run(&ctx, &args[1..]);
+    }
+    if args == ["long"] {
+        return long::run(&ctx);
     }
     let selected: Vec<Step> = match args.iter().map(String::as_str).collect::<Vec<_>>()[..] {
         ["ci"] => steps::ci(),

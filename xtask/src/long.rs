@@ -1,0 +1,45 @@
+//! `cargo xtask long`: the checks too long for CI's 15 minutes, run by hand before a
+//! release or after a change to what they cover. Each runs even if an earlier one failed.
+//!
+//! | check | what it proves |
+//! |---|---|
+//! | a 1 000-run sweep of `paper-circle` | the controller settles on 1 000 robots drawn from the scenario's spreads (mismatch, noise, start pose); the sweep prints its percentiles and fails when a run does not settle |
+//! | mutation testing (`cargo xtask mutants`) | the tests notice a wrong sign, a swapped comparison or a dropped statement in the mutated crates |
+
+use anyhow::{ensure, Result};
+
+use crate::steps::{run_command, Context, Step};
+
+/// Runs of the long sweep.
+const SWEEP_RUNS: &str = "1000";
+
+/// The long checks, in order.
+pub fn steps() -> Vec<Step> {
+    vec![
+        Step::new("sweep: paper-circle, 1 000 runs", |ctx: &Context| {
+            run_command(&mut ctx.cargo(&[
+                "run",
+                "--release",
+                "--package",
+                "host-sim",
+                "--",
+                "sweep",
+                "paper-circle",
+                "--runs",
+                SWEEP_RUNS,
+            ]))
+        }),
+        Step::new("mutants: cargo xtask mutants", |ctx: &Context| {
+            ensure!(
+                crate::mutants::run(ctx, &[])?,
+                "mutants were missed or timed out"
+            );
+            Ok(())
+        }),
+    ]
+}
+
+/// Whether every long check passed.
+pub fn run(ctx: &Context) -> Result<bool> {
+    Ok(crate::steps::run_all(ctx, &steps(), None))
+}

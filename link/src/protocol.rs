@@ -195,6 +195,8 @@ impl fmt::Display for Mismatch {
     }
 }
 
+impl core::error::Error for Mismatch {}
+
 #[cfg(test)]
 mod tests {
     extern crate std;

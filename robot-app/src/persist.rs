@@ -145,6 +145,8 @@ impl fmt::Display for LoadError {
     }
 }
 
+impl core::error::Error for LoadError {}
+
 /// Why a record could not be written into a page image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StoreError {
@@ -169,6 +171,8 @@ impl fmt::Display for StoreError {
         }
     }
 }
+
+impl core::error::Error for StoreError {}
 
 /// Writes the record of `params` with `sequence` at the start of `page` (the rest is left
 /// as it is: erased flash reads 0xFF); returns the record's length.

@@ -53,6 +53,8 @@ impl fmt::Display for StartError {
     }
 }
 
+impl core::error::Error for StartError {}
+
 /// The control side and the link side for `config`, talking through `channels`: the
 /// controller (in `Idle`) at the supervisor's start pose on `config.reference`, the
 /// supervisor `Disarmed`, and a link side that knows the same configuration.

@@ -544,7 +544,7 @@ pub fn command<T: Transport>(
     args: &CalibrateArgs,
 ) -> anyhow::Result<()> {
     let mut client = client?;
-    let base = Scenario::load("square-waypoints").map_err(|e| anyhow::anyhow!("{e}"))?;
+    let base = Scenario::load("square-waypoints")?;
     let mut rng = Rng::new(1);
     let mut measure = match (&args.measurements, args.simulated_noise_m) {
         (Some(file), _) => Measure::File(

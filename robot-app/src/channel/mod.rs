@@ -125,6 +125,20 @@ pub enum ControlRefusal {
     Invalid,
 }
 
+impl core::fmt::Display for ControlRefusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            ControlRefusal::Armed => "the robot is armed",
+            ControlRefusal::Faulted => "faults are latched",
+            ControlRefusal::Busy => "not now (persisting, or nothing staged): retry",
+            ControlRefusal::ButtonHeld => "the robot's button is held (local stop)",
+            ControlRefusal::Invalid => "the staged settings were rejected",
+        })
+    }
+}
+
+impl core::error::Error for ControlRefusal {}
+
 /// What the control side sends the link side besides telemetry.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ToLink {
@@ -460,6 +474,24 @@ impl ControlEnd<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn each_control_refusal_says_its_own_reason() {
+        let all = [
+            ControlRefusal::Armed,
+            ControlRefusal::Faulted,
+            ControlRefusal::Busy,
+            ControlRefusal::ButtonHeld,
+            ControlRefusal::Invalid,
+        ];
+        let texts: std::vec::Vec<std::string::String> =
+            all.iter().map(std::string::ToString::to_string).collect();
+        assert!(texts[0].contains("armed") && texts[3].contains("button"));
+        for (i, a) in texts.iter().enumerate() {
+            assert!(texts[i + 1..].iter().all(|b| a != b), "{a} repeated");
+        }
+        let _: &dyn core::error::Error = &ControlRefusal::Busy;
+    }
 
     #[test]
     fn every_state_survives_its_code() {

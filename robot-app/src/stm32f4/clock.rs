@@ -55,6 +55,8 @@ impl fmt::Display for ClockError {
     }
 }
 
+impl core::error::Error for ClockError {}
+
 /// Main PLL parameters (RCC_PLLCFGR): f_VCO = f_source × N / M, SYSCLK = f_VCO / P,
 /// PLL48CLK = f_VCO / Q.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

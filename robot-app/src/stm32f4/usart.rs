@@ -56,6 +56,8 @@ impl fmt::Display for BaudError {
     }
 }
 
+impl core::error::Error for BaudError {}
+
 impl BaudSetting {
     /// The USART_BRR value for `baud` (bit/s) on a USART clocked at `pclk_hz` (Hz), 16×
     /// oversampling (see the module doc).

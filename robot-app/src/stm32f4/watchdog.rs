@@ -80,6 +80,8 @@ impl fmt::Display for WatchdogError {
     }
 }
 
+impl core::error::Error for WatchdogError {}
+
 /// The watchdog's timeout over the LSI's spread, µs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TimeoutSpread {

@@ -31,7 +31,6 @@ mod pil;
 mod qemu;
 mod setup;
 mod steps;
-#[cfg(test)]
 mod task_priorities;
 
 use std::path::PathBuf;

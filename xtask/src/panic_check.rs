@@ -145,22 +145,35 @@ impl fmt::Display for Root {
     }
 }
 
-/// The firmware's tasks for the stack bound, with their RTIC priorities: tasks of
-/// different priorities can preempt one another, so their stacks add up.
-pub fn firmware_tasks() -> Vec<(Root, u8)> {
-    vec![
+/// The F411 firmware's tasks with their priorities, as `firmware/src/main.rs` (under
+/// `root`, the workspace) binds them, after checking their order
+/// ([`crate::task_priorities::check`]): one source of truth for the order the stack bound
+/// nests them in. The qemu board's plant port (USART1) is not
+/// in the F411 build.
+pub fn firmware_tasks(root: &Path) -> Result<Vec<(Root, u8)>> {
+    let source = crate::task_priorities::firmware_source(root)?;
+    crate::task_priorities::check(&source)?;
+    let tasks = crate::task_priorities::tasks(&source)?;
+    let priority = |binds: &str| {
+        tasks
+            .iter()
+            .find(|t| t.binds == binds)
+            .map(|t| t.priority)
+            .with_context(|| format!("firmware/src/main.rs binds no task to {binds}"))
+    };
+    Ok(vec![
         (
             Root {
                 role: "link task".into(),
                 name: "EXTI4".into(),
                 irq: 10,
             },
-            1,
+            priority("EXTI4")?,
         ),
-        (Root::link_usart_interrupt(), 2),
-        (Root::steering_task(), 2),
-        (Root::control_interrupt(), 3),
-    ]
+        (Root::steering_task(), priority("EXTI3")?),
+        (Root::control_interrupt(), priority("TIM5")?),
+        (Root::link_usart_interrupt(), priority("USART2")?),
+    ])
 }
 
 /// Bytes the Cortex-M4F stacks on exception entry with an active floating-point
@@ -385,7 +398,7 @@ pub fn check_firmware(ctx: &Context) -> Result<()> {
 
     println!();
     let image = Image::load(&firmware)?;
-    let bound = stack_bound(&image, &ThreadMode::firmware(), &firmware_tasks())?;
+    let bound = stack_bound(&image, &ThreadMode::firmware(), &firmware_tasks(&ctx.root)?)?;
     println!(
         "stack worst case (call graph): {bound} bytes (thread mode, then each priority's \
          deepest task, nested, with a {EXCEPTION_FRAME_BYTES}-byte exception frame each); \

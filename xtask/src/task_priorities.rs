@@ -4,9 +4,18 @@
 //! preempt every other task, the control interrupt included, or a long step loses a
 //! byte. The control interrupt in turn preempts the steering task (the outer loop it
 //! lends), which preempts the link task. QEMU never overruns a USART, so emulation
-//! cannot show a wrong order; this test reads it from the source.
+//! cannot show a wrong order; a test reads it from the source, and the stack bound
+//! (`crate::panic_check`) nests the tasks by the same priorities.
+
+use std::path::Path;
 
 use anyhow::{bail, ensure, Context as _, Result};
+
+/// The firmware's RTIC application, `firmware/src/main.rs` under the workspace `root`.
+pub fn firmware_source(root: &Path) -> Result<String> {
+    let path = root.join("firmware/src/main.rs");
+    std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))
+}
 
 /// One RTIC hardware task: the interrupt it is bound to and its priority.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -40,7 +49,7 @@ pub fn tasks(source: &str) -> Result<Vec<Task>> {
     Ok(tasks)
 }
 
-/// Checks the order of the module doc: USART2 above every other task, TIM5 (control)
+/// Checks the order of the module doc (the test below runs it on the firmware): USART2 above every other task, TIM5 (control)
 /// above EXTI3 (steering), EXTI3 above EXTI4 (the link task).
 pub fn check(source: &str) -> Result<()> {
     let tasks = tasks(source)?;
@@ -78,8 +87,8 @@ mod tests {
 
     #[test]
     fn the_firmware_s_priorities_put_the_link_usart_above_the_control_interrupt() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../firmware/src/main.rs");
-        let source = std::fs::read_to_string(path).expect("firmware/src/main.rs");
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let source = firmware_source(&root).unwrap();
         assert_eq!(
             tasks(&source).unwrap().len(),
             5,

@@ -4,6 +4,7 @@
 //! | Parameter                  | Value                               | Where            |
 //! |----------------------------|-------------------------------------|------------------|
 //! | Geometry, encoders, gains  | `RobotConfig::REFERENCE_ROBOT`      | [`ROBOT`]        |
+//! | Motor bridge and its supply limit | TB6612FNG, 13.5 V (feature `drv8833`: DRV8833, 10.8 V) | [`BRIDGE`] |
 //! | Wheel loop / steering rate | 1 kHz / 100 Hz                      | [`ROBOT`]        |
 //! | Steering law               | `LawKind::Tracking`                 | [`LAW`]          |
 //! | Built-in path              | paper's circle (feature `path-line`: line) | [`PATH`]  |
@@ -29,12 +30,25 @@ use controller_core::reference::ReferenceMode;
 use controller_core::reference::{Reference, ReferenceError};
 use controller_core::supervisor::{ResetCause, RunMode, SupervisorConfig};
 use link::ParamSet;
+use robot_app::stm32f4::bridge::BridgeChip;
 use robot_app::{AppConfig, Identity, LinkOptions};
+
+/// The board's motor bridge, chosen by the `drv8833` feature.
+pub const BRIDGE: BridgeChip = if cfg!(feature = "drv8833") {
+    BridgeChip::Drv8833
+} else {
+    BridgeChip::Tb6612fng
+};
 
 /// The robot's geometry, encoders, rates, limits and gains (the core validates them at
 /// boot). The reference robot: 65 mm wheels, 150 mm track, 12-line encoders behind a 1:30
-/// gearbox (1440 ticks per wheel turn), gains tuned in `host-sim`.
-pub const ROBOT: RobotConfig = RobotConfig::REFERENCE_ROBOT;
+/// gearbox (1440 ticks per wheel turn), gains tuned in `host-sim`; its supply limit is
+/// the [`BRIDGE`]'s rating.
+pub const ROBOT: RobotConfig = {
+    let mut robot = RobotConfig::REFERENCE_ROBOT;
+    robot.drive.max_supply_v = BRIDGE.max_supply_v();
+    robot
+};
 
 /// The steering law.
 pub const LAW: LawKind = LawKind::Tracking;
@@ -144,17 +158,22 @@ pub enum SetupError {
     Reference(ReferenceError),
 }
 
-/// Everything `robot_app::start` needs: the configuration in force `params`, the
-/// built-in path at [`REFERENCE_SPEED_M_S`] with [`LAW`], who the robot is (on the
-/// board `chip`), and the link at `baud` with [`TELEMETRY_HZ`], and `storage` when the
-/// board can persist parameters.
+/// Everything `robot_app::start` needs: the configuration in force `params`, its supply
+/// limit held to the [`BRIDGE`]'s rating (a record persisted by a build for another
+/// bridge may be above it), the built-in path at [`REFERENCE_SPEED_M_S`] with [`LAW`],
+/// who the robot is (on the board `chip`), and the link at `baud` with [`TELEMETRY_HZ`],
+/// and `storage` when the board can persist parameters.
 pub fn app_config(
-    params: ParamSet,
+    mut params: ParamSet,
     reset: ResetCause,
     chip: &'static str,
     baud: u32,
     storage: bool,
 ) -> Result<AppConfig, SetupError> {
+    let rating = BRIDGE.max_supply_v();
+    if params.robot.drive.max_supply_v > rating {
+        params.robot.drive.max_supply_v = rating;
+    }
     let (path, mode) = PATH.build().map_err(SetupError::Path)?;
     let reference =
         Reference::new(path, REFERENCE_SPEED_M_S, mode).map_err(SetupError::Reference)?;
@@ -174,5 +193,6 @@ pub fn app_config(
             telemetry_hz: TELEMETRY_HZ,
             storage,
         },
+        bridge: BRIDGE,
     })
 }

@@ -389,6 +389,14 @@ fn driver_supply_and_centre_of_mass_are_checked_with_their_key() {
 
     let s = with("[plant]\ndriver = \"drv8833\"\nsupply_v = 7.4").unwrap();
     assert_eq!(s.plant.driver.kind, DriverKind::Drv8833);
+    // The robot's supply limit follows the bridge, as on the firmware: the DRV8833's
+    // 10.8 V rating by default (13.5 V, the TB6612FNG's, otherwise), never above it.
+    assert_eq!(s.robot.drive.max_supply_v, 10.8);
+    assert_eq!(with("").unwrap().robot.drive.max_supply_v, 13.5);
+    assert_eq!(
+        error("[robot.drive]\nmax_supply_v = 12.6\n[plant]\ndriver = \"drv8833\"\nsupply_v = 7.4"),
+        "robot.drive.max_supply_v must be ≤ 10.8 V, the drv8833's rating (plant.driver), got 12.6"
+    );
     let e = error("[plant]\ndriver = \"l298n\"");
     assert!(
         e.contains("driver") && e.contains("unknown variant `l298n`"),

@@ -16,6 +16,7 @@ use controller_core::path::Path;
 use controller_core::reference::{Reference, ReferenceMode};
 use controller_core::supervisor::{ResetCause, SupervisorConfig};
 use link::{encode, Decoder, Downlink, ParamSet, Received, Request, Uplink, MAX_FRAME_LEN};
+use robot_app::stm32f4::bridge::BridgeChip;
 use robot_app::{
     start, AppConfig, Channels, ControlSide, Identity, LinkOptions, LinkService, NoBoardStats,
     Sensors,
@@ -50,6 +51,7 @@ fn main() {
             telemetry_hz: 0,
             storage: false,
         },
+        bridge: BridgeChip::Tb6612fng,
     };
     let mut channels = Channels::new();
     let (mut control, mut link) = start(&mut channels, config).expect("a valid configuration");

@@ -71,6 +71,7 @@
 //! use controller_core::prelude::*;
 //! use controller_core::supervisor::{ResetCause, SupervisorConfig};
 //! use link::{encode, Decoder, Downlink, ParamSet, Received, Reply, Request, Uplink};
+//! use robot_app::stm32f4::bridge::BridgeChip;
 //! use robot_app::{start, AppConfig, Channels, Identity, LinkOptions, NoBoardStats, Sensors};
 //!
 //! let line = Path::line(Point::new(0.0, 0.0), 0.0, 2.0).unwrap();
@@ -85,6 +86,7 @@
 //!     reset: ResetCause::PowerOn,
 //!     identity: Identity { firmware_version: "0.1.0", git_hash: "", chip: "host", robot_name: "doc" },
 //!     link: LinkOptions { baud: 115_200, telemetry_hz: 0, storage: false },
+//!     bridge: BridgeChip::Tb6612fng,
 //! };
 //! let mut channels = Channels::new();
 //! let (mut control, mut link) = start(&mut channels, config).unwrap();

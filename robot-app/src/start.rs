@@ -14,6 +14,7 @@ use crate::channel::Channels;
 use crate::control::ControlSide;
 use crate::outer::{OuterLoopMailbox, OuterLoopSlot, OuterLoopWorker};
 use crate::service::{Identity, LinkOptions, LinkService};
+use crate::stm32f4::bridge::BridgeChip;
 
 /// Everything the board decides at start.
 #[derive(Clone, Debug)]
@@ -31,6 +32,9 @@ pub struct AppConfig {
     pub identity: Identity,
     /// The link's baud rate, telemetry rate and storage.
     pub link: LinkOptions,
+    /// The board's motor bridge: `params.robot.drive.max_supply_v` may not exceed its
+    /// rating, at start nor in a later `SetParams`.
+    pub bridge: BridgeChip,
 }
 
 /// Why the sides could not be built.
@@ -40,6 +44,9 @@ pub enum StartError {
     Robot(ParamError),
     /// The supervisor settings fail `SupervisorConfig::validate`.
     Supervisor(SupervisorConfigError),
+    /// The robot's supply limit is above the board's bridge rating
+    /// ([`crate::service::within_bridge_rating`]).
+    AboveBridgeRating(BridgeChip),
 }
 
 impl fmt::Display for StartError {
@@ -48,6 +55,7 @@ impl fmt::Display for StartError {
         let problem = match self {
             StartError::Robot(e) => FieldProblem::from_param_error(e),
             StartError::Supervisor(e) => crate::service::supervisor_problem(e),
+            StartError::AboveBridgeRating(bridge) => crate::service::bridge_rating_problem(*bridge),
         };
         write!(f, "{problem}")
     }
@@ -63,6 +71,8 @@ pub fn start(
     config: AppConfig,
 ) -> Result<(ControlSide<'_>, LinkService<'_>), StartError> {
     let params = Params::new(config.params.robot).map_err(StartError::Robot)?;
+    crate::service::within_bridge_rating(&config.params.robot, config.bridge)
+        .map_err(|_| StartError::AboveBridgeRating(config.bridge))?;
     let supervisor_config = config.params.supervisor;
     let supervisor = Supervisor::new(supervisor_config, &params, config.reset)
         .map_err(StartError::Supervisor)?;
@@ -81,7 +91,13 @@ pub fn start(
             supervisor,
             OuterLoopWorker::new(outer_receiver),
         ),
-        LinkService::new(link_end, config.identity, config.params, config.link),
+        LinkService::new(
+            link_end,
+            config.identity,
+            config.params,
+            config.link,
+            config.bridge,
+        ),
     ))
 }
 
@@ -141,6 +157,7 @@ mod tests {
                 telemetry_hz: 0,
                 storage: false,
             },
+            bridge: BridgeChip::Tb6612fng,
         };
         let mut channels = Channels::new();
         let error = start(&mut channels, config.clone()).err();
@@ -148,8 +165,18 @@ mod tests {
             error.map(|e| e.to_string()),
             Some("robot.track_width_m must be > 0".into())
         );
+        // A 13.5 V limit suits the TB6612FNG, not a DRV8833 (10.8 V).
         let mut config = config;
         config.params.robot = RobotConfig::REFERENCE_ROBOT;
+        assert!(start(&mut Channels::new(), config.clone()).is_ok());
+        config.bridge = BridgeChip::Drv8833;
+        let error = start(&mut Channels::new(), config.clone()).err();
+        assert_eq!(
+            error.map(|e| e.to_string()),
+            Some("robot.drive.max_supply_v must be ≤ 10.8 V, the DRV8833's rating".into())
+        );
+        config.params.robot.drive.max_supply_v = BridgeChip::Drv8833.max_supply_v();
+        assert!(start(&mut Channels::new(), config.clone()).is_ok());
         config.params.supervisor.heartbeat_timeout_steps = 0;
         let error = start(&mut channels, config).err();
         assert_eq!(

@@ -51,10 +51,12 @@ use link::{
     encode, Decoder, Downlink, GroundTruth, ParamSet, Received, Reply, Request, Uplink,
     MAX_FRAME_LEN,
 };
+use robot_app::stm32f4::bridge::BridgeChip;
 use robot_app::{
     start, AppConfig, Channels, ControlSide, Identity, LinkOptions, LinkService, NoBoardStats,
     Sensors,
 };
+use robot_files::plant::DriverKind;
 use robot_files::scenario::{Scenario, StartState};
 
 use crate::hardware::{Actuation, SimHardware};
@@ -146,6 +148,10 @@ impl<'a> VirtualRobot<'a> {
                 baud: VIRTUAL_BAUD,
                 telemetry_hz: 0,
                 storage: true,
+            },
+            bridge: match scenario.plant.driver.kind {
+                DriverKind::Tb6612 => BridgeChip::Tb6612fng,
+                DriverKind::Drv8833 => BridgeChip::Drv8833,
             },
         };
         let (control, link) =

@@ -1,7 +1,7 @@
 //! Checking a configuration or a committed path before it is staged, with refusals that
 //! name the field and need no float formatting.
 
-use controller_core::params::Params;
+use controller_core::params::{Params, RobotConfig};
 use controller_core::path::Segment;
 use controller_core::reference::RebuildError;
 use controller_core::supervisor::{geofence_radius_m, DivergenceCheck, SupervisorConfigError};
@@ -9,14 +9,21 @@ use heapless::String;
 use link::{CommittedPath, FieldProblem, ParamSet, PathProblem, Refusal, FIELD_CAP};
 
 use crate::channel::StagedPath;
+use crate::stm32f4::bridge::BridgeChip;
 
 /// Validates a `SetParams` configuration: the core's `Params::new` and
-/// `SupervisorConfig::validate`, and a control rate equal to the board's
-/// (`control_rate_hz`, Hz), which is fixed by its tick timer. The refusal names the
-/// field (`robot.…` or `supervisor.…`).
-pub(crate) fn check(set: &ParamSet, control_rate_hz: u32) -> Result<Params, Refusal> {
+/// `SupervisorConfig::validate`, a control rate equal to the board's (`control_rate_hz`,
+/// Hz), which is fixed by its tick timer, and a supply limit within the board's
+/// `bridge` rating ([`within_bridge_rating`]). The refusal names the field (`robot.…` or
+/// `supervisor.…`).
+pub(crate) fn check(
+    set: &ParamSet,
+    control_rate_hz: u32,
+    bridge: BridgeChip,
+) -> Result<Params, Refusal> {
     let params = Params::new(set.robot)
         .map_err(|e| Refusal::InvalidParams(FieldProblem::from_param_error(&e)))?;
+    within_bridge_rating(&set.robot, bridge).map_err(Refusal::InvalidParams)?;
     if set.robot.control_rate_hz != control_rate_hz {
         return Err(Refusal::InvalidParams(FieldProblem::new(
             "robot.control_rate_hz",
@@ -27,6 +34,29 @@ pub(crate) fn check(set: &ParamSet, control_rate_hz: u32) -> Result<Params, Refu
         .validate(&params)
         .map_err(|e| Refusal::InvalidParams(supervisor_problem(&e)))?;
     Ok(params)
+}
+
+/// `robot`'s supply limit (`drive.max_supply_v`, above which the supervisor faults) is
+/// within what `bridge` is rated for; otherwise the field and the requirement. A robot
+/// configured for a 12.6 V pack would otherwise arm and drive a DRV8833 above its
+/// 10.8 V rating.
+pub fn within_bridge_rating(robot: &RobotConfig, bridge: BridgeChip) -> Result<(), FieldProblem> {
+    if robot.drive.max_supply_v <= bridge.max_supply_v() {
+        Ok(())
+    } else {
+        Err(bridge_rating_problem(bridge))
+    }
+}
+
+/// The field and the requirement a supply limit above `bridge`'s rating breaks.
+pub fn bridge_rating_problem(bridge: BridgeChip) -> FieldProblem {
+    FieldProblem::new(
+        "robot.drive.max_supply_v",
+        match bridge {
+            BridgeChip::Tb6612fng => "must be ≤ 13.5 V, the TB6612FNG's rating",
+            BridgeChip::Drv8833 => "must be ≤ 10.8 V, the DRV8833's rating",
+        },
+    )
 }
 
 /// The field (`supervisor.<field>`) and the requirement a [`SupervisorConfigError`]
@@ -104,7 +134,14 @@ mod tests {
     }
 
     fn refused_field(set: &ParamSet) -> (std::string::String, std::string::String) {
-        match check(set, 1000) {
+        refused_on(set, BridgeChip::Tb6612fng)
+    }
+
+    fn refused_on(
+        set: &ParamSet,
+        bridge: BridgeChip,
+    ) -> (std::string::String, std::string::String) {
+        match check(set, 1000, bridge) {
             Err(Refusal::InvalidParams(p)) => (p.field.as_str().into(), p.problem.as_str().into()),
             other => panic!("{other:?}"),
         }
@@ -112,7 +149,25 @@ mod tests {
 
     #[test]
     fn a_valid_configuration_passes() {
-        assert!(check(&set(), 1000).is_ok());
+        assert!(check(&set(), 1000, BridgeChip::Tb6612fng).is_ok());
+    }
+
+    #[test]
+    fn a_supply_limit_above_the_bridge_s_rating_is_refused() {
+        // The reference robot's 13.5 V suits the TB6612FNG only.
+        assert_eq!(
+            refused_on(&set(), BridgeChip::Drv8833),
+            (
+                "robot.drive.max_supply_v".into(),
+                "must be ≤ 10.8 V, the DRV8833's rating".into()
+            )
+        );
+        let mut above = set();
+        above.robot.drive.max_supply_v = 13.6;
+        assert_eq!(refused_field(&above).0, "robot.drive.max_supply_v");
+        let mut at = set();
+        at.robot.drive.max_supply_v = 10.8;
+        assert!(check(&at, 1000, BridgeChip::Drv8833).is_ok());
     }
 
     #[test]

@@ -43,8 +43,9 @@ use crate::channel::{
     ControlRefusal, ControlStatus, LinkEnd, Op, OpKind, Report, Staged, ToControl, ToLink,
     COMMAND_CAPACITY,
 };
+use crate::stm32f4::bridge::BridgeChip;
 
-pub use self::config::supervisor_problem;
+pub use self::config::{bridge_rating_problem, supervisor_problem, within_bridge_rating};
 pub use self::persisting::PersistJob;
 use self::persisting::PersistPhase;
 use self::tx::TxBuffer;
@@ -140,6 +141,8 @@ pub struct LinkService<'a> {
     active_path: Option<CommitSummary>,
     max_telemetry_hz: u8,
     storage: bool,
+    /// The board's motor bridge, whose rating bounds `robot.drive.max_supply_v`.
+    bridge: BridgeChip,
     /// Requests forwarded to the control side and not answered yet.
     in_flight: usize,
     persist: PersistPhase,
@@ -154,13 +157,14 @@ pub struct LinkService<'a> {
 
 impl<'a> LinkService<'a> {
     /// The link side talking to the control side through `end`, with `active` the
-    /// configuration the control side was built with. [`crate::start`] builds both sides
-    /// from one configuration.
+    /// configuration the control side was built with, on a board with `bridge`.
+    /// [`crate::start`] builds both sides from one configuration.
     pub fn new(
         end: LinkEnd<'a>,
         identity: Identity,
         active: ParamSet,
         options: LinkOptions,
+        bridge: BridgeChip,
     ) -> Self {
         let max_telemetry_hz = max_telemetry_rate_hz(options.baud);
         end.set_telemetry_hz(options.telemetry_hz.min(max_telemetry_hz));
@@ -175,6 +179,7 @@ impl<'a> LinkService<'a> {
             active_path: None,
             max_telemetry_hz,
             storage: options.storage,
+            bridge,
             in_flight: 0,
             persist: PersistPhase::Idle,
             counters: ServiceCounters::default(),
@@ -554,7 +559,7 @@ impl<'a> LinkService<'a> {
         if let Err(refusal) = self.ready_to_install() {
             return Some(Err(refusal));
         }
-        match config::check(set, self.active.robot.control_rate_hz) {
+        match config::check(set, self.active.robot.control_rate_hz, self.bridge) {
             Ok(params) => {
                 // The configuration takes the room the open upload's segments are in:
                 // the upload is over (the host begins it again).

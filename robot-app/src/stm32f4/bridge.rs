@@ -37,6 +37,27 @@
 //! - arms in two steps: inputs to brake with the driver still disabled, then the enable
 //!   line, so the driver wakes into a latched brake.
 
+/// The motor bridge on the board, for what its supply may be.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BridgeChip {
+    /// Toshiba TB6612FNG: motor supply VM 2.5–13.5 V operating, 15 V absolute maximum.
+    Tb6612fng,
+    /// TI DRV8833: motor supply VM 2.7–10.8 V operating, 11.8 V absolute maximum
+    /// (SLVSAR1, "Recommended Operating Conditions" and "Absolute Maximum Ratings").
+    Drv8833,
+}
+
+impl BridgeChip {
+    /// The highest motor supply the chip is rated to operate at, V: the highest a robot's
+    /// `drive.max_supply_v` may be, above which the supervisor faults.
+    pub const fn max_supply_v(self) -> f32 {
+        match self {
+            BridgeChip::Tb6612fng => 13.5,
+            BridgeChip::Drv8833 => 10.8,
+        }
+    }
+}
+
 /// Direction of a driven motor, seen from the bridge (after any wiring inversion).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Direction {
@@ -286,6 +307,12 @@ const fn same_direction(a: Direction, b: Direction) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn each_bridge_is_held_to_its_own_supply_rating() {
+        assert_eq!(BridgeChip::Tb6612fng.max_supply_v(), 13.5);
+        assert_eq!(BridgeChip::Drv8833.max_supply_v(), 10.8);
+    }
     use BridgeCommand::{Brake, Coast};
 
     const MAX: u16 = 5000;

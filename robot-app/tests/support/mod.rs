@@ -18,6 +18,7 @@ use link::{
     MAX_FRAME_LEN,
 };
 use robot_app::outer::OuterLoopWorker;
+use robot_app::stm32f4::bridge::BridgeChip;
 use robot_app::{
     start, Actuation, AppConfig, Channels, ControlSide, Identity, LinkOptions, LinkService,
     NoBoardStats, Sensors,
@@ -71,6 +72,7 @@ pub fn app_config(baud: u32, storage: bool) -> AppConfig {
             telemetry_hz: 0,
             storage,
         },
+        bridge: BridgeChip::Tb6612fng,
     }
 }
 

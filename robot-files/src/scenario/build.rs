@@ -345,7 +345,22 @@ fn build_sweep(s: &FileSweep) -> Result<SweepSpec, ScenarioError> {
 
 /// The scenario `file` describes, named `default_name` unless it names itself.
 pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, ScenarioError> {
-    let robot = file.robot.apply(RobotConfig::REFERENCE_ROBOT);
+    // The robot's supply limit follows the bridge, as on the firmware: by default the
+    // chip's operating maximum, and never above it.
+    let plant = build_plant(&file.plant)?;
+    let bridge_max_v = plant.driver.kind.operating_supply_v().1 as f32;
+    let mut base = RobotConfig::REFERENCE_ROBOT;
+    base.drive.max_supply_v = base.drive.max_supply_v.min(bridge_max_v);
+    let robot = file.robot.apply(base);
+    check(
+        robot.drive.max_supply_v <= bridge_max_v,
+        "robot.drive.max_supply_v",
+        &format!(
+            "must be ≤ {bridge_max_v} V, the {}'s rating (plant.driver)",
+            plant.driver.kind.name()
+        ),
+        robot.drive.max_supply_v,
+    )?;
     // The simulator's own limit first: an absurd rate is refused as such.
     check(
         robot.control_rate_hz <= MAX_CONTROL_RATE_HZ,
@@ -354,7 +369,7 @@ pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, 
         robot.control_rate_hz,
     )?;
     // The core is the single source of truth for what a valid RobotConfig is.
-    let params = file.robot.params(RobotConfig::REFERENCE_ROBOT, "robot")?;
+    let params = file.robot.params(base, "robot")?;
 
     let duration_s = file.sim.duration_s.unwrap_or(30.0);
     let control = robot.control_rate_hz;
@@ -459,7 +474,7 @@ pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, 
         start,
         robot,
         supervisor,
-        plant: build_plant(&file.plant)?,
+        plant,
         arm_at_start: file.start.arm == ArmAtStart::AtStart,
         faults: file
             .faults

@@ -192,7 +192,7 @@ mod app {
     /// The control step, every control period: sense, decide, act.
     #[task(binds = TIM5, priority = 3, shared = [watchdog], local = [io, control])]
     fn control(mut cx: control::Context) {
-        let started = board::work_counter();
+        let started = stats::start();
         let local = cx.local;
         let Some(sensors) = local.io.sense(HEARTBEAT.load(Ordering::Relaxed)) else {
             return; // entered before the deadline: not a tick
@@ -212,8 +212,8 @@ mod app {
         #[cfg(feature = "panic-canary")]
         core::hint::black_box(crate::panic_canary::index());
         local.io.end_step();
-        // One reading for both figures: they measure the same span.
-        let elapsed = board::work_since(started);
+        // One reading for every figure: they measure the same run.
+        let elapsed = stats::own_time_since(started);
         stats::CONTROL.record(elapsed);
         match (out.state, out.event) {
             (State::Armed, None) => stats::CONTROL_ARMED.record(elapsed),
@@ -225,9 +225,11 @@ mod app {
     /// The steering law, on the job the last control step lent (see `robot_app::outer`).
     #[task(binds = EXTI3, priority = 2, local = [steering])]
     fn steering(cx: steering::Context) {
-        let started = board::work_counter();
-        if cx.local.steering.run() {
-            stats::STEERING.record_since(started);
+        let started = stats::start();
+        let ran = cx.local.steering.run();
+        let elapsed = stats::own_time_since(started);
+        if ran {
+            stats::STEERING.record(elapsed);
         }
         board::steering_done();
     }
@@ -236,23 +238,29 @@ mod app {
     #[cfg(feature = "qemu")]
     #[task(binds = USART1, priority = 3, local = [plant])]
     fn plant_port(cx: plant_port::Context) {
+        // The emulator's port, not the robot's work: charged, so that the tasks it
+        // preempts do not count it, and not reported.
+        let started = stats::start();
         cx.local.plant.on_interrupt();
+        stats::own_time_since(started);
     }
 
     /// The link's USART: bytes between the line and the rings.
     #[task(binds = USART2, priority = 4, local = [uart])]
     fn link_uart(cx: link_uart::Context) {
+        let started = stats::start();
         if cx.local.uart.on_interrupt() {
             rtic::pend(LINK_TASK_INTERRUPT);
         }
+        stats::LINK_UART.record(stats::own_time_since(started));
     }
 
     /// The link service (see `crate::link_task`).
     #[task(binds = EXTI4, priority = 1, shared = [watchdog], local = [link])]
     fn link(mut cx: link::Context) {
-        let started = board::work_counter();
+        let started = stats::start();
         cx.local.link.run(&mut cx.shared.watchdog);
-        stats::LINK.record_since(started);
+        stats::LINK.record(stats::own_time_since(started));
     }
 
     /// Logs a panic or hard-fault record of the previous run.

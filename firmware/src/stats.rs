@@ -1,7 +1,13 @@
-//! What the firmware measures about itself: the longest run of the control task and of
-//! the link task (in the board's work unit: CPU cycles on the F411, instructions on the
-//! emulated board), and the stack's high-water mark; and the [`BoardStats`] the link
-//! service reports in `GetStats`.
+//! What the firmware measures about itself: each task's runs, longest run and total, in
+//! the board's work unit (CPU cycles on the F411, instructions on the emulated board),
+//! and the stack's high-water mark; and the [`BoardStats`] the link service reports in
+//! `GetStats`.
+//!
+//! A task's run is its **own** time: from its first instruction to its last, less what
+//! the higher-priority tasks that preempted it spent meanwhile. Every task charges its
+//! own time to one running total ([`own_time_since`]), and a task's preemption is how
+//! far that total moved during its run; so each instruction counts once, in the task
+//! that ran it, however the tasks nest.
 
 use core::ptr::addr_of;
 use core::sync::atomic::{AtomicU32, Ordering};
@@ -11,8 +17,43 @@ use robot_app::BoardStats;
 
 use crate::board;
 
-/// The runs of one task: how many, and the longest, in raw [`board::work_since`]
-/// differences. Written by its task only; read from anywhere.
+/// Every task's own time so far, raw [`board::work_since`] units, wrapping (see the
+/// module doc).
+static CHARGED_RAW: AtomicU32 = AtomicU32::new(0);
+
+/// Where a task's run began: the work counter and the charged total then.
+#[derive(Clone, Copy)]
+pub struct Start {
+    counter: u32,
+    charged: u32,
+}
+
+/// The start of a task's run (its first statement).
+#[inline(always)]
+pub fn start() -> Start {
+    Start {
+        counter: board::work_counter(),
+        charged: CHARGED_RAW.load(Ordering::Relaxed),
+    }
+}
+
+/// The task's own time since `start`, raw units: the counter's advance less what the
+/// tasks that preempted it charged meanwhile. Charges it in turn, so that the tasks this
+/// one preempted do not count it as theirs. Call it once per run, last.
+#[inline(always)]
+pub fn own_time_since(start: Start) -> u32 {
+    let elapsed = board::work_since(start.counter);
+    let preempted = CHARGED_RAW
+        .load(Ordering::Relaxed)
+        .wrapping_sub(start.charged);
+    let own = elapsed.saturating_sub(preempted);
+    CHARGED_RAW.fetch_add(own, Ordering::Relaxed);
+    own
+}
+
+/// The runs of one task: how many, the longest and their total, in raw
+/// [`board::work_since`] units of its own time ([`own_time_since`]). Written by its task
+/// only; read from anywhere.
 pub struct TaskTiming {
     longest_raw: AtomicU32,
     runs: AtomicU32,
@@ -29,15 +70,9 @@ impl TaskTiming {
         }
     }
 
-    /// Records one run that started at the [`board::work_counter`] reading `started`.
-    #[inline(always)]
-    pub fn record_since(&self, started: u32) {
-        self.record(board::work_since(started));
-    }
-
-    /// Records one run that lasted `raw` ([`board::work_since`] units). Only the task
-    /// this timing is for calls it (relaxed loads and stores, no read-modify-write
-    /// instruction needed).
+    /// Records one run of `raw` own time ([`own_time_since`]). Only the task this timing
+    /// is for calls it (relaxed loads and stores, no read-modify-write instruction
+    /// needed).
     #[inline(always)]
     pub fn record(&self, raw: u32) {
         if raw > self.longest_raw.load(Ordering::Relaxed) {
@@ -76,6 +111,8 @@ pub static CONTROL_ARMED: TaskTiming = TaskTiming::new();
 pub static CONTROL_ARMING: TaskTiming = TaskTiming::new();
 /// The link task, each run.
 pub static LINK: TaskTiming = TaskTiming::new();
+/// The link USART's interrupt, each run.
+pub static LINK_UART: TaskTiming = TaskTiming::new();
 /// The steering task: the outer loop the control task lends it.
 pub static STEERING: TaskTiming = TaskTiming::new();
 

@@ -15,7 +15,7 @@
 //!  board ─► BoardStep   ('A' 10 bytes, or 'D' 40 bytes or more with the details)    ┘ step
 //!  …
 //!  plant ─► FINISH ('F')
-//!  board ─► BoardReport ('F' + 68 bytes), then the emulator exits
+//!  board ─► BoardReport ('F' + 80 bytes), then the emulator exits
 //! ```
 //!
 //! Messages are short because the emulated USART is slow: QEMU hands the guest one byte
@@ -70,7 +70,7 @@ pub(crate) const BOARD_MESSAGE_MAX_LEN: usize = if BOARD_STEP_MAX_LEN > BOARD_RE
     BOARD_REPORT_LEN
 };
 /// Bytes of a [`BoardReport`] on the wire, tag included.
-pub const BOARD_REPORT_LEN: usize = 1 + 5 * 3 * 4 + 2 * 4;
+pub const BOARD_REPORT_LEN: usize = 1 + 6 * 3 * 4 + 2 * 4;
 
 /// What the plant sends.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -17,13 +17,16 @@ pub struct BoardReport {
     pub steering: TaskFigures,
     /// The link task's runs.
     pub link: TaskFigures,
+    /// The link USART interrupt's runs (above every other task).
+    pub link_uart: TaskFigures,
     /// The stack's high-water mark while the application ran (after start-up), bytes.
     pub stack_high_water_bytes: u32,
     /// The stack start-up (`init`) used, bytes.
     pub start_stack_bytes: u32,
 }
 
-/// One task's runs, in instructions (counted with SysTick under QEMU's `-icount`).
+/// One task's runs, in instructions of its own time (counted with SysTick under QEMU's
+/// `-icount`; the firmware leaves out what higher-priority tasks spent preempting it).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TaskFigures {
     /// Runs recorded.
@@ -60,6 +63,7 @@ impl BoardReport {
             &self.control_arming,
             &self.steering,
             &self.link,
+            &self.link_uart,
         ] {
             w.u32(task.runs);
             w.u32(task.max_instructions);
@@ -80,14 +84,15 @@ impl BoardReport {
                     total_instructions: r.u32()?,
                 })
             };
-            let (control, control_armed, control_arming, steering, link) =
-                (task()?, task()?, task()?, task()?, task()?);
+            let (control, control_armed, control_arming, steering, link, link_uart) =
+                (task()?, task()?, task()?, task()?, task()?, task()?);
             Some(Self {
                 control,
                 control_armed,
                 control_arming,
                 steering,
                 link,
+                link_uart,
                 stack_high_water_bytes: r.u32()?,
                 start_stack_bytes: r.u32()?,
             })

@@ -185,6 +185,7 @@ fn a_report_answers_finish() {
         control_arming: task(3),
         steering: task(4),
         link: task(5),
+        link_uart: task(6),
         stack_high_water_bytes: 2048,
         start_stack_bytes: 9000,
     };

@@ -137,6 +137,7 @@ impl PlantPort {
             control_arming: stats::CONTROL_ARMING.figures(),
             steering: stats::STEERING.figures(),
             link: stats::LINK.figures(),
+            link_uart: stats::LINK_UART.figures(),
             stack_high_water_bytes: stats::stack_high_water_bytes(),
             start_stack_bytes: stats::start_stack_bytes(),
         };

@@ -38,7 +38,7 @@
 //!
 //! ## Lifted wheels
 //!
-//! [`Load::Lifted`](robot_files::plant::Load::Lifted) puts the robot on a stand: M = diag(J_w, J_w), no coupling, no
+//! [`Load::Lifted`] puts the robot on a stand: M = diag(J_w, J_w), no coupling, no
 //! centre-of-mass terms, and the true pose stays where it is. Wheel loops tuned this way
 //! see a third of the driving inertia (the default robot: τ 26 ms lifted, 89 ms driving
 //! straight), which is why a tune on a stand must be corrected before it drives.

@@ -76,7 +76,7 @@ impl Plant {
 
     /// One classic RK4 step of `dt_s` from wheel speeds `w0`, for the speeds and angles,
     /// evaluating the full model ([`Plant::accel`]) at every stage with the friction
-    /// decided at the start ([`Friction::grip`]). A wheel that ends the step moving the way
+    /// decided at the start ([`Friction::grip`](super::super::friction::Friction::grip)). A wheel that ends the step moving the way
     /// its friction pushes has passed through rest: it is stopped at zero, and static
     /// friction decides at the next step. Returns the new speeds and the angle increments.
     pub(super) fn rk4_step(&self, w0: [f64; 2], dt_s: f64) -> ([f64; 2], [f64; 2]) {

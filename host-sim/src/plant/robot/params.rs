@@ -40,7 +40,7 @@ pub struct PlantParams {
     pub load: Load,
 }
 
-/// Why [`Plant::new`] or a run-time setter rejected a value (the scenario layer validates
+/// Why [`Plant::new`](super::Plant::new) or a run-time setter rejected a value (the scenario layer validates
 /// first, with the TOML key; this is the last line of defence).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum PlantError {

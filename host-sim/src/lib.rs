@@ -33,6 +33,9 @@
 //! - [`serve`] — the virtual robot: robot-app's control and link sides against the
 //!   simulated hardware, speaking the runtime link over TCP, with ground truth.
 //!
+//! - [`commands`] — the `host-sim` commands, one module each: what each computes and
+//!   writes, the report it prints, and the rules by which it fails.
+//!
 //! What it reads and writes — scenarios and robot files, the fault timeline, the plant's
 //! parameter types, a run's trace, metrics and Figs. 5–7 — is the `robot_files` crate's,
 //! shared with the ground station.
@@ -51,6 +54,7 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod commands;
 pub mod encoder;
 pub mod fault_suite;
 pub mod hardware;

@@ -1,5 +1,6 @@
-//! The simulation loop: the firmware's decision path — the [`Supervisor`] around the
-//! [`Controller`] — against the simulated hardware.
+//! The simulation loop: the firmware's decision path — the
+//! [`Supervisor`](controller_core::supervisor::Supervisor) around the [`Controller`] —
+//! against the simulated hardware.
 //!
 //! Each control step (time kept as an integer count of control periods):
 //!
@@ -40,23 +41,27 @@
 
 use std::time::Instant;
 
-use controller_core::controller::Telemetry;
 use controller_core::prelude::*;
-use controller_core::supervisor::{
-    ArmRequest, Bridge, Event, Inputs, RunMode, State, Supervisor, SupervisorOutput,
-};
+use controller_core::supervisor::{ArmRequest, Event, RunMode, State};
 use m4f_scenario::{Digest, Fnv1a64};
 use robot_app::metrics::{ErrorSample, ErrorStats};
-use robot_files::faults::Fault;
-use robot_files::metrics::{
-    fault_names, ErrorReport, FaultReport, HourlyRms, Summary, SupervisorReport,
-};
+use robot_files::metrics::{ErrorReport, HourlyRms, Summary, SupervisorReport};
 use robot_files::scenario::{Scenario, ScenarioError};
 use robot_files::trace::TraceRow;
-use robot_files::truth::{tracking_error_f64, TruePose, TrueReference};
+use robot_files::truth::{tracking_error_f64, TrueReference};
 
-use crate::hardware::{Actuation, Sensors, SimHardware};
+use crate::hardware::{Actuation, SimHardware};
 use crate::plant::{PlantError, PlantParams, TrueGeometry};
+
+mod fault_watch;
+mod logic;
+mod step_response;
+
+pub(crate) use self::logic::Robot;
+pub use self::logic::{Decision, Estimate, LocalRobot, RobotLogic};
+pub use self::step_response::{wheel_step_response, StepResponse};
+
+use self::fault_watch::FaultWatch;
 
 /// Most trace rows a run keeps: longer runs are decimated to about this many, so memory
 /// and file sizes stay flat however long the run.
@@ -164,187 +169,9 @@ pub fn run_scenario(scenario: &Scenario, law: LawKind) -> Result<RunResult, RunE
     run_scenario_with(scenario, law, RunOptions::at_steering_rate(scenario))
 }
 
-/// The controller's estimate after a step, as the loop records it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Estimate {
-    /// Odometry pose, world frame (m, rad): current when `steering_updated`, otherwise
-    /// possibly that of the last steering update.
-    pub pose: Pose,
-    /// Tracking error at the last steering update, robot frame (m, rad).
-    pub error: TrackingError,
-    /// This step applied a steering outcome (the law ran on the previous step's pose).
-    pub steering_updated: bool,
-}
-
-/// What the robot's logic decided in one step.
-pub struct Decision<'a> {
-    /// The supervisor's outcome: duties, bridge, state, faults, event, counters.
-    pub out: SupervisorOutput,
-    /// The controller's estimate.
-    pub estimate: Estimate,
-    /// The controller's whole telemetry, when the logic runs in this process (for the
-    /// trace); `None` when it runs elsewhere.
-    pub telemetry: Option<&'a Telemetry>,
-}
-
-/// The robot's logic the loop runs against the simulated hardware: the supervisor around
-/// the controller, here or on an emulated target.
-pub trait RobotLogic {
-    /// Arms before the first step, as the operator at the robot would (`false` if this
-    /// logic cannot, or refused): the scenario's `arm = "follow"` start.
-    fn arm_locally(&mut self, request: ArmRequest) -> bool;
-    /// One control step on what the firmware reads, `sensors`.
-    fn step(&mut self, sensors: &Sensors) -> Result<Decision<'_>, RunError>;
-}
-
-/// The supervisor and controller of `scenario` running `law`, in this process.
-pub struct LocalRobot {
-    controller: Controller,
-    supervisor: Supervisor,
-    heartbeat: u32,
-}
-
-impl LocalRobot {
-    /// The scenario's controller (its path, reference and start pose) with `law`, and its
-    /// supervisor after a power-on reset.
-    pub fn new(scenario: &Scenario, law: LawKind) -> Result<Self, RunError> {
-        let params = scenario.params()?;
-        let reference = Reference::new(
-            scenario.path.clone(),
-            scenario.reference_speed_m_s,
-            scenario.reference_mode,
-        )
-        .map_err(RunError::Reference)?;
-        let s = scenario.start;
-        let start = Pose::new(s.x_m as f32, s.y_m as f32, s.theta_rad as f32);
-        Ok(Self {
-            controller: Controller::new(params, reference, law, start),
-            supervisor: Supervisor::new(
-                scenario.supervisor,
-                &params,
-                controller_core::supervisor::ResetCause::PowerOn,
-            )
-            .map_err(RunError::Supervisor)?,
-            heartbeat: 0,
-        })
-    }
-}
-
-impl RobotLogic for LocalRobot {
-    fn arm_locally(&mut self, request: ArmRequest) -> bool {
-        self.supervisor
-            .arm_locally(&mut self.controller, request)
-            .is_ok()
-    }
-
-    fn step(&mut self, sensors: &Sensors) -> Result<Decision<'_>, RunError> {
-        let out = supervise(
-            &mut self.supervisor,
-            &mut self.controller,
-            &mut self.heartbeat,
-            sensors,
-        );
-        let t = self.controller.telemetry();
-        Ok(Decision {
-            out,
-            estimate: Estimate {
-                pose: t.pose,
-                error: t.error,
-                steering_updated: t.steering_updated,
-            },
-            telemetry: Some(t),
-        })
-    }
-}
-
-/// One step of `supervisor` around `controller` on what the firmware reads, `sensors`,
-/// with the background heartbeat advanced as the firmware's idle loop would.
-fn supervise(
-    supervisor: &mut Supervisor,
-    controller: &mut Controller,
-    heartbeat: &mut u32,
-    sensors: &Sensors,
-) -> SupervisorOutput {
-    *heartbeat = heartbeat.wrapping_add(1);
-    supervisor.step(
-        controller,
-        Inputs {
-            ticks: sensors.ticks,
-            periods: core::num::NonZeroU32::new(sensors.periods)
-                .unwrap_or(core::num::NonZeroU32::MIN),
-            supply_v: sensors.supply_v,
-            button_pressed: sensors.button_pressed,
-            overrun: false,
-            background_heartbeat: *heartbeat,
-            command: None,
-        },
-    )
-}
-
-/// The supervisor, controller and hardware of `scenario` running `law` with `faults`, for
-/// the wheel-loop studies that drive the robot step by step and may break the loop at
-/// the plant's input ([`crate::margins`], [`crate::tune`]).
-pub(crate) struct Robot {
-    pub(crate) controller: Controller,
-    pub(crate) supervisor: Supervisor,
-    pub(crate) hardware: SimHardware,
-    heartbeat: u32,
-}
-
-impl Robot {
-    pub(crate) fn new(
-        scenario: &Scenario,
-        law: LawKind,
-        faults: &[Fault],
-    ) -> Result<Self, RunError> {
-        let LocalRobot {
-            controller,
-            supervisor,
-            heartbeat,
-        } = LocalRobot::new(scenario, law)?;
-        Ok(Self {
-            controller,
-            supervisor,
-            hardware: SimHardware::new(scenario, faults)?,
-            heartbeat,
-        })
-    }
-
-    /// One control step (module doc); returns the supervisor's decision.
-    pub(crate) fn step(&mut self) -> SupervisorOutput {
-        self.step_with_added_volts([0.0; 2])
-    }
-
-    /// One control step with `added_v` (V, [left, right]) added to what the supervisor
-    /// drives, as a disturbance at the plant's input (while the bridge drives): the loop
-    /// is broken there to measure it ([`crate::margins`]).
-    pub(crate) fn step_with_added_volts(&mut self, added_v: [f64; 2]) -> SupervisorOutput {
-        let periods = self.hardware.periods_until_next_step();
-        let sensors = self.hardware.sense(periods);
-        let out = supervise(
-            &mut self.supervisor,
-            &mut self.controller,
-            &mut self.heartbeat,
-            &sensors,
-        );
-        let mut duty = out.duty;
-        if added_v != [0.0; 2] && out.bridge == Bridge::Drive {
-            let supply = self.hardware.plant().supply_v();
-            duty.left += (added_v[0] / supply) as f32;
-            duty.right += (added_v[1] / supply) as f32;
-        }
-        self.hardware.actuate(Actuation {
-            duty,
-            bridge: out.bridge,
-        });
-        self.hardware.advance();
-        out
-    }
-}
-
 /// One control step of `logic` against `hardware` (module doc): the periods the step
 /// covers, the sensors, the decision, the outputs, one period of the plant.
-fn step<'a, L: RobotLogic>(
+pub(super) fn step<'a, L: RobotLogic>(
     logic: &'a mut L,
     hardware: &mut SimHardware,
 ) -> Result<Decision<'a>, RunError> {
@@ -357,84 +184,6 @@ fn step<'a, L: RobotLogic>(
     });
     hardware.advance();
     Ok(decision)
-}
-
-/// What happened after each injected fault (see [`FaultReport`]).
-struct FaultWatch {
-    fault: Fault,
-    report: FaultReport,
-    last_position: (f64, f64),
-}
-
-impl FaultWatch {
-    fn new(fault: Fault, rate_hz: f64) -> Self {
-        Self {
-            report: FaultReport {
-                fault: fault.kind.name().to_string(),
-                injected_s: fault.at_step as f64 / rate_hz,
-                detected: false,
-                detected_s: None,
-                latency_s: None,
-                detected_by: Vec::new(),
-                motors_zero_s: None,
-                wheels_stopped_s: None,
-                distance_after_m: 0.0,
-            },
-            fault,
-            last_position: (0.0, 0.0),
-        }
-    }
-
-    /// One step at period `period` (time `t_s`) whose outcome is `out`, with the true
-    /// pose `pose` and wheel speeds `wheels`.
-    fn observe(
-        &mut self,
-        period: u64,
-        t_s: f64,
-        out: &SupervisorOutput,
-        pose: &TruePose,
-        wheels: [f64; 2],
-    ) {
-        if period < self.fault.at_step {
-            self.last_position = (pose.x_m, pose.y_m);
-            return;
-        }
-        let r = &mut self.report;
-        r.distance_after_m +=
-            (pose.x_m - self.last_position.0).hypot(pose.y_m - self.last_position.1);
-        self.last_position = (pose.x_m, pose.y_m);
-        if !r.detected {
-            let stopped_by = match out.event {
-                Some(Event::Faulted) => Some(
-                    fault_names(&out.faults)
-                        .iter()
-                        .map(|s| (*s).to_string())
-                        .collect(),
-                ),
-                Some(Event::Disarmed(reason)) => Some(vec![format!("disarmed: {reason:?}")]),
-                _ => None,
-            };
-            if let Some(by) = stopped_by {
-                r.detected = true;
-                r.detected_s = Some(t_s);
-                r.latency_s = Some(t_s - r.injected_s);
-                r.detected_by = by;
-            }
-        }
-        if r.motors_zero_s.is_none()
-            && out.duty == MotorCommand::STOP
-            && out.bridge != Bridge::Drive
-        {
-            r.motors_zero_s = Some(t_s);
-        }
-        if r.motors_zero_s.is_some()
-            && r.wheels_stopped_s.is_none()
-            && wheels[0].abs() < 0.1
-            && wheels[1].abs() < 0.1
-        {
-            r.wheels_stopped_s = Some(t_s);
-        }
-    }
 }
 
 /// Runs `scenario` with steering law `law` and `options`.
@@ -650,118 +399,5 @@ pub fn run_with_logic<L: RobotLogic>(
                 ))
             },
         }),
-    })
-}
-
-/// The wheel-speed loop's response to a set-point step, from rest (both wheels).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct StepResponse {
-    /// Set-point, rad/s.
-    pub setpoint_rad_s: f64,
-    /// Samples every control step: (t s, true left wheel speed rad/s, estimated left wheel
-    /// speed rad/s, left duty).
-    pub samples: Vec<(f64, f64, f64, f64)>,
-    /// 10 → 90 % rise time of the true speed, s (`None` if 90 % is never reached).
-    pub rise_time_s: Option<f64>,
-    /// Peak overshoot above the set-point, % of the set-point.
-    pub overshoot_pct: f64,
-    /// Time after which the true speed stays within ±5 % of the set-point, s.
-    pub settling_time_s: Option<f64>,
-    /// Mean true speed over the last 20 % of the run minus the set-point, rad/s.
-    pub steady_state_error_rad_s: f64,
-}
-
-/// Holds both wheels at `setpoint_rad_s` (rad/s) from rest with the wheel loops only
-/// (armed in hold mode through the supervisor) for `duration_s` (s), on `scenario`'s
-/// robot and plant. The robot drives straight; the response is the left wheel's.
-pub fn wheel_step_response(
-    scenario: &Scenario,
-    setpoint_rad_s: f64,
-    duration_s: f64,
-) -> Result<StepResponse, RunError> {
-    let max_s =
-        robot_files::scenario::MAX_CONTROL_STEPS / f64::from(scenario.robot.control_rate_hz);
-    if !(duration_s > 0.0 && duration_s <= max_s.min(robot_files::scenario::MAX_DURATION_S)) {
-        return Err(RunError::Argument {
-            name: "duration_s",
-            rule: "must be > 0 and within the scenario's step and time limits",
-            value: duration_s,
-        });
-    }
-    if !setpoint_rad_s.is_finite() {
-        return Err(RunError::Argument {
-            name: "setpoint_rad_s",
-            rule: "must be finite",
-            value: setpoint_rad_s,
-        });
-    }
-    let mut robot = LocalRobot::new(scenario, LawKind::Tracking)?;
-    let mut hardware = SimHardware::new(scenario, &[])?;
-    let sp = setpoint_rad_s as f32;
-    // Warm the supply filter up before the step, as a robot that has been on for a while.
-    for _ in 0..50 {
-        step(&mut robot, &mut hardware)?;
-    }
-    let start = hardware.period();
-    let request = ArmRequest {
-        mode: RunMode::HoldWheelSpeeds,
-        hold_speeds: Some(WheelSpeeds::new(sp, sp)),
-        initial_motion: None,
-    };
-    if !robot.arm_locally(request) {
-        return Err(RunError::Argument {
-            name: "scenario",
-            rule: "must let the robot arm",
-            value: 0.0,
-        });
-    }
-    let rate = f64::from(scenario.robot.control_rate_hz);
-    let steps = (duration_s * rate).round() as u64;
-    let mut samples = Vec::with_capacity(steps as usize);
-    while hardware.period() < start + steps {
-        let k = hardware.period() - start;
-        let decision = step(&mut robot, &mut hardware)?;
-        let measured = decision.telemetry.map_or(0.0, |t| t.wheel_speed.left_rad_s);
-        let duty = decision.out.duty.left;
-        samples.push((
-            k as f64 / rate,
-            hardware.plant().wheel_speeds()[0],
-            f64::from(measured),
-            f64::from(duty),
-        ));
-    }
-    let target = setpoint_rad_s;
-    let first_at = |fraction: f64| {
-        samples
-            .iter()
-            .find(|s| s.1 * target.signum() >= fraction * target.abs())
-            .map(|s| s.0)
-    };
-    let rise_time_s = match (first_at(0.1), first_at(0.9)) {
-        (Some(a), Some(b)) => Some(b - a),
-        _ => None,
-    };
-    let peak = samples
-        .iter()
-        .map(|s| s.1 * target.signum())
-        .fold(0.0f64, f64::max);
-    let band = 0.05 * target.abs();
-    let settling_time_s = match samples.iter().rposition(|s| (s.1 - target).abs() > band) {
-        None => Some(0.0),
-        Some(i) => samples.get(i + 1).map(|s| s.0),
-    };
-    let tail = &samples[samples.len() * 4 / 5..];
-    let mean = tail.iter().map(|s| s.1).sum::<f64>() / tail.len().max(1) as f64;
-    Ok(StepResponse {
-        setpoint_rad_s,
-        rise_time_s,
-        overshoot_pct: if target != 0.0 {
-            ((peak - target.abs()) / target.abs() * 100.0).max(0.0)
-        } else {
-            0.0
-        },
-        settling_time_s,
-        steady_state_error_rad_s: mean - target,
-        samples,
     })
 }

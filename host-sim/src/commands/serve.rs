@@ -1,0 +1,144 @@
+//! `host-sim serve`: the virtual robot ([`crate::serve`]) — the robot's own application
+//! logic against the simulated hardware, speaking the runtime link on a TCP port, with
+//! ground truth. Says where it listens, then prints every supervisor event as it comes,
+//! until killed.
+
+use std::fmt;
+use std::net::TcpListener;
+
+use anyhow::{Context, Result};
+
+use super::{load, Failed, Report};
+use crate::serve::{serve, ServeOptions, StepReport, VirtualRobot};
+
+/// The fastest `--speed`: simulated time per wall-clock time.
+pub const MAX_SPEED: f64 = 1000.0;
+
+/// The rule on `--speed`: finite, in (0, [`MAX_SPEED`]].
+pub fn check_speed(speed: f64) -> Result<(), Failed> {
+    if speed.is_finite() && speed > 0.0 && speed <= MAX_SPEED {
+        Ok(())
+    } else {
+        Err(Failed(format!("--speed must be in (0, 1000], got {speed}")))
+    }
+}
+
+/// The line printed once the robot listens.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Listening {
+    /// The scenario's name.
+    pub scenario: String,
+    /// The address as asked.
+    pub listen: String,
+    /// Simulated time per wall-clock time.
+    pub speed: f64,
+    /// The supervisor's heartbeat timeout, control steps.
+    pub heartbeat_timeout_steps: u32,
+}
+
+impl fmt::Display for Listening {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "virtual robot ({}) listening on {}, {}× real time; heartbeat timeout {} steps",
+            self.scenario, self.listen, self.speed, self.heartbeat_timeout_steps
+        )
+    }
+}
+
+/// One supervisor event, as printed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EventLine {
+    /// The step that changed the supervisor's state.
+    pub report: StepReport,
+    /// The control rate, Hz (for the time).
+    pub rate_hz: f64,
+}
+
+impl fmt::Display for EventLine {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let r = &self.report;
+        writeln!(
+            f,
+            "step {} (t {:.3} s): {:?}, {} steps since the last heartbeat",
+            r.step,
+            f64::from(r.step) / self.rate_hz,
+            r.event.map_or_else(String::new, |e| format!("{e:?}")),
+            r.steps_since_heartbeat
+        )
+    }
+}
+
+/// What is left when the virtual robot stops (its listener failed): nothing to print.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stopped;
+
+impl fmt::Display for Stopped {
+    fn fmt(&self, _: &mut fmt::Formatter<'_>) -> fmt::Result {
+        Ok(())
+    }
+}
+
+impl Report for Stopped {}
+
+/// Listens on `listen`, announces it through `listening` (an error there stops the
+/// command), then runs the virtual robot at `speed` × real time, giving every event to
+/// `event` (which cannot stop it). Returns when the listener fails; otherwise runs until
+/// killed.
+pub fn run(
+    scenario: &str,
+    listen: &str,
+    speed: f64,
+    listening: &mut dyn FnMut(&Listening) -> std::io::Result<()>,
+    event: &mut dyn FnMut(&EventLine),
+) -> Result<Stopped> {
+    check_speed(speed)?;
+    let scenario = load(scenario)?;
+    let listener = TcpListener::bind(listen).with_context(|| format!("listening on {listen}"))?;
+    let mut channels = robot_app::Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario)?;
+    let rate_hz = f64::from(scenario.robot.control_rate_hz);
+    listening(&Listening {
+        scenario: scenario.name.clone(),
+        listen: listen.to_string(),
+        speed,
+        heartbeat_timeout_steps: scenario.supervisor.heartbeat_timeout_steps,
+    })?;
+    let mut log = |report: &StepReport| {
+        event(&EventLine {
+            report: *report,
+            rate_hz,
+        })
+    };
+    serve(
+        &mut robot,
+        &listener,
+        ServeOptions {
+            speed,
+            max_steps: None,
+        },
+        &mut log,
+    )?;
+    Ok(Stopped)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_speed_must_be_positive_finite_and_at_most_a_thousand() {
+        assert_eq!(check_speed(1.0), Ok(()));
+        assert_eq!(check_speed(MAX_SPEED), Ok(()));
+        assert_eq!(
+            check_speed(0.0),
+            Err(Failed("--speed must be in (0, 1000], got 0".into()))
+        );
+        assert_eq!(
+            check_speed(1000.5),
+            Err(Failed("--speed must be in (0, 1000], got 1000.5".into()))
+        );
+        assert!(check_speed(f64::NAN).is_err());
+        assert!(check_speed(f64::INFINITY).is_err());
+    }
+}

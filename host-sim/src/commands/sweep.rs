@@ -1,0 +1,142 @@
+//! `host-sim sweep`: Monte-Carlo over mismatch, noise and start pose (the scenario's
+//! `[sweep]` spreads) on every core, with a progress bar on stderr; optionally every
+//! run's draws and results as `sweep.json`.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use controller_core::law::LawKind;
+use indicatif::{ProgressBar, ProgressStyle};
+use robot_files::scenario::SweepSpec;
+
+use super::{create_dir, load, Report};
+use crate::sweep::{sweep, SweepReport};
+
+/// What `host-sim sweep` was asked.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// A built-in scenario name or a path to a TOML file.
+    pub scenario: String,
+    /// Number of runs (≥ 1).
+    pub runs: u32,
+    /// The steering law.
+    pub law: LawKind,
+    /// Seed of the draws.
+    pub seed: u64,
+    /// Also write `sweep.json` into this folder.
+    pub out: Option<PathBuf>,
+}
+
+/// The sweep's statistics and where `sweep.json` went.
+#[derive(Clone, Debug)]
+pub struct SweepCommandReport {
+    /// Every run and the statistics over them.
+    pub report: SweepReport,
+    /// The spreads drawn from.
+    pub spreads: SweepSpec,
+    /// Worker threads the runs were spread over.
+    pub threads: usize,
+    /// `sweep.json`, when asked for.
+    pub file: Option<PathBuf>,
+}
+
+impl fmt::Display for SweepCommandReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let report = &self.report;
+        let s = &self.spreads;
+        writeln!(
+            f,
+            "{} with the {} law: {} runs on {} threads in {:.1} s",
+            report.scenario, report.law, report.runs, self.threads, report.wall_time_s
+        )?;
+        writeln!(
+            f,
+            "  spreads: radius ±{}%, left/right ±{}%, track ±{}%, supply ±{}%, Coulomb ±{}%, \
+slip 0…{}, encoder jitter 0…{} ticks, start ±{} m / ±{} rad",
+            s.wheel_radius_pct,
+            s.wheel_radius_left_right_pct,
+            s.track_width_pct,
+            s.supply_pct,
+            s.coulomb_friction_pct,
+            s.slip_max,
+            s.encoder_noise_ticks_rms_max,
+            s.start_position_m,
+            s.start_heading_rad
+        )?;
+        writeln!(
+            f,
+            "  success (the controller's own error settles to 1 cm / 1°, no fault): {:.1} %",
+            report.success_rate * 100.0
+        )?;
+        if report.invalid_draws > 0 {
+            writeln!(
+                f,
+                "  {} draws gave an invalid robot or plant and did not run (counted as failures); \
+narrow the scenario's [sweep] spreads",
+                report.invalid_draws
+            )?;
+        }
+        match report.settle_time_s {
+            Some(p) => writeln!(
+                f,
+                "  settle time: p50 {:.2} s, p90 {:.2} s, p95 {:.2} s, max {:.2} s",
+                p.p50, p.p90, p.p95, p.max
+            )?,
+            None => writeln!(f, "  settle time: no run settled")?,
+        }
+        if let Some(p) = report.final_true_position_error_m {
+            writeln!(
+                f,
+                "  true final position error (odometry drift included): p50 {:.3} m, p90 {:.3} m, \
+max {:.3} m; true error settled in {:.1} % of runs",
+                p.p50,
+                p.p90,
+                p.max,
+                report.true_settle_rate * 100.0
+            )?;
+        }
+        if let Some(file) = &self.file {
+            writeln!(f, "  wrote {}", file.display())?;
+        }
+        Ok(())
+    }
+}
+
+impl Report for SweepCommandReport {}
+
+/// Runs the sweep (a progress bar on stderr while it runs) and writes `sweep.json` when
+/// asked.
+pub fn run(options: &Options) -> Result<SweepCommandReport> {
+    let scenario = load(&options.scenario)?;
+    let bar = ProgressBar::new(u64::from(options.runs));
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} (eta {eta})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let progress = || bar.inc(1);
+    let report = sweep(
+        &scenario,
+        options.law,
+        options.runs,
+        options.seed,
+        &progress,
+    )?;
+    bar.finish_and_clear();
+    let file = match &options.out {
+        Some(dir) => {
+            create_dir(dir)?;
+            let file = dir.join("sweep.json");
+            let json = serde_json::to_string_pretty(&report).context("serialising the sweep")?;
+            std::fs::write(&file, json).with_context(|| format!("writing {}", file.display()))?;
+            Some(file)
+        }
+        None => None,
+    };
+    Ok(SweepCommandReport {
+        report,
+        spreads: scenario.sweep,
+        threads: rayon::current_num_threads(),
+        file,
+    })
+}

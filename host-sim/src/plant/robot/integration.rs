@@ -1,0 +1,208 @@
+//! The integrator: RK4 at the plant rate, in closed form while a step provably stays in
+//! one regime.
+//!
+//! Contract: `Plant::advance` gives the same numbers whichever path a step takes (the
+//! closed form is the same arithmetic as RK4 stage by stage, `closed_form_step` returns
+//! a step only when it is), and ends every step with the true pose moved along the
+//! step's wheel rotations (`pose`).
+//!
+//! ## Integration
+//!
+//! The state (ω_l, ω_r, φ_l, φ_r) — wheel speeds and wheel angles — is advanced with the
+//! classic fourth-order Runge–Kutta method at the plant rate (≥ 10 × the control rate),
+//! the bridge held constant over the control period (zero-order hold, as a PWM timer
+//! does). Each wheel's regime — its direction, and its power flow (coasting, motoring,
+//! back-driven) — makes the dynamics affine, ω̇ = A ω + b, with A and b fixed by the
+//! regime. When every RK4 stage point of a step provably stays in the regime of its
+//! start (each wheel farther from rest and from its zero-current speed than any stage
+//! of the step can have moved it, a bound derived in the `propagator` module), the step
+//! is taken in closed form, which is the same arithmetic as RK4 stage by stage;
+//! otherwise (a wheel at rest or reversing, a current changing sign, d ≠ 0) RK4
+//! evaluates the full model at every stage. Friction is decided once per step, at its
+//! start: a sliding wheel's Coulomb friction keeps its sign through the four stages (a
+//! sign flip between stages would make RK4 average the friction away near rest), a
+//! wheel at rest is held or breaks away (`chassis`, `friction`), and a wheel that ends
+//! the step moving the way its friction pushes has passed through rest and is stopped
+//! there; static friction decides at the next step whether it breaks away.
+
+use super::super::friction::{Grip, Inertia};
+use super::super::motor::{PowerFlow, WheelDrive};
+use super::super::propagator::Propagator;
+use super::Plant;
+
+/// Index of a power flow in the propagator table.
+const fn flow_index(flow: PowerFlow) -> usize {
+    match flow {
+        PowerFlow::Coasting => 0,
+        PowerFlow::Motoring => 1,
+        PowerFlow::BackDriven => 2,
+    }
+}
+
+/// All three power flows, in [`flow_index`] order.
+const FLOWS: [PowerFlow; 3] = [
+    PowerFlow::Coasting,
+    PowerFlow::Motoring,
+    PowerFlow::BackDriven,
+];
+
+/// The affine model ω̇ = A ω + b of one regime (both wheels' directions and power
+/// flows) under the present bridge state, ready for its [`Propagator`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Affine {
+    /// Index into `Plant::propagators`: 3 · flow(left) + flow(right).
+    pub(super) index: usize,
+    /// S b and T b, with b = M⁻¹ τ₀ and τ₀ the electrical torque at ω = 0 minus the
+    /// Coulomb friction [left, right]: rad/s and rad.
+    pub(super) sb: [f64; 2],
+    pub(super) tb: [f64; 2],
+}
+
+/// Added to the closed form's reach (rad/s) so that rounding in the stage points cannot
+/// cross a regime boundary the exact arithmetic does not.
+const ROUNDING_MARGIN_RAD_S: f64 = 1e-9;
+
+impl Plant {
+    /// The closed-form RK4 of every regime pair for step `h` (s).
+    pub(super) fn propagators(drive: &WheelDrive, inertia: &Inertia, h: f64) -> [Propagator; 9] {
+        core::array::from_fn(|k| {
+            let damping = [
+                drive.damping_nm_s_per_rad(FLOWS[k / 3]),
+                drive.damping_nm_s_per_rad(FLOWS[k % 3]),
+            ];
+            Propagator::new(inertia.inv_p, inertia.inv_q, damping, h)
+        })
+    }
+
+    /// One classic RK4 step of `dt_s` from wheel speeds `w0`, for the speeds and angles,
+    /// evaluating the full model ([`Plant::accel`]) at every stage with the friction
+    /// decided at the start ([`Friction::grip`](super::super::friction::Friction::grip)). A wheel that ends the step moving the way
+    /// its friction pushes has passed through rest: it is stopped at zero, and static
+    /// friction decides at the next step. Returns the new speeds and the angle increments.
+    pub(super) fn rk4_step(&self, w0: [f64; 2], dt_s: f64) -> ([f64; 2], [f64; 2]) {
+        let grip = self
+            .friction
+            .grip(w0, self.blocked, || self.torques_without_friction(w0));
+        let k1 = self.accel(w0, grip);
+        let w1 = [w0[0] + 0.5 * dt_s * k1[0], w0[1] + 0.5 * dt_s * k1[1]];
+        let k2 = self.accel(w1, grip);
+        let w2 = [w0[0] + 0.5 * dt_s * k2[0], w0[1] + 0.5 * dt_s * k2[1]];
+        let k3 = self.accel(w2, grip);
+        let w3 = [w0[0] + dt_s * k3[0], w0[1] + dt_s * k3[1]];
+        let k4 = self.accel(w3, grip);
+        let mut next = [0.0; 2];
+        let mut dphi = [0.0; 2];
+        for i in 0..2 {
+            // φ̇ = ω: the RK4 increment of φ uses the stage speeds.
+            dphi[i] = dt_s / 6.0 * (w0[i] + 2.0 * w1[i] + 2.0 * w2[i] + w3[i]);
+            next[i] = w0[i] + dt_s / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            let stops = match grip[i] {
+                Grip::Held => true,
+                Grip::Slides(friction) => next[i] * friction > 0.0,
+            };
+            if stops || self.blocked[i] {
+                next[i] = 0.0;
+            }
+        }
+        (next, dphi)
+    }
+
+    /// The affine model ω̇ = A ω + b of the regime both wheels are in at speeds `w`
+    /// (both non-zero): their directions and power flows.
+    pub(super) fn affine(&self, w: [f64; 2]) -> Affine {
+        let d = &self.drive;
+        let mut index = 0;
+        let mut torque_at_rest = [0.0; 2];
+        for i in 0..2 {
+            let (flow, electrical) = if self.coasting[i] {
+                (PowerFlow::Coasting, 0.0)
+            } else {
+                match d.power_flow(self.volts[i], w[i]) {
+                    PowerFlow::BackDriven => (PowerFlow::BackDriven, self.back_driven_torque[i]),
+                    _ => (PowerFlow::Motoring, self.motoring_torque[i]),
+                }
+            };
+            let coulomb = if w[i] > 0.0 {
+                d.coulomb_nm
+            } else {
+                -d.coulomb_nm
+            };
+            torque_at_rest[i] = electrical - coulomb;
+            index = 3 * index + flow_index(flow);
+        }
+        let (sb, tb) = self
+            .propagators
+            .get(index)
+            .map_or(([0.0; 2], [0.0; 2]), |p| {
+                p.forcing(self.friction.inertia.solve(torque_at_rest))
+            });
+        Affine { index, sb, tb }
+    }
+
+    /// The closed-form RK4 step from `w` in the regime `affine` (which must be the regime
+    /// of `w`), if every stage stayed in it: neither wheel reaching rest, neither driven
+    /// wheel reaching its zero-current speed, within the step's reach. `None` otherwise.
+    /// When it returns a step, the step's end is in the same regime.
+    #[inline]
+    pub(super) fn closed_form_step(
+        &self,
+        w: [f64; 2],
+        affine: &Affine,
+    ) -> Option<([f64; 2], [f64; 2])> {
+        let propagator = self.propagators.get(affine.index)?;
+        let (next, dphi) = propagator.step(w, affine.sb, affine.tb);
+        let reach = propagator.reach([next[0] - w[0], next[1] - w[1]]) + ROUNDING_MARGIN_RAD_S;
+        // A coasting wheel's zero-current speed is infinite: no boundary.
+        let stays =
+            |i: usize| w[i].abs() > reach && (w[i] - self.zero_current_speed[i]).abs() > reach;
+        if stays(0) && stays(1) {
+            Some((next, dphi))
+        } else {
+            None
+        }
+    }
+
+    /// Advances `steps` RK4 steps of `dt_s` seconds each with the bridge state last set.
+    pub fn advance(&mut self, dt_s: f64, steps: u32) {
+        if self.propagator_dt_s != dt_s {
+            self.propagators = Self::propagators(&self.drive, &self.friction.inertia, dt_s);
+            self.propagator_dt_s = dt_s;
+        }
+        let closed_form = self.use_closed_form && self.mass_com == 0.0;
+        // The state lives in locals for the loop (registers, not memory round trips).
+        let mut pose = self.pose;
+        let (mut w, mut angle) = (self.speed, self.angle);
+        let inv_l = 1.0 / self.params.geometry.track_width_m;
+        // The regime of the last closed-form step: still the regime of `w`, since a
+        // closed-form step ends in the regime it started in.
+        let mut regime: Option<Affine> = None;
+        for _ in 0..steps {
+            let step = if closed_form && w[0] != 0.0 && w[1] != 0.0 {
+                let affine = *regime.get_or_insert_with(|| self.affine(w));
+                self.closed_form_step(w, &affine)
+            } else {
+                None
+            };
+            let (next, dphi) = match step {
+                Some(step) => step,
+                None => {
+                    regime = None;
+                    self.rk4_step(w, dt_s)
+                }
+            };
+            w = next;
+            angle[0] += dphi[0];
+            angle[1] += dphi[1];
+            // Ground distances and the arc they define on the true track.
+            pose.roll(
+                self.ground_per_rad[0] * dphi[0],
+                self.ground_per_rad[1] * dphi[1],
+                inv_l,
+            );
+        }
+        self.speed = w;
+        self.angle = angle;
+        pose.renormalise();
+        self.pose = pose;
+    }
+}

@@ -150,6 +150,7 @@ pub fn pil_json(outcome: &PilOutcome, lines: &[Line]) -> Value {
         "control_interrupt_arming": task(&board.control_arming),
         "steering_task": task(&board.steering),
         "link_service": task(&board.link),
+        "link_usart_interrupt": task(&board.link_uart),
         "stack_high_water_bytes": board.stack_high_water_bytes,
         "start_stack_bytes": board.start_stack_bytes,
         "steps_before_arming": outcome.held_steps,

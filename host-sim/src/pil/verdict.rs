@@ -148,6 +148,13 @@ pub fn judge(scenario: &Scenario, outcome: &PilOutcome, host: Option<&RunResult>
             "link service on Cortex-M4F (PIL): max {} instructions, total {} over {} runs",
             board.link.max_instructions, board.link.total_instructions, board.link.runs
         ),
+        format!(
+            "link USART interrupt on Cortex-M4F (PIL): max {} instructions, total {} over {} \
+             runs",
+            board.link_uart.max_instructions,
+            board.link_uart.total_instructions,
+            board.link_uart.runs
+        ),
     ] {
         lines.push(Line { text, passed: true });
     }

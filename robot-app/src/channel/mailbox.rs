@@ -12,7 +12,8 @@
 //! read from instead of on the stack. The state is one atomic byte; whoever the state
 //! names owns the item (the sender in Empty and Done, the receiver in Staged), and the
 //! owner's `Release` store of the next state hands it over. Nobody waits: a sender finds
-//! the box occupied, a receiver finds nothing staged.
+//! the box occupied, a receiver finds nothing staged. Each end can move to the context
+//! that uses it, but no end can be shared between two.
 
 // Like the ring: the item is shared between two contexts and its owner is decided by the
 // state byte, which the compiler cannot check.
@@ -31,10 +32,6 @@ pub struct Mailbox<T> {
     state: AtomicU8,
     item: UnsafeCell<T>,
 }
-
-// SAFETY: the item moves between the two contexts (so `T: Send`) and the state byte gives
-// it one owner at a time (module doc).
-unsafe impl<T: Send> Sync for Mailbox<T> {}
 
 impl<T: Default> Default for Mailbox<T> {
     fn default() -> Self {
@@ -61,9 +58,29 @@ impl<T> Mailbox<T> {
 }
 
 /// The end that prepares and publishes items and collects them back.
+///
+/// It can move to another context (it is `Send` when `T` is) but not be shared by two
+/// (it is not `Sync`): `item` and `done` lend the item through `&self`, and two contexts
+/// reading one item at once would need `T: Sync`, which the mailbox does not ask for.
+///
+/// ```compile_fail
+/// use core::cell::Cell;
+/// use robot_app::channel::mailbox::Mailbox;
+///
+/// fn shareable<T: Sync>(_: &T) {}
+/// let mut mailbox = Mailbox::new(Cell::new(0u32));
+/// let (tx, _rx) = mailbox.split();
+/// shareable(&tx);
+/// ```
 pub struct Sender<'a, T> {
     mailbox: &'a Mailbox<T>,
 }
+
+// SAFETY: the mailbox is not `Sync` (its `UnsafeCell`), so neither are its ends, and each
+// end lives in one context. Sending an end moves access to the item to another context,
+// and the item itself moves between the two (so `T: Send`); the state byte gives it one
+// owner at a time (module doc), whose `Release` store hands it over.
+unsafe impl<T: Send> Send for Sender<'_, T> {}
 
 impl<T> Sender<'_, T> {
     /// The item, to prepare in place, while the mailbox is empty; None otherwise.
@@ -138,10 +155,14 @@ impl<T> Sender<'_, T> {
     }
 }
 
-/// The end that uses staged items in place.
+/// The end that uses staged items in place. `Send` when `T` is, not `Sync` (as the
+/// [`Sender`], for `staged`).
 pub struct Receiver<'a, T> {
     mailbox: &'a Mailbox<T>,
 }
+
+// SAFETY: as for the `Sender`.
+unsafe impl<T: Send> Send for Receiver<'_, T> {}
 
 impl<T> Receiver<'_, T> {
     /// The staged item, if one is waiting.
@@ -231,6 +252,16 @@ mod tests {
         assert_eq!(tx.item_mut(), Some(&mut [1, 0, 0, 4]));
     }
 
+    #[test]
+    fn the_ends_can_move_to_another_context() {
+        fn sendable<T: Send>(_: &T) {}
+        // `Cell` is `Send` but not `Sync`: an end may carry it, not share it.
+        let mut mailbox = Mailbox::new(core::cell::Cell::new(0u32));
+        let (tx, rx) = mailbox.split();
+        sendable(&tx);
+        sendable(&rx);
+    }
+
     struct Counted<'a>(&'a AtomicU32);
     impl Drop for Counted<'_> {
         fn drop(&mut self) {
@@ -261,7 +292,8 @@ mod tests {
 
     #[test]
     fn two_threads_hand_items_back_and_forth() {
-        const ROUNDS: u32 = 20_000;
+        // Under Miri, 200 rounds (about a second there; see the ring's two-thread test).
+        const ROUNDS: u32 = if cfg!(miri) { 200 } else { 20_000 };
         let mut mailbox = Mailbox::new([u32::MAX; 16]);
         let (mut tx, mut rx) = mailbox.split();
         std::thread::scope(|s| {

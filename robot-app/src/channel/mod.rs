@@ -24,6 +24,8 @@
 //! move each end into its task's local resources: no lock is needed, because each ring
 //! has one producer and one consumer and the atomics need none.
 
+#[cfg(test)]
+mod interleavings;
 pub mod mailbox;
 pub mod ring;
 

@@ -329,6 +329,22 @@ pub enum Measure<'a> {
 }
 
 impl Measure<'_> {
+    /// Waits until the operator has put the robot back at the start of `label` (asked on
+    /// the terminal; at once for a file or the virtual robot, which its path upload
+    /// places).
+    fn ready(&mut self, label: &str) -> Result<(), String> {
+        if let Measure::Ask = self {
+            eprint!("{label}: put the robot back at the start, then press Enter: ");
+            let _ = std::io::stderr().flush();
+            let mut line = String::new();
+            std::io::stdin()
+                .lock()
+                .read_line(&mut line)
+                .map_err(|e| e.to_string())?;
+        }
+        Ok(())
+    }
+
     /// The measured end of a run whose odometry ended at `odometry` (the truth is the
     /// virtual robot's).
     fn end_point(
@@ -406,35 +422,80 @@ pub struct Outcome {
     pub after: ParamSet,
 }
 
+/// Why a calibration stopped. Nothing is persisted then, and the robot is given back
+/// the configuration it had before (if the link still works).
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrateError {
+    /// A run did not end at its time limit, and again when driven once more.
+    #[error(
+        "calibration stopped: {run} did not end at its time limit, twice (the second time it \
+ended by {why}); nothing was persisted"
+    )]
+    RunCutShort {
+        /// The run (`clockwise square 2/5`, `straight run`).
+        run: String,
+        /// What ended it the second time.
+        why: String,
+    },
+    /// Anything else: the link, a measurement, the paths.
+    #[error("calibration stopped: {0}; nothing was persisted")]
+    Failed(String),
+}
+
+impl From<String> for CalibrateError {
+    fn from(text: String) -> Self {
+        CalibrateError::Failed(text)
+    }
+}
+
+impl From<&str> for CalibrateError {
+    fn from(text: &str) -> Self {
+        CalibrateError::Failed(text.to_string())
+    }
+}
+
+impl From<StationError> for CalibrateError {
+    fn from(e: StationError) -> Self {
+        CalibrateError::Failed(e.to_string())
+    }
+}
+
 /// The whole procedure (module doc) on `client`'s robot, whose scenario-side settings
 /// (plant, supervisor) come from `base`. `say` gets progress lines.
+///
+/// Every run must end at its time limit (the robot's `Disarmed(Timeout)`): a run that
+/// ended otherwise (the heartbeat timeout, a fault, the button, a link failure) is driven
+/// once more, and if that one does not end at its limit either, the calibration stops
+/// with [`CalibrateError::RunCutShort`]. The end point of a run is measured only once
+/// the run ended as asked, so a measurements file has one line per run whatever was
+/// repeated. On any error nothing is persisted and the robot gets its configuration
+/// from before the calibration back.
 pub fn calibrate<T: Transport>(
     client: &mut Client<T>,
     base: &Scenario,
     args: &CalibrateArgs,
     measure: &mut Measure<'_>,
     say: &mut dyn FnMut(&str),
-) -> Result<Outcome, String> {
-    let err = |e: StationError| e.to_string();
-    let before = crate::ops::get_params(client).map_err(err)?;
-    let interrupt = AtomicBool::new(false);
-    let run =
-        |client: &mut Client<T>, scenario: &Scenario| -> Result<(Pose, Option<Pose>), String> {
-            let mut progress = |_: u64, _: u64| {};
-            let rec = record::run(
-                client,
-                &mut RunPlan {
-                    scenario,
-                    law: LawKind::Tracking,
-                    telemetry_hz: 10,
-                    interrupt: &interrupt,
-                    progress: &mut progress,
-                },
-            )
-            .map_err(err)?;
-            let odometry = rec.final_estimate.ok_or("no telemetry from the run")?;
-            Ok((odometry, rec.final_truth))
-        };
+) -> Result<Outcome, CalibrateError> {
+    let before = crate::ops::get_params(client)?;
+    let outcome = procedure(client, base, args, measure, say, &before);
+    if outcome.is_err() {
+        // Best effort: the link may be what failed.
+        if crate::ops::get_params(client).is_ok_and(|now| now != before) {
+            let _ = crate::ops::set_params(client, before);
+        }
+    }
+    outcome
+}
+
+fn procedure<T: Transport>(
+    client: &mut Client<T>,
+    base: &Scenario,
+    args: &CalibrateArgs,
+    measure: &mut Measure<'_>,
+    say: &mut dyn FnMut(&str),
+    before: &ParamSet,
+) -> Result<Outcome, CalibrateError> {
     let cw_path = square(base, args.side_m, true)?;
     let ccw_path = square(base, args.side_m, false)?;
     let (mut cw, mut ccw) = (Vec::new(), Vec::new());
@@ -447,7 +508,7 @@ pub fn calibrate<T: Transport>(
             say(&format!(
                 "{label}: put the robot at the start mark, heading along the first side"
             ));
-            let (odometry, truth) = run(client, scenario)?;
+            let (odometry, truth) = drive(client, scenario, &label, measure, say)?;
             let end = measure.end_point(odometry, truth, &label)?;
             let (ex, ey) = end.error();
             say(&format!("{label}: end error ε = ({ex:+.4}, {ey:+.4}) m"));
@@ -461,12 +522,12 @@ pub fn calibrate<T: Transport>(
         f64::from(before.robot.track_width_m),
         args.side_m,
     );
-    let geometry = corrected(&before, &estimate, 1.0);
-    crate::ops::set_params(client, geometry).map_err(err)?;
+    let geometry = corrected(before, &estimate, 1.0);
+    crate::ops::set_params(client, geometry)?;
     // The straight run against the tape, with the corrected ratio and track.
     let line = straight(base, args.straight_m)?;
     say("straight run: put the robot at the tape's zero, heading along it");
-    let (odometry, truth) = run(client, &line)?;
+    let (odometry, truth) = drive(client, &line, "straight run", measure, say)?;
     let odo_m = f64::from(odometry.x_m).hypot(f64::from(odometry.y_m));
     let tape_m = match measure {
         Measure::Simulated { noise_m, rng } => {
@@ -491,16 +552,64 @@ pub fn calibrate<T: Transport>(
         }
     };
     let scale = if odo_m > 0.0 { tape_m / odo_m } else { 1.0 };
-    let after = corrected(&before, &estimate, scale);
-    crate::ops::set_params(client, after).map_err(err)?;
+    let after = corrected(before, &estimate, scale);
+    crate::ops::set_params(client, after)?;
     if !args.no_persist {
-        client.command(Request::PersistParams).map_err(err)?;
+        client.command(Request::PersistParams)?;
     }
     Ok(Outcome {
         estimate,
         scale,
-        before,
+        before: *before,
         after,
+    })
+}
+
+/// Drives `scenario` (the run `label`); if it does not end at its time limit, says why
+/// and drives it once more. Returns the odometry's and the true end pose of the run
+/// that ended at its limit.
+fn drive<T: Transport>(
+    client: &mut Client<T>,
+    scenario: &Scenario,
+    label: &str,
+    measure: &mut Measure<'_>,
+    say: &mut dyn FnMut(&str),
+) -> Result<(Pose, Option<Pose>), CalibrateError> {
+    let interrupt = AtomicBool::new(false);
+    let mut ended_by = None;
+    for attempt in 1..=2 {
+        if let Some(why) = &ended_by {
+            say(&format!(
+                "{label}: the run ended by {why}, not at its time limit; driving it again \
+from the start"
+            ));
+            measure.ready(label)?;
+        }
+        let mut progress = |_: u64, _: u64| {};
+        let rec = record::run(
+            client,
+            &mut RunPlan {
+                scenario,
+                law: LawKind::Tracking,
+                telemetry_hz: 10,
+                interrupt: &interrupt,
+                progress: &mut progress,
+            },
+        )?;
+        if rec.ended_by.is_time_limit() {
+            let odometry = rec
+                .final_estimate
+                .ok_or(format!("{label}: no telemetry from the run"))?;
+            return Ok((odometry, rec.final_truth));
+        }
+        ended_by = Some(rec.ended_by.to_string());
+        if attempt == 2 {
+            break;
+        }
+    }
+    Err(CalibrateError::RunCutShort {
+        run: label.to_string(),
+        why: ended_by.unwrap_or_default(),
     })
 }
 
@@ -562,8 +671,7 @@ pub fn command<T: Transport>(
         (None, None) => Measure::Ask,
     };
     let mut say = |line: &str| eprintln!("{line}");
-    let outcome = calibrate(&mut client, &base, args, &mut measure, &mut say)
-        .map_err(|e| anyhow::anyhow!(e))?;
+    let outcome = calibrate(&mut client, &base, args, &mut measure, &mut say)?;
     print!("{}", table(&outcome));
     println!(
         "{}",

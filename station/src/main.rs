@@ -294,16 +294,13 @@ fn cmd_tune(link: &LinkArgs, timeout_s: f64) -> Result<()> {
         .supervisor
         .heartbeat_timeout_steps;
     eprintln!("tuning: the robot drives about a metre forward and back…");
-    let report = ops::tune(
+    let run = ops::tune(
         &mut client,
         timeout_steps,
         Duration::from_secs_f64(timeout_s),
     )?;
-    let text = ops::describe_tune(&report);
-    if report.outcome.is_err() || report.tunes_ended == 0 {
-        anyhow::bail!("{text}");
-    }
-    say!("{}", text.trim_end());
+    let report = run.finished().map_err(|why| anyhow::anyhow!(why))?;
+    say!("{}", ops::describe_tune(&report).trim_end());
     Ok(())
 }
 
@@ -529,17 +526,14 @@ the robot's (`station params set` sends a robot file)"
     files.extend(write_figures(out, &scenario, &recording)?);
     let s = &recording.summary;
     say!(
-        "{} with the {} law on {}: {:.1} s recorded in {:.1} s ({} trace rows){}",
+        "{} with the {} law on {}: {:.1} s recorded in {:.1} s ({} trace rows), ended by {}",
         s.scenario,
         s.law,
         s.source,
         s.sim_time_s,
         s.wall_time_s,
         recording.trace.len(),
-        match recording.ended_by {
-            Some(event) => format!(", ended by {event:?}"),
-            None => String::new(),
-        }
+        recording.ended_by
     );
     let line = |which: &str, e: &ErrorReport| {
         format!(

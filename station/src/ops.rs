@@ -4,7 +4,7 @@
 use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::law::LawKind;
 use controller_core::params::Params;
-use controller_core::supervisor::Event;
+use controller_core::supervisor::{DisarmReason, Event};
 use link::{
     path_checksum, upload, ArmMode, CommitSummary, ParamSet, PathBegin, PathCommit, Reply, Request,
     RobotInfo, TuneReport, Uplink,
@@ -187,16 +187,48 @@ pub fn tune_report<T: Transport>(client: &mut Client<T>) -> Result<TuneReport, S
     }
 }
 
+/// How a tune went ([`tune`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TuneRun {
+    /// This tune's report; `None` when none came (the station gave up at its limit,
+    /// disarmed, and the robot still held the previous tune's).
+    pub report: Option<TuneReport>,
+    /// The event that ended the tune, if it reached the station.
+    pub ended_by: Option<Event>,
+}
+
+impl TuneRun {
+    /// This tune's report if the tune finished (its outcome is a result), else why not:
+    /// the robot's reason, with the event that ended the tune when it was not the tune's
+    /// own end.
+    pub fn finished(&self) -> Result<TuneReport, String> {
+        let ended = match self.ended_by {
+            Some(Event::Disarmed(DisarmReason::TuneFinished)) | None => String::new(),
+            Some(event) => format!(" (ended by {event:?})"),
+        };
+        match self.report {
+            None => Err(format!(
+                "the tune did not end within the station's limit; the robot was disarmed \
+and sent no report{ended}"
+            )),
+            Some(report @ TuneReport { outcome: Ok(_), .. }) => Ok(report),
+            Some(TuneReport {
+                outcome: Err(why), ..
+            }) => Err(format!("the tune stopped: {why}{ended}")),
+        }
+    }
+}
+
 /// Tunes the robot's wheel loops ([`ArmMode::Tune`]): arms it in tune mode, keeps it armed
 /// with heartbeats paced by its own step counter (from 10 Hz telemetry; a robot whose
 /// heartbeat timeout is `heartbeat_timeout_steps`) until the tune ends (the robot disarms
-/// by itself, or a fault, the button or a link loss stops it), and returns the new
-/// report. Gives up after `limit` of host time with the robot disarmed.
+/// by itself, or a fault, the button or a link loss stops it), and returns this tune's
+/// report, if one came. Gives up after `limit` of host time with the robot disarmed.
 pub fn tune<T: Transport>(
     client: &mut Client<T>,
     heartbeat_timeout_steps: u32,
     limit: std::time::Duration,
-) -> Result<TuneReport, StationError> {
+) -> Result<TuneRun, StationError> {
     let before = tune_report(client)?.tunes_ended;
     crate::record::set_telemetry_rate(client, 10)?;
     client.command(Request::Arm {
@@ -207,6 +239,7 @@ pub fn tune<T: Transport>(
     let mut robot_step = None;
     let start = std::time::Instant::now();
     let mut report = None;
+    let mut ended_by = None;
     while report.is_none() && start.elapsed() < limit {
         if pacer.due(robot_step) {
             client.send_only(Request::Heartbeat)?;
@@ -215,9 +248,10 @@ pub fn tune<T: Transport>(
             Some(Uplink::Telemetry(frame)) => robot_step = Some(frame.step),
             Some(Uplink::TuneReport(r)) if r.tunes_ended != before => report = Some(r),
             Some(Uplink::Event {
-                event: Event::Disarmed(_) | Event::Faulted,
+                event: event @ (Event::Disarmed(_) | Event::Faulted),
                 ..
             }) => {
+                ended_by.get_or_insert(event);
                 // The report follows the event; ask for it should it have been lost.
                 let r = tune_report(client)?;
                 if r.tunes_ended != before {
@@ -227,15 +261,12 @@ pub fn tune<T: Transport>(
             _ => {}
         }
     }
-    let report = match report {
-        Some(r) => r,
-        None => {
-            client.command(Request::Disarm)?;
-            tune_report(client)?
-        }
-    };
+    if report.is_none() {
+        client.command(Request::Disarm)?;
+        report = Some(tune_report(client)?).filter(|r| r.tunes_ended != before);
+    }
     client.request(Request::SetTelemetryRate { hz: 1 })?;
-    Ok(report)
+    Ok(TuneRun { report, ended_by })
 }
 
 /// A tune's report as text: per wheel the identified model, then the wheel loops as a

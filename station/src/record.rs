@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use controller_core::kinematics::Pose;
 use controller_core::law::LawKind;
 use controller_core::params::Params;
-use controller_core::supervisor::{Event, Faults, RunMode, State};
+use controller_core::supervisor::{DisarmReason, Event, Faults, RunMode, State};
 use link::{
     GroundTruth, ParamSet, Reply, Request, RunReport, TelemetryFrame, TrueRunReport, Uplink,
 };
@@ -53,12 +53,57 @@ pub struct Recording {
     pub report: RunReport,
     /// The virtual robot's true report, if any.
     pub truth: Option<TrueRunReport>,
-    /// How the run ended (the event that ended it).
-    pub ended_by: Option<Event>,
+    /// How the run ended.
+    pub ended_by: RunEnd,
     /// The robot's final odometry pose (world frame), from the last telemetry frame.
     pub final_estimate: Option<Pose>,
     /// The true final pose, from the last ground-truth frame.
     pub final_truth: Option<Pose>,
+}
+
+/// How a recorded run ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RunEnd {
+    /// The robot ended it with this event. [`run`] asks for
+    /// `Disarmed(Timeout)`, the run's time limit ([`RunEnd::is_time_limit`]); anything
+    /// else cut the run short (the heartbeat timeout, a fault, the button). When the
+    /// event was lost on the line it is told from the robot's report (a run as long as
+    /// its limit ended there) and its telemetry (a fault).
+    Robot(Event),
+    /// The robot's report came but not its event, and neither the run's length nor the
+    /// robot's state tell why it ended.
+    Unknown,
+}
+
+impl RunEnd {
+    /// True when the run ended as [`run`] asks: at its time limit.
+    pub fn is_time_limit(&self) -> bool {
+        *self == RunEnd::Robot(Event::Disarmed(DisarmReason::Timeout))
+    }
+}
+
+impl std::fmt::Display for RunEnd {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RunEnd::Robot(Event::Disarmed(DisarmReason::Timeout)) => {
+                f.write_str("the run's time limit (Disarmed(Timeout))")
+            }
+            RunEnd::Robot(Event::Disarmed(DisarmReason::LinkLost)) => f.write_str(
+                "the robot's heartbeat timeout: no heartbeat reached it (Disarmed(LinkLost))",
+            ),
+            RunEnd::Robot(Event::Disarmed(DisarmReason::Button)) => {
+                f.write_str("the robot's button (Disarmed(Button))")
+            }
+            RunEnd::Robot(Event::Disarmed(DisarmReason::Link)) => {
+                f.write_str("a disarm request on the link (Disarmed(Link))")
+            }
+            RunEnd::Robot(Event::Faulted) => f.write_str("a fault (Faulted)"),
+            RunEnd::Robot(event) => write!(f, "{event:?}"),
+            RunEnd::Unknown => f.write_str(
+                "an event lost on the line, not the time limit (the robot's report came without it)",
+            ),
+        }
+    }
 }
 
 /// When to send the next heartbeat: every `every_steps` of the robot's own step counter
@@ -169,7 +214,7 @@ fn upload_arm_record<T: Transport>(
     };
     let wall = Instant::now();
     ops::arm(client, ops::initial_motion(scenario))?;
-    let mut recorder = Recorder::new(scenario, plan.law, params, before);
+    let mut recorder = Recorder::new(scenario, plan.law, params, before, total);
     let mut heartbeat = HeartbeatPacer::new(params.supervisor.heartbeat_timeout_steps);
     while !recorder.done() {
         if plan.interrupt.load(Ordering::Relaxed) {
@@ -190,7 +235,7 @@ fn upload_arm_record<T: Transport>(
                 recorder.take(Uplink::RunReport(report));
             }
         }
-        if recorder.ended_by.is_some() && recorder.report.is_some() {
+        if recorder.report.is_some() {
             // The robot's report is in; the virtual robot's true one follows at once.
             let deadline = Instant::now() + Duration::from_millis(500);
             while recorder.expects_truth() && Instant::now() < deadline {
@@ -217,6 +262,8 @@ struct Recorder<'a> {
     rate_hz: f64,
     /// `runs_ended` before this run: a report with a higher count is this run's.
     runs_before: u16,
+    /// The run's time limit, control steps.
+    limit_steps: u64,
     arm_step: Option<u32>,
     last_step: Option<u32>,
     /// Step of the first telemetry frame after arming that was not armed.
@@ -226,6 +273,7 @@ struct Recorder<'a> {
     report: Option<RunReport>,
     truth: Option<TrueRunReport>,
     saw_truth: bool,
+    /// The event that ended the run, as it came.
     ended_by: Option<Event>,
     state: State,
     faults: Faults,
@@ -234,7 +282,13 @@ struct Recorder<'a> {
 }
 
 impl<'a> Recorder<'a> {
-    fn new(scenario: &'a Scenario, law: LawKind, params: &ParamSet, runs_before: u16) -> Self {
+    fn new(
+        scenario: &'a Scenario,
+        law: LawKind,
+        params: &ParamSet,
+        runs_before: u16,
+        limit_steps: u64,
+    ) -> Self {
         let rate = params.robot.control_rate_hz;
         Self {
             scenario,
@@ -248,6 +302,7 @@ impl<'a> Recorder<'a> {
             ),
             rate_hz: f64::from(rate),
             runs_before,
+            limit_steps,
             arm_step: None,
             last_step: None,
             stopped_step: None,
@@ -320,11 +375,6 @@ impl<'a> Recorder<'a> {
             },
             Uplink::RunReport(report) if report.runs_ended != self.runs_before => {
                 self.report = Some(report);
-                if self.ended_by.is_none() {
-                    self.ended_by = Some(Event::Disarmed(
-                        controller_core::supervisor::DisarmReason::Link,
-                    ));
-                }
             }
             Uplink::GroundTruthRun(truth) if truth.runs_ended != self.runs_before => {
                 self.saw_truth = true;
@@ -408,8 +458,26 @@ impl<'a> Recorder<'a> {
         }
     }
 
+    /// How the run ended: the event that ended it, else what the report and the last
+    /// state say.
+    fn end(&self) -> RunEnd {
+        if let Some(event) = self.ended_by {
+            return RunEnd::Robot(event);
+        }
+        if self.state == State::Faulted {
+            return RunEnd::Robot(Event::Faulted);
+        }
+        match self.report {
+            Some(r) if u64::from(r.run_steps) >= self.limit_steps => {
+                RunEnd::Robot(Event::Disarmed(DisarmReason::Timeout))
+            }
+            _ => RunEnd::Unknown,
+        }
+    }
+
     fn finish(mut self, wall_time_s: f64, stats: link::Stats) -> Recording {
         self.flush(None);
+        let ended_by = self.end();
         let report = self.report.unwrap_or_default();
         let truth = self.truth;
         let steps = u64::from(report.run_steps);
@@ -430,7 +498,13 @@ impl<'a> Recorder<'a> {
             ),
             max_duty: f64::from(report.max_duty),
             supervisor: SupervisorReport::new(
-                final_state(self.state, self.ended_by),
+                final_state(
+                    self.state,
+                    match ended_by {
+                        RunEnd::Robot(event) => Some(event),
+                        RunEnd::Unknown => None,
+                    },
+                ),
                 &self.faults,
                 stats.missed_ticks,
                 stats.overruns,
@@ -459,7 +533,7 @@ impl<'a> Recorder<'a> {
             has_truth: self.saw_truth,
             report,
             truth,
-            ended_by: self.ended_by,
+            ended_by,
             final_estimate: self.final_estimate,
             final_truth: self.final_truth,
         }

@@ -11,7 +11,7 @@ use robot_app::Channels;
 use robot_files::scenario::Scenario;
 use station::client::Client;
 use station::record::{self, RunPlan};
-use support::InProcess;
+use support::{InProcess, LineFaults};
 
 #[test]
 fn a_run_through_the_station_matches_host_sim_run_bit_for_bit() {
@@ -141,8 +141,10 @@ fn a_tune_through_the_station_identifies_the_simulated_wheels() {
     let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
     let mut client = Client::new(InProcess::new(&mut robot));
     let timeout = scenario.supervisor.heartbeat_timeout_steps;
-    let report = station::ops::tune(&mut client, timeout, std::time::Duration::from_secs(120))
+    let run = station::ops::tune(&mut client, timeout, std::time::Duration::from_secs(120))
         .expect("the link works");
+    let report = run.report.expect("the tune's report");
+    assert_eq!(run.finished(), Ok(report), "the tune finished");
     assert_eq!(report.tunes_ended, 1);
     let result = report.outcome.expect("the tune finds a model");
     for m in result.models {
@@ -166,4 +168,32 @@ fn a_tune_through_the_station_identifies_the_simulated_wheels() {
         Some(result.loops[0].kp_v_per_rad_s)
     );
     assert_eq!(file.robot.right_wheel.ti_s, Some(result.loops[1].ti_s));
+}
+
+#[test]
+fn a_tune_the_link_cut_short_is_not_taken_for_a_finished_one() {
+    let scenario = Scenario::load("paper-circle").expect("built in");
+    let mut channels = Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+    let mut pipe = InProcess::new(&mut robot);
+    // Heartbeats stop reaching the robot 0.3 s into the tune.
+    pipe.faults = LineFaults {
+        mute_heartbeats: vec![(1, 300)],
+        ..LineFaults::default()
+    };
+    let mut client = Client::new(pipe);
+    let timeout = scenario.supervisor.heartbeat_timeout_steps;
+    let run = station::ops::tune(&mut client, timeout, std::time::Duration::from_secs(120))
+        .expect("the link works");
+    assert_eq!(
+        run.ended_by,
+        Some(controller_core::supervisor::Event::Disarmed(
+            controller_core::supervisor::DisarmReason::LinkLost
+        ))
+    );
+    let why = run.finished().expect_err("not finished");
+    assert!(
+        why.starts_with("the tune stopped: ") && why.contains("LinkLost"),
+        "{why}"
+    );
 }

@@ -426,16 +426,18 @@ pub struct Outcome {
 /// the configuration it had before (if the link still works).
 #[derive(Debug, thiserror::Error)]
 pub enum CalibrateError {
-    /// A run did not end at its time limit, and again when driven once more.
+    /// A run did not end at its time limit, nor when driven once more.
     #[error(
-        "calibration stopped: {run} did not end at its time limit, twice (the second time it \
-ended by {why}); nothing was persisted"
+        "calibration stopped: {run} did not end at its time limit (it ended by {first}), nor \
+when driven again ({again}); nothing was persisted"
     )]
     RunCutShort {
         /// The run (`clockwise square 2/5`, `straight run`).
         run: String,
-        /// What ended it the second time.
-        why: String,
+        /// What ended it the first time.
+        first: String,
+        /// What ended it the second time, or why it could not be driven again.
+        again: String,
     },
     /// Anything else: the link, a measurement, the paths.
     #[error("calibration stopped: {0}; nothing was persisted")]
@@ -576,9 +578,9 @@ fn drive<T: Transport>(
     say: &mut dyn FnMut(&str),
 ) -> Result<(Pose, Option<Pose>), CalibrateError> {
     let interrupt = AtomicBool::new(false);
-    let mut ended_by = None;
-    for attempt in 1..=2 {
-        if let Some(why) = &ended_by {
+    let mut first: Option<String> = None;
+    loop {
+        if let Some(why) = &first {
             say(&format!(
                 "{label}: the run ended by {why}, not at its time limit; driving it again \
 from the start"
@@ -586,7 +588,7 @@ from the start"
             measure.ready(label)?;
         }
         let mut progress = |_: u64, _: u64| {};
-        let rec = record::run(
+        let recorded = record::run(
             client,
             &mut RunPlan {
                 scenario,
@@ -595,22 +597,28 @@ from the start"
                 interrupt: &interrupt,
                 progress: &mut progress,
             },
-        )?;
-        if rec.ended_by.is_time_limit() {
-            let odometry = rec
-                .final_estimate
-                .ok_or(format!("{label}: no telemetry from the run"))?;
-            return Ok((odometry, rec.final_truth));
-        }
-        ended_by = Some(rec.ended_by.to_string());
-        if attempt == 2 {
-            break;
-        }
+        );
+        let again = match (recorded, &first) {
+            (Ok(rec), _) if rec.ended_by.is_time_limit() => {
+                let odometry = rec
+                    .final_estimate
+                    .ok_or(format!("{label}: no telemetry from the run"))?;
+                return Ok((odometry, rec.final_truth));
+            }
+            (Ok(rec), None) => {
+                first = Some(rec.ended_by.to_string());
+                continue;
+            }
+            (Err(e), None) => return Err(e.into()),
+            (Ok(rec), Some(_)) => format!("it ended by {}", rec.ended_by),
+            (Err(e), Some(_)) => format!("it could not be driven: {e}"),
+        };
+        return Err(CalibrateError::RunCutShort {
+            run: label.to_string(),
+            first: first.unwrap_or_default(),
+            again,
+        });
     }
-    Err(CalibrateError::RunCutShort {
-        run: label.to_string(),
-        why: ended_by.unwrap_or_default(),
-    })
 }
 
 /// The before/after table of an outcome, for the terminal.
@@ -671,7 +679,13 @@ pub fn command<T: Transport>(
         (None, None) => Measure::Ask,
     };
     let mut say = |line: &str| eprintln!("{line}");
-    let outcome = calibrate(&mut client, &base, args, &mut measure, &mut say)?;
+    let outcome = match calibrate(&mut client, &base, args, &mut measure, &mut say) {
+        Ok(outcome) => outcome,
+        Err(e @ CalibrateError::RunCutShort { .. }) => {
+            return Err(crate::NotAsAsked(e.to_string()).into())
+        }
+        Err(e) => return Err(e.into()),
+    };
     print!("{}", table(&outcome));
     println!(
         "{}",

@@ -20,6 +20,20 @@
 //! `true_error`. The virtual robot also sends its ground truth, and its summary then has
 //! both. Per-step metrics (settle time, RMS) come from the robot, computed at the control
 //! rate ([`link::RunReport`]), never from decimated telemetry.
+//!
+//! # Exit status
+//!
+//! `station` exits with
+//!
+//! - **0** when the command did what it was asked;
+//! - **1** on any other error (no robot, a refused request, a bad file…);
+//! - **2** for a bad command line (clap's);
+//! - **3** ([`EXIT_NOT_AS_ASKED`]) when a run did not end as asked, with a line saying
+//!   what ended it: `run` and `calibrate`'s runs that did not end at their time limit (the
+//!   robot's heartbeat timeout, a fault, the button, a link failure, Ctrl-C), a
+//!   `record --duration-s` cut short before its duration, a `tune` that did not finish.
+//!   What was recorded is written all the same, and a run's `summary.json` says
+//!   `"complete": false` and what ended it (`ended_by`, `end_reason`).
 
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
@@ -32,3 +46,12 @@ pub mod transport;
 pub mod watch;
 
 pub use client::{Client, StationError};
+
+/// The exit status of a command whose run did not end as asked (crate doc).
+pub const EXIT_NOT_AS_ASKED: u8 = 3;
+
+/// A run, recording or tune that did not end as asked: the sentence says what ended it.
+/// `station` exits with [`EXIT_NOT_AS_ASKED`] on it.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct NotAsAsked(pub String);

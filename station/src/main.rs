@@ -14,16 +14,25 @@ use indicatif::{ProgressBar, ProgressStyle};
 use link::{Reply, Request, Uplink};
 use robot_files::cli::Law;
 use robot_files::metrics::{fault_names, ErrorReport};
-use robot_files::output::{self, settle_text};
+use robot_files::output::settle_text;
 use robot_files::scenario::Scenario;
 use station::client::Client;
 use station::record::{self, Recording, RunPlan};
 use station::transport::{self, Serial, Tcp, Transport};
-use station::{calibrate, ops, watch};
+use station::{calibrate, ops, watch, NotAsAsked, EXIT_NOT_AS_ASKED};
 
 /// Ground station for the differential-drive robot and its virtual twin.
 #[derive(Parser)]
-#[command(name = "station", version, about, long_about = None)]
+#[command(
+    name = "station",
+    version,
+    about,
+    long_about = None,
+    after_help = "Exit status: 0 done; 1 error; 2 bad command line; 3 a run did not end as \
+asked (`run` or a `calibrate` run not at its time limit, `record --duration-s` cut short, a \
+`tune` that did not finish): what ended it is printed, and what was recorded is written, \
+a run's summary.json marked \"complete\": false."
+)]
 struct Cli {
     #[command(flatten)]
     link: LinkArgs,
@@ -299,7 +308,7 @@ fn cmd_tune(link: &LinkArgs, timeout_s: f64) -> Result<()> {
         timeout_steps,
         Duration::from_secs_f64(timeout_s),
     )?;
-    let report = run.finished().map_err(|why| anyhow::anyhow!(why))?;
+    let report = run.finished().map_err(NotAsAsked)?;
     say!("{}", ops::describe_tune(&report).trim_end());
     Ok(())
 }
@@ -391,6 +400,9 @@ fn live_view(
 }
 
 fn cmd_record(link: &LinkArgs, out: &FsPath, hz: u8, duration_s: Option<f64>) -> Result<()> {
+    if let Some(d) = duration_s.filter(|d| !(d.is_finite() && *d > 0.0)) {
+        bail!("--duration-s must be a positive number of seconds, got {d}");
+    }
     let interrupt = interrupt_flag();
     let mut client = open(link)?;
     let rate = f64::from(ops::get_params(&mut client)?.robot.control_rate_hz);
@@ -440,12 +452,20 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
         file.display()
     );
     let limit = duration_s.map(|d| (d * rate) as u64);
+    // Why the recording stopped before its duration, if it did.
+    let mut cut_short = None;
+    let mut reached = false;
     loop {
         if interrupt.load(Ordering::Relaxed) {
             break;
         }
-        let Some(message) = client.next_message(Duration::from_millis(50))? else {
-            continue;
+        let message = match client.next_message(Duration::from_millis(50)) {
+            Ok(Some(message)) => message,
+            Ok(None) => continue,
+            Err(e) => {
+                cut_short = Some(format!("the link failed: {e}"));
+                break;
+            }
         };
         match message {
             Uplink::Telemetry(f) => {
@@ -456,6 +476,7 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
                 }
                 if let (Some(limit), Some(start)) = (limit, first) {
                     if u64::from(f.step.wrapping_sub(start)) >= limit {
+                        reached = true;
                         break;
                     }
                 }
@@ -477,7 +498,19 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
     }
     std::fs::write(&file, csv).with_context(|| format!("writing {}", file.display()))?;
     say!("wrote {rows} rows to {}", file.display());
-    Ok(())
+    match (duration_s, cut_short) {
+        (_, Some(why)) => Err(NotAsAsked(format!(
+            "the recording was cut short: {why}; what was recorded is in {}",
+            file.display()
+        ))
+        .into()),
+        (Some(d), None) if !reached => Err(NotAsAsked(format!(
+            "the recording was interrupted (Ctrl-C) before its {d} s; what was recorded is in {}",
+            file.display()
+        ))
+        .into()),
+        _ => Ok(()),
+    }
 }
 
 fn cmd_run(link: &LinkArgs, scenario: &str, law: Law, out: &FsPath, hz: u8) -> Result<()> {
@@ -515,15 +548,17 @@ the robot's (`station params set` sends a robot file)"
     };
     let outcome = record::run(&mut client, &mut plan);
     bar.finish_and_clear();
-    let recording = match outcome {
-        Err(station::StationError::Interrupted) => {
-            say!("interrupted: the robot was disarmed; nothing written");
-            return Ok(());
+    let recording = outcome?;
+    let mut files = recording.write(out)?;
+    // Figures of a run cut short are drawn as far as it went, if they can be.
+    if recording.complete() {
+        files.extend(write_figures(out, &scenario, &recording)?);
+    } else if !recording.trace.is_empty() {
+        match write_figures(out, &scenario, &recording) {
+            Ok(figures) => files.extend(figures),
+            Err(e) => eprintln!("note: no figures of the part recorded: {e:#}"),
         }
-        other => other?,
-    };
-    let mut files = output::write_trace_and_summary(out, &recording.summary, &recording.trace)?;
-    files.extend(write_figures(out, &scenario, &recording)?);
+    }
     let s = &recording.summary;
     say!(
         "{} with the {} law on {}: {:.1} s recorded in {:.1} s ({} trace rows), ended by {}",
@@ -545,13 +580,17 @@ the robot's (`station params set` sends a robot file)"
             e.max_position_error_m
         )
     };
-    if let Some(t) = &s.true_error {
-        say!("{}", line("true error (ground truth)", t));
+    if recording.report.is_some() {
+        if let Some(t) = &s.true_error {
+            say!("{}", line("true error (ground truth)", t));
+        }
+        say!(
+            "{}",
+            line("estimated error (robot's odometry)", &s.estimated_error)
+        );
+    } else {
+        say!("  errors: none, the robot's run report did not come");
     }
-    say!(
-        "{}",
-        line("estimated error (robot's odometry)", &s.estimated_error)
-    );
     say!(
         "  supervisor: {}{}",
         s.supervisor.final_state,
@@ -567,6 +606,18 @@ the robot's (`station params set` sends a robot file)"
         .map(|n| n.to_string_lossy().into_owned())
         .collect();
     say!("  wrote {} to {}", names.join(", "), out.display());
+    if !recording.complete() {
+        return Err(NotAsAsked(format!(
+            "the run did not end at its time limit: it ended by {}; what was recorded is in \
+{} (summary.json: \"complete\": false)",
+            recording.ended_by,
+            out.display()
+        ))
+        .into());
+    }
+    if let Some(e) = &recording.after_run_error {
+        bail!("the link failed after the run: {e}");
+    }
     Ok(())
 }
 
@@ -640,7 +691,11 @@ fn main() -> ExitCode {
                 return ExitCode::SUCCESS;
             }
             eprintln!("error: {e:#}");
-            ExitCode::FAILURE
+            if e.downcast_ref::<NotAsAsked>().is_some() {
+                ExitCode::from(EXIT_NOT_AS_ASKED)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

@@ -188,13 +188,16 @@ pub fn tune_report<T: Transport>(client: &mut Client<T>) -> Result<TuneReport, S
 }
 
 /// How a tune went ([`tune`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct TuneRun {
     /// This tune's report; `None` when none came (the station gave up at its limit,
     /// disarmed, and the robot still held the previous tune's).
     pub report: Option<TuneReport>,
     /// The event that ended the tune, if it reached the station.
     pub ended_by: Option<Event>,
+    /// The link failed once the robot was armed (the error's text); the robot disarms
+    /// itself on its heartbeat timeout.
+    pub link_error: Option<String>,
 }
 
 impl TuneRun {
@@ -206,6 +209,12 @@ impl TuneRun {
             Some(Event::Disarmed(DisarmReason::TuneFinished)) | None => String::new(),
             Some(event) => format!(" (ended by {event:?})"),
         };
+        if let (Some(error), None) = (&self.link_error, self.report) {
+            return Err(format!(
+                "the link failed during the tune ({error}); the robot disarms itself on \
+its heartbeat timeout"
+            ));
+        }
         match self.report {
             None => Err(format!(
                 "the tune did not end within the station's limit; the robot was disarmed \
@@ -224,6 +233,8 @@ and sent no report{ended}"
 /// heartbeat timeout is `heartbeat_timeout_steps`) until the tune ends (the robot disarms
 /// by itself, or a fault, the button or a link loss stops it), and returns this tune's
 /// report, if one came. Gives up after `limit` of host time with the robot disarmed.
+/// An error only when the robot was not armed; a link failure after that is
+/// [`TuneRun::link_error`].
 pub fn tune<T: Transport>(
     client: &mut Client<T>,
     heartbeat_timeout_steps: u32,
@@ -235,11 +246,29 @@ pub fn tune<T: Transport>(
         mode: ArmMode::Tune,
         initial_motion: None,
     })?;
+    let mut run = TuneRun {
+        report: None,
+        ended_by: None,
+        link_error: None,
+    };
+    if let Err(e) = hold_tune(client, heartbeat_timeout_steps, limit, before, &mut run) {
+        run.link_error = Some(e.to_string());
+    }
+    Ok(run)
+}
+
+/// Keeps the tune armed until it ends or `limit`; fills `run`.
+fn hold_tune<T: Transport>(
+    client: &mut Client<T>,
+    heartbeat_timeout_steps: u32,
+    limit: std::time::Duration,
+    before: u16,
+    run: &mut TuneRun,
+) -> Result<(), StationError> {
     let mut pacer = crate::record::HeartbeatPacer::new(heartbeat_timeout_steps);
     let mut robot_step = None;
     let start = std::time::Instant::now();
     let mut report = None;
-    let mut ended_by = None;
     while report.is_none() && start.elapsed() < limit {
         if pacer.due(robot_step) {
             client.send_only(Request::Heartbeat)?;
@@ -251,7 +280,7 @@ pub fn tune<T: Transport>(
                 event: event @ (Event::Disarmed(_) | Event::Faulted),
                 ..
             }) => {
-                ended_by.get_or_insert(event);
+                run.ended_by.get_or_insert(event);
                 // The report follows the event; ask for it should it have been lost.
                 let r = tune_report(client)?;
                 if r.tunes_ended != before {
@@ -265,8 +294,9 @@ pub fn tune<T: Transport>(
         client.command(Request::Disarm)?;
         report = Some(tune_report(client)?).filter(|r| r.tunes_ended != before);
     }
+    run.report = report;
     client.request(Request::SetTelemetryRate { hz: 1 })?;
-    Ok(TuneRun { report, ended_by })
+    Ok(())
 }
 
 /// A tune's report as text: per wheel the identified model, then the wheel loops as a

@@ -3,6 +3,7 @@
 //! the robot's run report (computed on the robot at the control rate) turned into a
 //! [`Summary`] (the simulator's `summary.json`).
 
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -14,8 +15,9 @@ use link::{
     GroundTruth, ParamSet, Reply, Request, RunReport, TelemetryFrame, TrueRunReport, Uplink,
 };
 use robot_files::metrics::{ErrorReport, Summary, SupervisorReport};
+use robot_files::output::OutputError;
 use robot_files::scenario::Scenario;
-use robot_files::trace::TraceRow;
+use robot_files::trace::{trace_csv, TraceRow};
 use robot_files::truth::{tracking_error_f64, true_error, TruePose, TrueReference};
 
 use crate::client::{Client, StationError};
@@ -49,20 +51,72 @@ pub struct Recording {
     pub distance_travelled_m: f64,
     /// True when the robot sent ground truth (the virtual robot).
     pub has_truth: bool,
-    /// The robot's own report.
-    pub report: RunReport,
+    /// The robot's own report (`None` when the run was cut short before it came; the
+    /// summary's errors are then empty, `samples` 0).
+    pub report: Option<RunReport>,
     /// The virtual robot's true report, if any.
     pub truth: Option<TrueRunReport>,
     /// How the run ended.
     pub ended_by: RunEnd,
+    /// The link failed after the robot's report came (the error's text): the recording
+    /// is whole, but the robot may not have been disarmed or given its time limit back.
+    pub after_run_error: Option<String>,
     /// The robot's final odometry pose (world frame), from the last telemetry frame.
     pub final_estimate: Option<Pose>,
     /// The true final pose, from the last ground-truth frame.
     pub final_truth: Option<Pose>,
 }
 
+impl Recording {
+    /// True when the run ended as [`run`] asks, at its time limit: the recording holds
+    /// the whole run.
+    pub fn complete(&self) -> bool {
+        self.ended_by.is_time_limit()
+    }
+
+    /// Writes `trace.csv` and `summary.json` into `dir` (created if needed), the summary
+    /// with what the station adds to the simulator's: `complete` ([`Recording::complete`]),
+    /// `ended_by` ([`RunEnd::name`]) and `end_reason` (the same as a sentence). A run cut
+    /// short is written too, as far as it was recorded. Returns the files written.
+    pub fn write(&self, dir: &std::path::Path) -> Result<Vec<PathBuf>, OutputError> {
+        std::fs::create_dir_all(dir).map_err(|source| OutputError::CreateDir {
+            dir: dir.to_path_buf(),
+            source,
+        })?;
+        let trace_file = dir.join("trace.csv");
+        write_file(&trace_file, trace_csv(&self.trace))?;
+        let summary_file = dir.join("summary.json");
+        let file = SummaryFile {
+            summary: &self.summary,
+            complete: self.complete(),
+            ended_by: self.ended_by.name(),
+            end_reason: self.ended_by.to_string(),
+        };
+        write_file(&summary_file, serde_json::to_string_pretty(&file)? + "\n")?;
+        Ok(vec![trace_file, summary_file])
+    }
+}
+
+/// `summary.json` as the station writes it: the simulator's summary and how the run
+/// ended.
+#[derive(serde::Serialize)]
+struct SummaryFile<'a> {
+    #[serde(flatten)]
+    summary: &'a Summary,
+    complete: bool,
+    ended_by: &'static str,
+    end_reason: String,
+}
+
+fn write_file(file: &std::path::Path, text: String) -> Result<(), OutputError> {
+    std::fs::write(file, text).map_err(|source| OutputError::Write {
+        file: file.to_path_buf(),
+        source,
+    })
+}
+
 /// How a recorded run ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub enum RunEnd {
     /// The robot ended it with this event. [`run`] asks for
     /// `Disarmed(Timeout)`, the run's time limit ([`RunEnd::is_time_limit`]); anything
@@ -73,12 +127,33 @@ pub enum RunEnd {
     /// The robot's report came but not its event, and neither the run's length nor the
     /// robot's state tell why it ended.
     Unknown,
+    /// The link failed before the robot's report came (the error's text): the recording
+    /// stops there, and the robot disarms itself on its heartbeat timeout.
+    LinkFailed(String),
+    /// Ctrl-C: the station disarmed the robot and stopped recording.
+    Interrupted,
 }
 
 impl RunEnd {
     /// True when the run ended as [`run`] asks: at its time limit.
     pub fn is_time_limit(&self) -> bool {
         *self == RunEnd::Robot(Event::Disarmed(DisarmReason::Timeout))
+    }
+
+    /// The end's name in `summary.json` (`ended_by`): `time_limit`, `link_lost` (the
+    /// robot's heartbeat timeout), `fault`, `button`, `disarm_request`, `link_failed`,
+    /// `interrupted` or `unknown`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            RunEnd::Robot(Event::Disarmed(DisarmReason::Timeout)) => "time_limit",
+            RunEnd::Robot(Event::Disarmed(DisarmReason::LinkLost)) => "link_lost",
+            RunEnd::Robot(Event::Disarmed(DisarmReason::Button)) => "button",
+            RunEnd::Robot(Event::Disarmed(DisarmReason::Link)) => "disarm_request",
+            RunEnd::Robot(Event::Faulted) => "fault",
+            RunEnd::LinkFailed(_) => "link_failed",
+            RunEnd::Interrupted => "interrupted",
+            RunEnd::Robot(_) | RunEnd::Unknown => "unknown",
+        }
     }
 }
 
@@ -102,6 +177,8 @@ impl std::fmt::Display for RunEnd {
             RunEnd::Unknown => f.write_str(
                 "an event lost on the line, not the time limit (the robot's report came without it)",
             ),
+            RunEnd::LinkFailed(error) => write!(f, "a link failure ({error})"),
+            RunEnd::Interrupted => f.write_str("Ctrl-C (the station disarmed the robot)"),
         }
     }
 }
@@ -164,8 +241,10 @@ pub fn set_telemetry_rate<T: Transport>(
 
 /// Uploads `plan.scenario`'s path, arms (in motion when the scenario starts moving), and
 /// records until the robot ends the run — at the scenario's duration, which the robot
-/// counts itself (`max_armed_steps`, restored afterwards), or on a fault — or until
-/// Ctrl-C, which disarms first. Returns the recording.
+/// counts itself (`max_armed_steps`, restored afterwards), or earlier (a fault, its
+/// heartbeat timeout) — or until the link fails, or Ctrl-C, which disarms first.
+/// Returns the recording, however the run ended once the robot was armed
+/// ([`Recording::ended_by`]); an error only when it was not armed.
 pub fn run<T: Transport>(
     client: &mut Client<T>,
     plan: &mut RunPlan<'_>,
@@ -187,9 +266,15 @@ pub fn run<T: Transport>(
     } else {
         Ok(())
     };
-    let recording = outcome?;
-    disarmed?;
-    restored?;
+    let mut recording = outcome?;
+    if let (Err(e), None) = (disarmed.and(restored), &recording.after_run_error) {
+        // After a link failure the run's end already says so.
+        if !matches!(recording.ended_by, RunEnd::LinkFailed(_)) {
+            recording.after_run_error = Some(format!(
+                "{e}; the robot may still hold the run's time limit ({total} steps)"
+            ));
+        }
+    }
     Ok(recording)
 }
 
@@ -215,7 +300,27 @@ fn upload_arm_record<T: Transport>(
     let wall = Instant::now();
     ops::arm(client, ops::initial_motion(scenario))?;
     let mut recorder = Recorder::new(scenario, plan.law, params, before, total);
-    let mut heartbeat = HeartbeatPacer::new(params.supervisor.heartbeat_timeout_steps);
+    let recorded = record_until_end(client, plan, &mut recorder, total);
+    let stats = recorded.and_then(|()| match client.request(Request::GetStats)? {
+        Reply::Stats(s) => Ok(s),
+        _ => Ok(link::Stats::default()),
+    });
+    let (stats, error) = match stats {
+        Ok(s) => (s, None),
+        Err(e) => (link::Stats::default(), Some(e)),
+    };
+    Ok(recorder.finish(wall.elapsed().as_secs_f64(), stats, error))
+}
+
+/// Feeds `recorder` with heartbeats going until the robot's report (and the virtual
+/// robot's true one) came. `Err(Interrupted)` after Ctrl-C, which disarms the robot.
+fn record_until_end<T: Transport>(
+    client: &mut Client<T>,
+    plan: &mut RunPlan<'_>,
+    recorder: &mut Recorder<'_>,
+    total: u64,
+) -> Result<(), StationError> {
+    let mut heartbeat = HeartbeatPacer::new(recorder.heartbeat_timeout_steps);
     while !recorder.done() {
         if plan.interrupt.load(Ordering::Relaxed) {
             let _ = client.command(Request::Disarm);
@@ -246,11 +351,7 @@ fn upload_arm_record<T: Transport>(
             break;
         }
     }
-    let stats = match client.request(Request::GetStats)? {
-        Reply::Stats(s) => s,
-        _ => link::Stats::default(),
-    };
-    Ok(recorder.finish(wall.elapsed().as_secs_f64(), stats))
+    Ok(())
 }
 
 /// Joins telemetry and ground truth into trace rows and keeps the run's reports.
@@ -264,6 +365,7 @@ struct Recorder<'a> {
     runs_before: u16,
     /// The run's time limit, control steps.
     limit_steps: u64,
+    heartbeat_timeout_steps: u32,
     arm_step: Option<u32>,
     last_step: Option<u32>,
     /// Step of the first telemetry frame after arming that was not armed.
@@ -303,6 +405,7 @@ impl<'a> Recorder<'a> {
             rate_hz: f64::from(rate),
             runs_before,
             limit_steps,
+            heartbeat_timeout_steps: params.supervisor.heartbeat_timeout_steps,
             arm_step: None,
             last_step: None,
             stopped_step: None,
@@ -475,12 +578,27 @@ impl<'a> Recorder<'a> {
         }
     }
 
-    fn finish(mut self, wall_time_s: f64, stats: link::Stats) -> Recording {
+    /// The recording, `error` being the link's failure that stopped it, if any.
+    fn finish(
+        mut self,
+        wall_time_s: f64,
+        stats: link::Stats,
+        error: Option<StationError>,
+    ) -> Recording {
         self.flush(None);
-        let ended_by = self.end();
+        let (ended_by, after_run_error) = match (error, self.report) {
+            (None, _) => (self.end(), None),
+            (Some(StationError::Interrupted), None) => (RunEnd::Interrupted, None),
+            (Some(e), None) => (RunEnd::LinkFailed(e.to_string()), None),
+            (Some(e), Some(_)) => (self.end(), Some(e.to_string())),
+        };
         let report = self.report.unwrap_or_default();
         let truth = self.truth;
-        let steps = u64::from(report.run_steps);
+        // A run cut short: as far as its telemetry went.
+        let steps = match self.report {
+            Some(r) => u64::from(r.run_steps),
+            None => self.run_steps(),
+        };
         let summary = Summary {
             scenario: self.scenario.name.clone(),
             law: self.law.name().to_string(),
@@ -502,7 +620,7 @@ impl<'a> Recorder<'a> {
                     self.state,
                     match ended_by {
                         RunEnd::Robot(event) => Some(event),
-                        RunEnd::Unknown => None,
+                        _ => None,
                     },
                 ),
                 &self.faults,
@@ -531,9 +649,10 @@ impl<'a> Recorder<'a> {
             trace: self.rows,
             distance_travelled_m: distance,
             has_truth: self.saw_truth,
-            report,
+            report: self.report,
             truth,
             ended_by,
+            after_run_error,
             final_estimate: self.final_estimate,
             final_truth: self.final_truth,
         }

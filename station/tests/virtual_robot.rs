@@ -197,3 +197,102 @@ fn a_tune_the_link_cut_short_is_not_taken_for_a_finished_one() {
         "{why}"
     );
 }
+
+/// Runs paper-circle on a virtual robot behind a line with `faults`; `stop_at` (run
+/// steps) sets the Ctrl-C flag.
+fn faulty_run(faults: LineFaults, stop_at: Option<u64>) -> record::Recording {
+    let scenario = Scenario::load("paper-circle").expect("built in");
+    let mut channels = Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+    let mut pipe = InProcess::new(&mut robot);
+    pipe.faults = faults;
+    let mut client = Client::new(pipe);
+    let interrupt = AtomicBool::new(false);
+    let mut progress = |done: u64, _: u64| {
+        if stop_at.is_some_and(|s| done >= s) {
+            interrupt.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+    };
+    record::run(
+        &mut client,
+        &mut RunPlan {
+            scenario: &scenario,
+            law: LawKind::Tracking,
+            telemetry_hz: 100,
+            interrupt: &interrupt,
+            progress: &mut progress,
+        },
+    )
+    .expect("armed, so recorded")
+}
+
+/// The summary.json `recording` writes.
+fn written_summary(recording: &record::Recording, name: &str) -> serde_json::Value {
+    let dir = std::env::temp_dir().join(format!("station-vr-{name}-{}", std::process::id()));
+    let files = recording.write(&dir).expect("written");
+    assert_eq!(files.len(), 2);
+    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary");
+    let _ = std::fs::remove_dir_all(&dir);
+    serde_json::from_str(&text).expect("json")
+}
+
+#[test]
+fn a_run_cut_short_is_recorded_as_far_as_it_went_and_marked_incomplete() {
+    // The connection breaks 5 s into the run.
+    let broken = faulty_run(
+        LineFaults {
+            break_after: Some((1, 5000)),
+            ..LineFaults::default()
+        },
+        None,
+    );
+    assert!(
+        matches!(&broken.ended_by, record::RunEnd::LinkFailed(e) if e.contains("closed")),
+        "{:?}",
+        broken.ended_by
+    );
+    assert!(!broken.complete());
+    assert!(broken.report.is_none());
+    assert!(
+        (495..=500).contains(&broken.trace.len()),
+        "{} rows",
+        broken.trace.len()
+    );
+    assert!((4990..=5000).contains(&broken.summary.steps));
+    let summary = written_summary(&broken, "broken");
+    assert_eq!(summary["complete"], false);
+    assert_eq!(summary["ended_by"], "link_failed");
+    assert_eq!(summary["estimated_error"]["samples"], 0);
+
+    // Heartbeats stop reaching the robot 5 s into the run: it disarms 500 steps later.
+    let stalled = faulty_run(
+        LineFaults {
+            mute_heartbeats: vec![(1, 5000)],
+            ..LineFaults::default()
+        },
+        None,
+    );
+    assert_eq!(
+        stalled.ended_by,
+        record::RunEnd::Robot(controller_core::supervisor::Event::Disarmed(
+            controller_core::supervisor::DisarmReason::LinkLost
+        ))
+    );
+    assert!(!stalled.complete());
+    let summary = written_summary(&stalled, "stalled");
+    assert_eq!(summary["complete"], false);
+    assert_eq!(summary["ended_by"], "link_lost");
+
+    // Ctrl-C 3 s into the run.
+    let interrupted = faulty_run(LineFaults::default(), Some(3000));
+    assert_eq!(interrupted.ended_by, record::RunEnd::Interrupted);
+    assert!(
+        interrupted.trace.len() >= 299,
+        "{}",
+        interrupted.trace.len()
+    );
+    assert_eq!(
+        written_summary(&interrupted, "ctrl-c")["ended_by"],
+        "interrupted"
+    );
+}

@@ -417,6 +417,9 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
     let mut pending: Option<link::TelemetryFrame> = None;
     let mut first: Option<u32> = None;
     let mut rows = 0u64;
+    let period = (rate as u32 / u32::from(hz.max(1))).max(1);
+    let mut frames = record::GapCounter::default();
+    let mut last_k = 0u64;
     let push = |csv: &mut String,
                 first: u32,
                 f: &link::TelemetryFrame,
@@ -470,6 +473,8 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
         match message {
             Uplink::Telemetry(f) => {
                 let start = *first.get_or_insert(f.step);
+                last_k = u64::from(f.step.wrapping_sub(start));
+                frames.push(last_k, period);
                 if let Some(p) = pending.replace(f) {
                     push(&mut csv, start, &p, None);
                     rows += 1;
@@ -498,6 +503,19 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
     }
     std::fs::write(&file, csv).with_context(|| format!("writing {}", file.display()))?;
     say!("wrote {rows} rows to {}", file.display());
+    let (received, missing) = frames.count(last_k + 1, period);
+    say!(
+        "telemetry: {received} of {} frames at {hz} Hz ({missing} missing)",
+        received + missing
+    );
+    if received + missing > 0
+        && missing as f64 > record::MISSING_TELEMETRY_WARNING * (received + missing) as f64
+    {
+        eprintln!(
+            "warning: {missing} of {} telemetry frames are missing: the recording has gaps",
+            received + missing
+        );
+    }
     match (duration_s, cut_short) {
         (_, Some(why)) => Err(NotAsAsked(format!(
             "the recording was cut short: {why}; what was recorded is in {}",
@@ -600,6 +618,10 @@ the robot's (`station params set` sends a robot file)"
             format!(", faults {}", s.supervisor.faults.join(", "))
         }
     );
+    say!("  {}", recording.telemetry.text());
+    if let Some(warning) = recording.telemetry.warning() {
+        eprintln!("warning: {warning}");
+    }
     let names: Vec<String> = files
         .iter()
         .filter_map(|f| f.file_name())

@@ -61,6 +61,8 @@ pub struct Recording {
     /// The link failed after the robot's report came (the error's text): the recording
     /// is whole, but the robot may not have been disarmed or given its time limit back.
     pub after_run_error: Option<String>,
+    /// How much of the telemetry came.
+    pub telemetry: TelemetryCount,
     /// The robot's final odometry pose (world frame), from the last telemetry frame.
     pub final_estimate: Option<Pose>,
     /// The true final pose, from the last ground-truth frame.
@@ -76,8 +78,9 @@ impl Recording {
 
     /// Writes `trace.csv` and `summary.json` into `dir` (created if needed), the summary
     /// with what the station adds to the simulator's: `complete` ([`Recording::complete`]),
-    /// `ended_by` ([`RunEnd::name`]) and `end_reason` (the same as a sentence). A run cut
-    /// short is written too, as far as it was recorded. Returns the files written.
+    /// `ended_by` ([`RunEnd::name`]), `end_reason` (the same as a sentence) and
+    /// `telemetry` ([`TelemetryCount`]). A run cut short is written too, as far as it was
+    /// recorded. Returns the files written.
     pub fn write(&self, dir: &std::path::Path) -> Result<Vec<PathBuf>, OutputError> {
         std::fs::create_dir_all(dir).map_err(|source| OutputError::CreateDir {
             dir: dir.to_path_buf(),
@@ -91,6 +94,7 @@ impl Recording {
             complete: self.complete(),
             ended_by: self.ended_by.name(),
             end_reason: self.ended_by.to_string(),
+            telemetry: self.telemetry,
         };
         write_file(&summary_file, serde_json::to_string_pretty(&file)? + "\n")?;
         Ok(vec![trace_file, summary_file])
@@ -106,6 +110,7 @@ struct SummaryFile<'a> {
     complete: bool,
     ended_by: &'static str,
     end_reason: String,
+    telemetry: TelemetryCount,
 }
 
 fn write_file(file: &std::path::Path, text: String) -> Result<(), OutputError> {
@@ -113,6 +118,119 @@ fn write_file(file: &std::path::Path, text: String) -> Result<(), OutputError> {
         file: file.to_path_buf(),
         source,
     })
+}
+
+/// Past this fraction of missing telemetry frames, the station warns.
+pub const MISSING_TELEMETRY_WARNING: f64 = 0.05;
+
+/// How much of a run's telemetry reached the station (`summary.json`'s `telemetry`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct TelemetryCount {
+    /// The telemetry rate, Hz.
+    pub rate_hz: u8,
+    /// Control steps between frames: control rate / telemetry rate.
+    pub period_steps: u32,
+    /// Frames the run should have given: received plus missing.
+    pub expected_frames: u64,
+    /// Frames of the run received (the trace's rows).
+    pub received_frames: u64,
+    /// Frames missing, from the gaps in the received frames' step numbers, and before the
+    /// first and after the last to the run's ends.
+    pub missing_frames: u64,
+    /// Telemetry frames the robot could not send for want of room on the link while the
+    /// run was recorded (its `telemetry_dropped`); `None` when its statistics did not
+    /// come. The rest of the missing frames were lost on the line.
+    pub dropped_on_robot: Option<u32>,
+}
+
+impl TelemetryCount {
+    /// Missing frames over expected ones (0 when none was expected).
+    pub fn missing_fraction(&self) -> f64 {
+        if self.expected_frames == 0 {
+            0.0
+        } else {
+            self.missing_frames as f64 / self.expected_frames as f64
+        }
+    }
+
+    /// One line: received of expected, and where the missing ones went.
+    pub fn text(&self) -> String {
+        if self.missing_frames == 0 {
+            return format!(
+                "telemetry: {} of {} frames at {} Hz, none missing",
+                self.received_frames, self.expected_frames, self.rate_hz
+            );
+        }
+        let mut text = format!(
+            "telemetry: {} of {} frames at {} Hz ({} missing, {:.1} %",
+            self.received_frames,
+            self.expected_frames,
+            self.rate_hz,
+            self.missing_frames,
+            100.0 * self.missing_fraction()
+        );
+        match self.dropped_on_robot {
+            Some(dropped) => {
+                let on_line = self.missing_frames.saturating_sub(u64::from(dropped));
+                text += &format!(
+                    "; {dropped} dropped on the robot for want of link room, {on_line} lost on the line)"
+                );
+            }
+            None => text += "; the robot's count of dropped frames did not come)",
+        }
+        text
+    }
+
+    /// A warning when more than [`MISSING_TELEMETRY_WARNING`] of the frames are missing.
+    pub fn warning(&self) -> Option<String> {
+        (self.missing_fraction() > MISSING_TELEMETRY_WARNING).then(|| {
+            format!(
+                "{:.1} % of the telemetry is missing (over {:.0} %): the trace has gaps; a \
+lower --hz, or a cleaner line, would keep more",
+                100.0 * self.missing_fraction(),
+                100.0 * MISSING_TELEMETRY_WARNING
+            )
+        })
+    }
+}
+
+/// Counts the frames of a run from their step numbers, one every `period` steps.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct GapCounter {
+    first: Option<u64>,
+    last: u64,
+    received: u64,
+    missing_between: u64,
+}
+
+impl GapCounter {
+    /// A frame at run step `k` (steps since the run's start, increasing), on a stream
+    /// of one frame every `period` steps.
+    pub fn push(&mut self, k: u64, period: u32) {
+        let period = u64::from(period.max(1));
+        if self.first.is_some() {
+            let gap = k.saturating_sub(self.last);
+            // Rounded: a late control step moves a frame by a step or two.
+            let slots = (gap + period / 2) / period;
+            self.missing_between += slots.saturating_sub(1);
+        } else {
+            self.first = Some(k);
+        }
+        self.last = k;
+        self.received += 1;
+    }
+
+    /// (received, missing) for a run of `steps` steps (frames due at steps 0 ≤ k <
+    /// `steps`, one every `period`).
+    pub fn count(&self, steps: u64, period: u32) -> (u64, u64) {
+        let period = u64::from(period.max(1));
+        let Some(first) = self.first else {
+            return (0, steps.div_ceil(period));
+        };
+        let before = first / period;
+        let after = steps.saturating_sub(self.last + 1) / period;
+        (self.received, self.missing_between + before + after)
+    }
 }
 
 /// How a recorded run ended.
@@ -285,7 +403,7 @@ fn upload_arm_record<T: Transport>(
     total: u64,
 ) -> Result<Recording, StationError> {
     let scenario = plan.scenario;
-    set_telemetry_rate(client, plan.telemetry_hz)?;
+    let hz = set_telemetry_rate(client, plan.telemetry_hz)?;
     ops::upload_path(
         client,
         scenario,
@@ -297,19 +415,34 @@ fn upload_arm_record<T: Transport>(
         Reply::RunReport(r) => r.runs_ended,
         _ => 0,
     };
+    let stats_before = stats(client)?;
     let wall = Instant::now();
     ops::arm(client, ops::initial_motion(scenario))?;
-    let mut recorder = Recorder::new(scenario, plan.law, params, before, total);
+    let mut recorder = Recorder::new(scenario, plan.law, params, before, total, hz);
     let recorded = record_until_end(client, plan, &mut recorder, total);
-    let stats = recorded.and_then(|()| match client.request(Request::GetStats)? {
-        Reply::Stats(s) => Ok(s),
-        _ => Ok(link::Stats::default()),
-    });
-    let (stats, error) = match stats {
+    let (stats_after, error) = match recorded.and_then(|()| stats(client)) {
         Ok(s) => (s, None),
-        Err(e) => (link::Stats::default(), Some(e)),
+        Err(e) => (None, Some(e)),
     };
-    Ok(recorder.finish(wall.elapsed().as_secs_f64(), stats, error))
+    let dropped = stats_before.zip(stats_after).map(|(b, a)| {
+        a.link
+            .telemetry_dropped
+            .wrapping_sub(b.link.telemetry_dropped)
+    });
+    Ok(recorder.finish(
+        wall.elapsed().as_secs_f64(),
+        stats_after.unwrap_or_default(),
+        dropped,
+        error,
+    ))
+}
+
+/// The robot's statistics (`None` if it answers with something else).
+fn stats<T: Transport>(client: &mut Client<T>) -> Result<Option<link::Stats>, StationError> {
+    Ok(match client.request(Request::GetStats)? {
+        Reply::Stats(s) => Some(s),
+        _ => None,
+    })
 }
 
 /// Feeds `recorder` with heartbeats going until the robot's report (and the virtual
@@ -366,6 +499,10 @@ struct Recorder<'a> {
     /// The run's time limit, control steps.
     limit_steps: u64,
     heartbeat_timeout_steps: u32,
+    telemetry_hz: u8,
+    /// Control steps between telemetry frames.
+    telemetry_period: u32,
+    frames: GapCounter,
     arm_step: Option<u32>,
     last_step: Option<u32>,
     /// Step of the first telemetry frame after arming that was not armed.
@@ -390,6 +527,7 @@ impl<'a> Recorder<'a> {
         params: &ParamSet,
         runs_before: u16,
         limit_steps: u64,
+        telemetry_hz: u8,
     ) -> Self {
         let rate = params.robot.control_rate_hz;
         Self {
@@ -406,6 +544,10 @@ impl<'a> Recorder<'a> {
             runs_before,
             limit_steps,
             heartbeat_timeout_steps: params.supervisor.heartbeat_timeout_steps,
+            telemetry_hz,
+            // As the robot's telemetry clock: at least one step.
+            telemetry_period: (rate / u32::from(telemetry_hz.max(1))).max(1),
+            frames: GapCounter::default(),
             arm_step: None,
             last_step: None,
             stopped_step: None,
@@ -498,6 +640,7 @@ impl<'a> Recorder<'a> {
             return;
         };
         let k = u64::from(frame.step.wrapping_sub(arm));
+        self.frames.push(k, self.telemetry_period);
         self.rows.push(self.row(&frame, truth.as_ref(), k));
     }
 
@@ -579,10 +722,13 @@ impl<'a> Recorder<'a> {
     }
 
     /// The recording, `error` being the link's failure that stopped it, if any.
+    /// `stats` are the robot's after the run, `dropped` the telemetry frames it dropped
+    /// during it.
     fn finish(
         mut self,
         wall_time_s: f64,
         stats: link::Stats,
+        dropped: Option<u32>,
         error: Option<StationError>,
     ) -> Recording {
         self.flush(None);
@@ -644,8 +790,18 @@ impl<'a> Recorder<'a> {
             },
             |t| f64::from(t.distance_m),
         );
+        let (received, missing) = self.frames.count(steps, self.telemetry_period);
+        let telemetry = TelemetryCount {
+            rate_hz: self.telemetry_hz,
+            period_steps: self.telemetry_period,
+            expected_frames: received + missing,
+            received_frames: received,
+            missing_frames: missing,
+            dropped_on_robot: dropped,
+        };
         Recording {
             summary,
+            telemetry,
             trace: self.rows,
             distance_travelled_m: distance,
             has_truth: self.saw_truth,
@@ -700,6 +856,44 @@ fn final_state(last_sampled: State, ended_by: Option<Event>) -> State {
 mod tests {
     use super::*;
     use controller_core::supervisor::DisarmReason;
+
+    #[test]
+    fn gaps_in_the_step_numbers_count_the_missing_frames() {
+        // A 100-step run, a frame every 10 steps from step 3: 10 due (3, 13, …, 93).
+        let mut all = GapCounter::default();
+        for k in (3..100).step_by(10) {
+            all.push(k, 10);
+        }
+        assert_eq!(all.count(100, 10), (10, 0));
+        // Without 3 (the first), 43 and 53 (a gap of two), 93 (the last), and one a step
+        // late (a late control step).
+        let mut some = GapCounter::default();
+        for k in [13, 23, 34, 63, 73, 83] {
+            some.push(k, 10);
+        }
+        assert_eq!(some.count(100, 10), (6, 4));
+        // Nothing received: every frame is missing.
+        assert_eq!(GapCounter::default().count(100, 10), (0, 10));
+    }
+
+    #[test]
+    fn missing_telemetry_past_five_percent_is_warned_about() {
+        let count = |missing| TelemetryCount {
+            rate_hz: 100,
+            period_steps: 10,
+            expected_frames: 1000,
+            received_frames: 1000 - missing,
+            missing_frames: missing,
+            dropped_on_robot: Some(20),
+        };
+        assert_eq!(count(50).warning(), None);
+        assert!(count(51).warning().is_some());
+        assert_eq!(
+            count(450).text(),
+            "telemetry: 550 of 1000 frames at 100 Hz (450 missing, 45.0 %; 20 dropped on the \
+robot for want of link room, 430 lost on the line)"
+        );
+    }
 
     #[test]
     fn the_final_state_is_the_one_the_ending_event_led_to() {

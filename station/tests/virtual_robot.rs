@@ -296,3 +296,41 @@ fn a_run_cut_short_is_recorded_as_far_as_it_went_and_marked_incomplete() {
         "interrupted"
     );
 }
+
+#[test]
+fn lost_telemetry_is_counted_in_the_summary() {
+    // One telemetry frame in ten never reaches the station.
+    let lossy = faulty_run(
+        LineFaults {
+            lose_telemetry_every: 10,
+            ..LineFaults::default()
+        },
+        None,
+    );
+    let summary = written_summary(&lossy, "lossy");
+    let t = &summary["telemetry"];
+    assert_eq!(t["expected_frames"], 3000, "{t}");
+    assert_eq!(t["period_steps"], 10, "{t}");
+    let missing = t["missing_frames"].as_u64().expect("a count");
+    assert!((299..=301).contains(&missing), "{t}");
+    assert_eq!(
+        t["received_frames"].as_u64(),
+        Some(3000 - missing),
+        "one row per frame received: {t}"
+    );
+    assert_eq!(lossy.trace.len() as u64, 3000 - missing);
+    assert_eq!(
+        t["dropped_on_robot"], 0,
+        "lost on the line, not on the robot"
+    );
+    assert!(lossy
+        .telemetry
+        .warning()
+        .is_some_and(|w| w.starts_with("10.0 % of the telemetry is missing")));
+    assert!(lossy.telemetry.text().contains("300 lost on the line") || missing != 300);
+
+    let clean = faulty_run(LineFaults::default(), None);
+    assert_eq!(clean.telemetry.missing_frames, 0, "{:?}", clean.telemetry);
+    assert_eq!(clean.telemetry.expected_frames, 3000);
+    assert_eq!(clean.telemetry.warning(), None);
+}

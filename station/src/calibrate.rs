@@ -25,14 +25,19 @@
 //! measured errors by Gauss–Newton in (d, E_b). With sharp corners and small errors the
 //! model reduces to UMBmark's closed form, which is printed beside it as a cross-check
 //! (α = (x_cw + x_ccw)/(−4L), β = (x_cw − x_ccw)/(−4L) in the frame of the start), as is
-//! Jung & Chung's heading-based E_b when headings are measured.
+//! Jung & Chung's heading-based E_b when headings are measured. That one holds for any
+//! corners: the odometry turned Θ (the path's arcs' sweeps, ±3π/2 for these squares of
+//! three corners) along a length S, the robot truly turned (Θ + S·d/L)/E_b, so the
+//! heading errors' difference θ_cw − θ_ccw = (Θ_cw − Θ_ccw)·(1/E_b − 1) gives E_b
+//! whatever d. It is exact under the model the fit uses, and agrees with the fit to the
+//! measurement noise.
 
 use std::io::{BufRead, Write};
 use std::sync::atomic::AtomicBool;
 
 use controller_core::kinematics::{Point, Pose};
 use controller_core::law::LawKind;
-use controller_core::path::Path;
+use controller_core::path::{Path, Segment};
 use controller_core::reference::ReferenceMode;
 use link::{ParamSet, Request};
 use robot_files::rng::Rng;
@@ -154,28 +159,30 @@ impl EndPoint {
 /// The true end point predicted for a robot that follows `path` exactly by odometry
 /// (believed track `track_m`), whose true wheels travel (1 − d/2) and (1 + d/2) times
 /// what they believe and whose true track is `track_m · e_b`: (x, y, θ) minus the
-/// path's end, m and rad.
+/// path's end, m and rad. Integrated segment by segment (each of constant curvature) in
+/// steps of at most 2 mm, so the believed turn is the path's own.
 pub fn predicted_error(path: &Path, track_m: f64, d: f64, e_b: f64) -> (f64, f64, f64) {
-    let length = f64::from(path.length_m());
-    let steps = (length / 0.002).ceil().max(1.0) as usize;
-    let ds = length / steps as f64;
     let start = path.sample(0.0);
     let (mut x, mut y, mut th) = (
         f64::from(start.point.x_m),
         f64::from(start.point.y_m),
         f64::from(start.heading_rad),
     );
-    for k in 0..steps {
-        let s = (k as f64 + 0.5) * ds;
-        let kappa = f64::from(path.sample(s as f32).curvature_per_m);
+    for segment in path.segments() {
+        let length = f64::from(segment.length_m());
+        let kappa = f64::from(segment.sample(segment.length_m() / 2.0).curvature_per_m);
+        let steps = (length / 0.002).ceil().max(1.0) as usize;
+        let ds = length / steps as f64;
         let left = ds * (1.0 - kappa * track_m / 2.0) * (1.0 - d / 2.0);
         let right = ds * (1.0 + kappa * track_m / 2.0) * (1.0 + d / 2.0);
         let dist = (left + right) / 2.0;
         let dth = (right - left) / (track_m * e_b);
-        let mid = th + dth / 2.0;
-        x += dist * mid.cos();
-        y += dist * mid.sin();
-        th += dth;
+        for _ in 0..steps {
+            let mid = th + dth / 2.0;
+            x += dist * mid.cos();
+            y += dist * mid.sin();
+            th += dth;
+        }
     }
     let end = path.sample(path.length_m());
     (
@@ -183,6 +190,17 @@ pub fn predicted_error(path: &Path, track_m: f64, d: f64, e_b: f64) -> (f64, f64
         y - f64::from(end.point.y_m),
         wrap_angle(th - f64::from(end.heading_rad)),
     )
+}
+
+/// The total turn of `path`, rad (+ counter-clockwise): the sum of its arcs' sweeps.
+pub fn total_turn(path: &Path) -> f64 {
+    path.segments()
+        .iter()
+        .map(|segment| match segment {
+            Segment::Arc { sweep_rad, .. } => f64::from(*sweep_rad),
+            Segment::Line { .. } => 0.0,
+        })
+        .sum()
 }
 
 /// What the squares say about the geometry.
@@ -194,7 +212,8 @@ pub struct Estimate {
     pub e_b: f64,
     /// UMBmark's closed form (turns on the spot), for comparison: (E_d, E_b).
     pub closed_form: (f64, f64),
-    /// Jung & Chung's heading-based E_b, when headings were measured.
+    /// Jung & Chung's heading-based E_b, when headings were measured: ΔΘ/(ΔΘ − Δθ), ΔΘ
+    /// the paths' turns' difference (ccw − cw), Δθ the mean heading errors' (cw − ccw).
     pub jung_chung_e_b: Option<f64>,
     /// Centroids of the end errors, clockwise and counter-clockwise, m.
     pub centroids: [(f64, f64); 2],
@@ -274,14 +293,17 @@ pub fn estimate(
         v.filter(|v| !v.is_empty())
             .map(|v| v.iter().sum::<f64>() / v.len() as f64)
     };
+    // Jung & Chung, from the headings: a robot whose odometry turned Θ along a path of
+    // length S truly turned (Θ + S·d/L)/E_b, so its heading error (true − odometry) is
+    // Θ·(1/E_b − 1) + S·d/(L·E_b). The two squares are equally long and turn opposite
+    // ways, so θ_cw − θ_ccw = (Θ_cw − Θ_ccw)·(1/E_b − 1) whatever d, and
+    // E_b = ΔΘ/(ΔΘ − Δθ), ΔΘ = Θ_ccw − Θ_cw, Δθ = θ_cw − θ_ccw. With UMBmark's four
+    // turns on the spot (ΔΘ = 4π) this is Jung & Chung's (π/2)/(π/2 − Δθ/8); the squares
+    // here turn three filleted corners each (ΔΘ = 3π).
+    let turned = total_turn(paths[1]) - total_turn(paths[0]);
     let jung_chung_e_b = match (heading(cw), heading(ccw)) {
-        (Some(t_cw), Some(t_ccw)) => {
-            let alpha_eb = (t_ccw - t_cw) / 8.0;
-            let beta = (t_cw + t_ccw) / 8.0;
-            let alpha_ed = std::f64::consts::PI * track_m * beta / (4.0 * l);
-            Some(
-                std::f64::consts::FRAC_PI_2 / (std::f64::consts::FRAC_PI_2 - (alpha_eb + alpha_ed)),
-            )
+        (Some(t_cw), Some(t_ccw)) if turned.abs() > 1e-9 => {
+            Some(turned / (turned - (t_cw - t_ccw)))
         }
         _ => None,
     };
@@ -696,4 +718,41 @@ pub fn command<T: Transport>(
         }
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_heading_cross_check_agrees_with_the_fit_without_noise() {
+        let base = Scenario::load("square-waypoints").expect("built in");
+        let track = f64::from(base.robot.track_width_m);
+        let cw = square(&base, 2.0, true).expect("a square");
+        let ccw = square(&base, 2.0, false).expect("a square");
+        for (d, e_b) in [(0.005, 1.0175), (-0.01, 0.97), (0.0, 1.03), (0.002, 1.0)] {
+            // The robot follows each path exactly by odometry and ends where the model
+            // says, its heading measured exactly.
+            let end = |path: &Path| {
+                let (ex, ey, eth) = predicted_error(path, track, d, e_b);
+                let end = path.sample(path.length_m());
+                EndPoint {
+                    odometry: Pose::new(end.point.x_m, end.point.y_m, end.heading_rad),
+                    true_xy: (f64::from(end.point.x_m) + ex, f64::from(end.point.y_m) + ey),
+                    true_heading: Some(f64::from(end.heading_rad) + eth),
+                }
+            };
+            let e = estimate(
+                [&cw.path, &ccw.path],
+                &[end(&cw.path)],
+                &[end(&ccw.path)],
+                track,
+                2.0,
+            );
+            let jc = e.jung_chung_e_b.expect("headings measured");
+            println!("d {d} E_b {e_b}: fit {:.6}, Jung & Chung {jc:.6}", e.e_b);
+            assert!((e.e_b / e_b - 1.0).abs() < 1e-5, "fit {} for {e_b}", e.e_b);
+            assert!((jc / e_b - 1.0).abs() < 1e-4, "Jung & Chung {jc} for {e_b}");
+        }
+    }
 }

@@ -84,8 +84,19 @@ fn umbmark_recovers_the_radius_ratio_and_the_track() {
     for (lr, track) in [(1.0, 5.0), (-1.0, -5.0), (0.5, -3.0)] {
         let c = calibration(lr, track, LineFaults::default());
         let (ratio_err, track_err) = errors(&c);
+        let e = c.outcome.as_ref().expect("calibrates").estimate;
+        let jung_chung = e.jung_chung_e_b.expect("headings measured");
         println!(
-            "L/R {lr:+}%, track {track:+}%: ratio off {ratio_err:+.4}%, track off {track_err:+.4}%"
+            "L/R {lr:+}%, track {track:+}%: ratio off {ratio_err:+.4}%, track off {track_err:+.4}%, \
+E_b {:.5}, Jung & Chung {jung_chung:.5}",
+            e.e_b
+        );
+        // The headings are measured to 0.2° (1σ), three runs each way: E_b to about
+        // 0.03 % (1σ).
+        assert!(
+            (jung_chung / e.e_b - 1.0).abs() < 1.5e-3,
+            "Jung & Chung's E_b {jung_chung} against the fit's {}",
+            e.e_b
         );
         assert!(
             ratio_err.abs() <= 0.05,

@@ -480,7 +480,7 @@ impl From<&str> for CalibrateError {
 
 impl From<StationError> for CalibrateError {
     fn from(e: StationError) -> Self {
-        CalibrateError::Failed(e.to_string())
+        CalibrateError::Failed(crate::error_text(&e))
     }
 }
 
@@ -633,7 +633,7 @@ from the start"
             }
             (Err(e), None) => return Err(e.into()),
             (Ok(rec), Some(_)) => format!("it ended by {}", rec.ended_by),
-            (Err(e), Some(_)) => format!("it could not be driven: {e}"),
+            (Err(e), Some(_)) => format!("it could not be driven: {}", crate::error_text(&e)),
         };
         return Err(CalibrateError::RunCutShort {
             run: label.to_string(),

@@ -13,11 +13,12 @@ use link::{
 
 use crate::transport::Transport;
 
-/// Why a request failed. `Display` is a sentence for a terminal.
+/// Why a request failed. `Display` is a sentence for a terminal; a variant with a source
+/// leaves its text to [`crate::error_text`] (or anyhow's `{:#}`).
 #[derive(Debug, thiserror::Error)]
 pub enum StationError {
-    /// The link failed (port unplugged, connection closed).
-    #[error("link to the robot failed: {0}")]
+    /// The link failed (port unplugged, connection closed): the OS's error is the source.
+    #[error("link to the robot failed")]
     Io(#[from] io::Error),
     /// No reply, even after re-sending.
     #[error("no reply to {request} from {link} after {tries} tries (wrong port or baud rate? robot not powered?)")]

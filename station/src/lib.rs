@@ -47,6 +47,31 @@ pub mod watch;
 
 pub use client::{Client, StationError};
 
+/// `error` and its sources, `: `-separated, each cause once ([`causes_text`]).
+pub fn error_text(error: &(dyn std::error::Error + 'static)) -> String {
+    causes_text(std::iter::successors(Some(error), |e| e.source()))
+}
+
+/// The texts of `causes` (an error, then its source, then the source's source…),
+/// `: `-separated. A cause whose text already ends the text so far is left out: an error
+/// of another crate that prints its source in its own message and also returns it as
+/// its `source()` is said once.
+pub fn causes_text<'a>(
+    causes: impl IntoIterator<Item = &'a (dyn std::error::Error + 'static)>,
+) -> String {
+    let mut text = String::new();
+    for cause in causes {
+        let part = cause.to_string();
+        if text.is_empty() {
+            text = part;
+        } else if !text.ends_with(&part) {
+            text.push_str(": ");
+            text.push_str(&part);
+        }
+    }
+    text
+}
+
 /// The exit status of a command whose run did not end as asked (crate doc).
 pub const EXIT_NOT_AS_ASKED: u8 = 3;
 
@@ -55,3 +80,58 @@ pub const EXIT_NOT_AS_ASKED: u8 = 3;
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct NotAsAsked(pub String);
+
+#[cfg(test)]
+mod tests {
+    use std::error::Error;
+    use std::io;
+
+    use super::*;
+
+    fn closed() -> io::Error {
+        io::Error::new(
+            io::ErrorKind::ConnectionAborted,
+            "the robot closed the connection",
+        )
+    }
+
+    #[test]
+    fn no_error_of_the_station_prints_its_source_in_its_own_message() {
+        let errors: Vec<Box<dyn Error>> = vec![
+            Box::new(StationError::Io(closed())),
+            Box::new(transport::ConnectError::Connect {
+                address: "127.0.0.1:5760".to_string(),
+                source: closed(),
+            }),
+            Box::new(ops::ParamsError::Link(StationError::Io(closed()))),
+        ];
+        for error in errors {
+            let own = error.to_string();
+            let source = error.source().map(ToString::to_string);
+            assert!(
+                source.is_some_and(|s| !own.contains(&s)),
+                "{own} / {:?}",
+                error.source()
+            );
+            let text = error_text(error.as_ref());
+            assert_eq!(text.matches("the robot closed").count(), 1, "{text}");
+        }
+    }
+
+    #[test]
+    fn a_cause_an_error_already_prints_is_said_once() {
+        // robot-files' errors print their source and return it.
+        let error = robot_files::output::OutputError::Write {
+            file: "out/trace.csv".into(),
+            source: closed(),
+        };
+        assert_eq!(
+            error_text(&error),
+            "writing out/trace.csv: the robot closed the connection"
+        );
+        assert_eq!(
+            error_text(&StationError::Io(closed())),
+            "link to the robot failed: the robot closed the connection"
+        );
+    }
+}

@@ -466,7 +466,7 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
             Ok(Some(message)) => message,
             Ok(None) => continue,
             Err(e) => {
-                cut_short = Some(format!("the link failed: {e}"));
+                cut_short = Some(format!("the link failed: {}", station::error_text(&e)));
                 break;
             }
         };
@@ -574,7 +574,10 @@ the robot's (`station params set` sends a robot file)"
     } else if !recording.trace.is_empty() {
         match write_figures(out, &scenario, &recording) {
             Ok(figures) => files.extend(figures),
-            Err(e) => eprintln!("note: no figures of the part recorded: {e:#}"),
+            Err(e) => eprintln!(
+                "note: no figures of the part recorded: {}",
+                station::causes_text(e.chain())
+            ),
         }
     }
     let s = &recording.summary;
@@ -712,7 +715,7 @@ fn main() -> ExitCode {
             if broken_pipe {
                 return ExitCode::SUCCESS;
             }
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", station::causes_text(e.chain()));
             if e.downcast_ref::<NotAsAsked>().is_some() {
                 ExitCode::from(EXIT_NOT_AS_ASKED)
             } else {

@@ -252,7 +252,7 @@ pub fn tune<T: Transport>(
         link_error: None,
     };
     if let Err(e) = hold_tune(client, heartbeat_timeout_steps, limit, before, &mut run) {
-        run.link_error = Some(e.to_string());
+        run.link_error = Some(crate::error_text(&e));
     }
     Ok(run)
 }

@@ -389,7 +389,8 @@ pub fn run<T: Transport>(
         // After a link failure the run's end already says so.
         if !matches!(recording.ended_by, RunEnd::LinkFailed(_)) {
             recording.after_run_error = Some(format!(
-                "{e}; the robot may still hold the run's time limit ({total} steps)"
+                "{}; the robot may still hold the run's time limit ({total} steps)",
+                crate::error_text(&e)
             ));
         }
     }
@@ -735,8 +736,8 @@ impl<'a> Recorder<'a> {
         let (ended_by, after_run_error) = match (error, self.report) {
             (None, _) => (self.end(), None),
             (Some(StationError::Interrupted), None) => (RunEnd::Interrupted, None),
-            (Some(e), None) => (RunEnd::LinkFailed(e.to_string()), None),
-            (Some(e), Some(_)) => (self.end(), Some(e.to_string())),
+            (Some(e), None) => (RunEnd::LinkFailed(crate::error_text(&e)), None),
+            (Some(e), Some(_)) => (self.end(), Some(crate::error_text(&e))),
         };
         let report = self.report.unwrap_or_default();
         let truth = self.truth;

@@ -525,3 +525,59 @@ fn a_calibration_whose_run_is_cut_short_twice_exits_3_naming_the_run() {
     assert!(stderr.contains("nothing was persisted"), "{stderr}");
     assert!(!String::from_utf8_lossy(&output.stdout).contains("persisted"));
 }
+
+#[test]
+fn an_error_names_each_cause_once() {
+    let _one = one_at_a_time();
+    // A port nobody listens on.
+    let address = {
+        let listener = TcpListener::bind("127.0.0.1:0").expect("a free port");
+        listener.local_addr().expect("bound").to_string()
+    };
+    let output = station(&["--connect", &address, "info"])
+        .output()
+        .expect("the station runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains(&format!("cannot connect to {address}")),
+        "{stderr}"
+    );
+    assert_eq!(stderr.matches("refused").count(), 1, "{stderr}");
+
+    // A connection the robot closes mid-run.
+    let (robot, _events) = virtual_robot("paper-circle", 120.0);
+    let proxy = cutting_proxy(
+        robot,
+        Cut {
+            close_after_heartbeats: Some(10),
+            ..Cut::default()
+        },
+    );
+    let out = out_dir("closed");
+    let output = station(&[
+        "--connect",
+        &proxy,
+        "run",
+        "paper-circle",
+        "--out",
+        out.to_str().expect("utf-8 path"),
+    ])
+    .output()
+    .expect("the station runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(
+        stderr.matches("the robot closed the connection").count(),
+        1,
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(out);
+
+    // A scenario file that is not there (robot-files' error prints its source too).
+    let output = station(&["run", "/nonexistent/scenario.toml", "--out", "/nonexistent"])
+        .output()
+        .expect("the station runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.matches("not found").count(), 1, "{stderr}");
+}

@@ -248,9 +248,10 @@ fn cmd_upload(link: &LinkArgs, scenario: &str, law: Law) -> Result<()> {
         &mut |_, _| {},
     )?;
     say!(
-        "path of {} committed: {} segments, {:.3} m{}, checksum 0x{:08x}",
+        "path of {} committed: {} segment{}, {:.3} m{}, checksum 0x{:08x}",
         scenario.name,
         summary.segment_count,
+        if summary.segment_count == 1 { "" } else { "s" },
         summary.length_m,
         if summary.closed { " (closed)" } else { "" },
         summary.checksum
@@ -473,17 +474,17 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
         match message {
             Uplink::Telemetry(f) => {
                 let start = *first.get_or_insert(f.step);
-                last_k = u64::from(f.step.wrapping_sub(start));
-                frames.push(last_k, period);
+                let k = u64::from(f.step.wrapping_sub(start));
+                // Steps 0 ≤ k < limit are the recording's: the frame at the limit is not.
+                if limit.is_some_and(|limit| k >= limit) {
+                    reached = true;
+                    break;
+                }
+                last_k = k;
+                frames.push(k, period);
                 if let Some(p) = pending.replace(f) {
                     push(&mut csv, start, &p, None);
                     rows += 1;
-                }
-                if let (Some(limit), Some(start)) = (limit, first) {
-                    if u64::from(f.step.wrapping_sub(start)) >= limit {
-                        reached = true;
-                        break;
-                    }
                 }
             }
             Uplink::GroundTruth(g) => {
@@ -503,7 +504,11 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
     }
     std::fs::write(&file, csv).with_context(|| format!("writing {}", file.display()))?;
     say!("wrote {rows} rows to {}", file.display());
-    let (received, missing) = frames.count(last_k + 1, period);
+    let steps = match limit {
+        Some(limit) if reached => limit,
+        _ => last_k + 1,
+    };
+    let (received, missing) = frames.count(steps, period);
     say!(
         "telemetry: {received} of {} frames at {hz} Hz ({missing} missing)",
         received + missing

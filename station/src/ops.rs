@@ -56,9 +56,35 @@ pub fn get_params<T: Transport>(client: &mut Client<T>) -> Result<ParamSet, Stat
     }
 }
 
-/// The robot's configuration as a robot file (`[robot]` and `[supervisor]`, every key).
+/// The robot's configuration as a robot file (`[robot]` and `[supervisor]`, every key),
+/// without the sections that hold no key.
 pub fn params_to_toml(set: &ParamSet) -> String {
-    RobotFile::of(&set.robot, &set.supervisor).to_toml()
+    without_empty_sections(&RobotFile::of(&set.robot, &set.supervisor).to_toml())
+}
+
+/// `toml` without its empty sections: a `[header]` followed by no key before the next
+/// header or the end goes, with the blank and comment lines after it.
+fn without_empty_sections(toml: &str) -> String {
+    let mut out = String::new();
+    let mut section = String::new();
+    let mut has_key = true;
+    for line in toml.split_inclusive('\n') {
+        let trimmed = line.trim();
+        if trimmed.starts_with('[') {
+            if has_key {
+                out.push_str(&section);
+            }
+            section.clear();
+            has_key = false;
+        } else if !trimmed.is_empty() && !trimmed.starts_with('#') {
+            has_key = true;
+        }
+        section.push_str(line);
+    }
+    if has_key {
+        out.push_str(&section);
+    }
+    out
 }
 
 /// The configuration `text` (a robot file named `file`) describes, over `current` (the
@@ -324,5 +350,21 @@ pub fn describe_tune(report: &TuneReport) -> String {
             text.push_str(&tuned_wheel_sections(&result));
             text
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_sections_are_left_out() {
+        let text = "[robot]\na = 1\n\n[robot.wheels]\n\n[robot.left_wheel]\n# a comment\n\
+b = 2\n\n[robot.none]\n# only a comment\n\n[supervisor]\n";
+        assert_eq!(
+            without_empty_sections(text),
+            "[robot]\na = 1\n\n[robot.left_wheel]\n# a comment\nb = 2\n\n"
+        );
+        assert_eq!(without_empty_sections("a = 1\n"), "a = 1\n");
     }
 }

@@ -581,3 +581,56 @@ fn an_error_names_each_cause_once() {
     assert_eq!(output.status.code(), Some(1), "{stderr}");
     assert_eq!(stderr.matches("not found").count(), 1, "{stderr}");
 }
+
+#[test]
+fn counts_and_sections_print_as_they_are() {
+    let _one = one_at_a_time();
+    let (address, _events) = virtual_robot("paper-line", 120.0);
+    // One segment is a segment.
+    let output = station(&["--connect", &address, "path", "upload", "paper-line"])
+        .output()
+        .expect("the station runs");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}");
+    assert!(stdout.contains(": 1 segment, 10.000 m"), "{stdout}");
+    // No empty section in what `params get` prints.
+    let output = station(&["--connect", &address, "params", "get"])
+        .output()
+        .expect("the station runs");
+    let text = String::from_utf8_lossy(&output.stdout).to_string();
+    let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+    for (i, line) in lines.iter().enumerate() {
+        if line.starts_with('[') {
+            assert!(
+                lines.get(i + 1).is_some_and(|next| !next.starts_with('[')),
+                "section {line} is empty:\n{text}"
+            );
+        }
+    }
+    // A second's recording at 100 Hz on a 1 kHz robot: 100 rows, the frame at 1.000 s
+    // being the next second's.
+    let out = out_dir("one-second");
+    let output = station(&[
+        "--connect",
+        &address,
+        "record",
+        "--out",
+        out.to_str().expect("utf-8 path"),
+        "--duration-s",
+        "1",
+    ])
+    .output()
+    .expect("the station runs");
+    assert!(output.status.success());
+    let csv = std::fs::read_to_string(out.join("telemetry.csv")).expect("written");
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(
+        rows.len(),
+        100,
+        "{}",
+        String::from_utf8_lossy(&output.stdout)
+    );
+    assert!(rows[0].split(',').nth(1) == Some("0.000"), "{}", rows[0]);
+    assert!(rows[99].split(',').nth(1) == Some("0.990"), "{}", rows[99]);
+    let _ = std::fs::remove_dir_all(out);
+}

@@ -334,3 +334,40 @@ fn lost_telemetry_is_counted_in_the_summary() {
     assert_eq!(clean.telemetry.expected_frames, 3000);
     assert_eq!(clean.telemetry.warning(), None);
 }
+
+#[test]
+fn a_run_has_one_trace_row_per_telemetry_period_whatever_the_phase() {
+    // 3 s at 1 kHz, telemetry at 100 Hz: 300 rows, at run steps k < 3000, whichever
+    // step of its period the telemetry is at when the robot arms.
+    let mut scenario = Scenario::load("paper-circle").expect("built in");
+    scenario.duration_s = 3.0;
+    for phase in 0..10 {
+        let mut channels = Channels::new();
+        let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+        let mut client = Client::new(InProcess::new(&mut robot));
+        record::set_telemetry_rate(&mut client, 100).expect("set");
+        for _ in 0..phase {
+            let _ = client.next_message(std::time::Duration::ZERO);
+        }
+        let interrupt = AtomicBool::new(false);
+        let mut progress = |_: u64, _: u64| {};
+        let recording = record::run(
+            &mut client,
+            &mut RunPlan {
+                scenario: &scenario,
+                law: LawKind::Tracking,
+                telemetry_hz: 100,
+                interrupt: &interrupt,
+                progress: &mut progress,
+            },
+        )
+        .expect("the run completes");
+        assert_eq!(recording.summary.steps, 3000);
+        assert_eq!(recording.trace.len(), 300, "phase {phase}");
+        let (first, last) = (recording.trace[0].t_s, recording.trace[299].t_s);
+        assert!(
+            first < 0.01 && last < 3.0,
+            "phase {phase}: {first} … {last}"
+        );
+    }
+}

@@ -270,12 +270,20 @@ fn cmd_stats(link: &LinkArgs) -> Result<()> {
     let mut client = open(link)?;
     if let Reply::Stats(s) = client.request(Request::GetStats)? {
         let r = s.link.received;
+        // A robot that does not measure them (the virtual one) says 0.
+        let measured = |value: u32, unit: &str| {
+            if value == 0 {
+                "not measured".to_string()
+            } else {
+                format!("{value} {unit}")
+            }
+        };
         say!(
-            "control: longest step {} cycles, missed ticks {}, overruns {}, stack {} B",
-            s.max_step_cycles,
+            "control: longest step {}, missed ticks {}, overruns {}, stack {}",
+            measured(s.max_step_cycles, "cycles"),
             s.missed_ticks,
             s.overruns,
-            s.stack_high_water_bytes
+            measured(s.stack_high_water_bytes, "B")
         );
         say!(
             "robot received: {} frames ok; dropped: {} CRC, {} framing, {} too long, {} other protocol, {} undecodable",
@@ -596,9 +604,10 @@ the robot's (`station params set` sends a robot file)"
         recording.trace.len(),
         recording.ended_by
     );
+    let window = record::final_window_text(s.sim_time_s);
     let line = |which: &str, e: &ErrorReport| {
         format!(
-            "  {which}: settle {}, final {:.4} m / {:+.2}°, last 10 s RMS {:.4} m, max {:.4} m",
+            "  {which}: settle {}, final {:.4} m / {:+.2}°, {window}: RMS {:.4} m, max {:.4} m",
             settle_text(e.settle_time_s),
             e.final_position_error_m,
             e.final_heading_error_rad.to_degrees(),

@@ -120,6 +120,29 @@ fn write_file(file: &std::path::Path, text: String) -> Result<(), OutputError> {
     })
 }
 
+/// The final window of a run of `run_s` seconds, over which its RMS and largest errors
+/// are taken ([`robot_files::metrics::FINAL_WINDOW_S`] whole seconds, binned by the whole
+/// second of each sample): (start, end), s from arming. A run shorter than the window
+/// has it whole.
+pub fn final_window(run_s: f64) -> (f64, f64) {
+    let run_s = run_s.max(0.0);
+    // The whole second of the last sample (one before the run's end).
+    let newest = (run_s.ceil() - 1.0).max(0.0);
+    let start = (newest - (robot_files::metrics::FINAL_WINDOW_S - 1.0)).max(0.0);
+    (start, run_s)
+}
+
+/// What [`final_window`] is, for the terminal: `over 20.0–30.0 s`, or `over the whole
+/// run (0.0–5.4 s)`.
+pub fn final_window_text(run_s: f64) -> String {
+    let (start, end) = final_window(run_s);
+    if start > 0.0 {
+        format!("over {start:.1}–{end:.1} s")
+    } else {
+        format!("over the whole run (0.0–{end:.1} s)")
+    }
+}
+
 /// Past this fraction of missing telemetry frames, the station warns.
 pub const MISSING_TELEMETRY_WARNING: f64 = 0.05;
 
@@ -894,6 +917,17 @@ mod tests {
             "telemetry: 550 of 1000 frames at 100 Hz (450 missing, 45.0 %; 20 dropped on the \
 robot for want of link room, 430 lost on the line)"
         );
+    }
+
+    #[test]
+    fn the_final_window_is_the_last_ten_whole_seconds_or_the_whole_run() {
+        assert_eq!(final_window(30.0), (20.0, 30.0));
+        assert_eq!(final_window(5.4), (0.0, 5.4));
+        assert_eq!(final_window(10.0), (0.0, 10.0));
+        // The samples of 6 s to 15.5 s: the whole seconds 6 to 15.
+        assert_eq!(final_window(15.5), (6.0, 15.5));
+        assert_eq!(final_window_text(30.0), "over 20.0–30.0 s");
+        assert_eq!(final_window_text(5.4), "over the whole run (0.0–5.4 s)");
     }
 
     #[test]

@@ -634,3 +634,55 @@ fn counts_and_sections_print_as_they_are() {
     assert!(rows[99].split(',').nth(1) == Some("0.990"), "{}", rows[99]);
     let _ = std::fs::remove_dir_all(out);
 }
+
+#[test]
+fn a_short_run_says_what_its_rms_is_over_and_stats_say_what_is_not_measured() {
+    let _one = one_at_a_time();
+    let (address, _events) = virtual_robot("paper-line", 120.0);
+    let out = out_dir("short");
+    std::fs::create_dir_all(&out).expect("created");
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../robot-files/scenarios/paper-line.toml"),
+    )
+    .expect("paper-line");
+    let scenario = out.join("short-line.toml");
+    std::fs::write(
+        &scenario,
+        text.replace("duration_s = 30.0", "duration_s = 5.4")
+            .replace("name = \"paper-line\"", "name = \"short-line\""),
+    )
+    .expect("written");
+    let output = station(&[
+        "--connect",
+        &address,
+        "run",
+        scenario.to_str().expect("utf-8 path"),
+        "--out",
+        out.to_str().expect("utf-8 path"),
+    ])
+    .output()
+    .expect("the station runs");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}");
+    assert!(!stdout.contains("last 10 s"), "{stdout}");
+    assert!(
+        stdout.contains("over the whole run (0.0–5.4 s): RMS "),
+        "{stdout}"
+    );
+    let _ = std::fs::remove_dir_all(out);
+
+    // The virtual robot counts no CPU cycles and no stack.
+    let output = station(&["--connect", &address, "stats"])
+        .output()
+        .expect("the station runs");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.contains("longest step not measured") && stdout.contains("stack not measured"),
+        "{stdout}"
+    );
+    assert!(
+        !stdout.contains(" 0 cycles") && !stdout.contains(" 0 B"),
+        "{stdout}"
+    );
+}

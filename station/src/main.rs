@@ -1,7 +1,7 @@
 //! `station`: drive the robot (serial) or the virtual robot (TCP) from a terminal.
 //! `station --help` lists the commands.
 
-use std::io::Write as _;
+use std::io::{IsTerminal as _, Write as _};
 use std::path::{Path as FsPath, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -351,6 +351,8 @@ fn live_view(
     mut heartbeat: Option<record::HeartbeatPacer>,
 ) -> Result<()> {
     let interrupt = interrupt_flag();
+    // Redrawn in place on a terminal; plain lines in a file or a pipe.
+    let terminal = std::io::stdout().is_terminal();
     let rate = ops::get_params(client)?.robot.control_rate_hz;
     record::set_telemetry_rate(client, hz)?;
     let mut robot_step = None;
@@ -400,7 +402,7 @@ fn live_view(
         last_draw = Instant::now();
         let text = watch::screen(&frame, truth.as_ref(), rate);
         let mut out = std::io::stdout();
-        write!(out, "{}{text}", watch::redraw_prefix(shown))?;
+        write!(out, "{}{text}", watch::separator(shown, terminal))?;
         out.flush()?;
         shown = text.lines().count();
     }

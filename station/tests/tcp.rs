@@ -686,3 +686,33 @@ fn a_short_run_says_what_its_rms_is_over_and_stats_say_what_is_not_measured() {
         "{stdout}"
     );
 }
+
+/// `station watch` into a pipe for `wait`, then Ctrl-C (SIGINT): what it printed.
+#[cfg(unix)]
+fn watched(address: &str, wait: Duration) -> String {
+    let child = station(&["--connect", address, "watch"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("the station starts");
+    thread::sleep(wait);
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(status.success());
+    let output = child.wait_with_output().expect("the station ends");
+    String::from_utf8_lossy(&output.stdout).to_string()
+}
+
+#[cfg(unix)]
+#[test]
+fn watch_into_a_pipe_writes_plain_lines_and_a_disarmed_robot_s_motors_off() {
+    let _one = one_at_a_time();
+    let (address, _events) = virtual_robot("paper-circle", 120.0);
+    let text = watched(&address, Duration::from_millis(2000));
+    let start: String = text.chars().take(800).collect();
+    assert!(text.matches("state Disarmed").count() >= 2, "{start}");
+    assert!(!text.contains('\u{1b}'), "no escape codes: {start:?}");
+    assert!(text.contains("motors            off (Disarmed)"), "{start}");
+}

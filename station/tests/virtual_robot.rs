@@ -371,3 +371,24 @@ fn a_run_has_one_trace_row_per_telemetry_period_whatever_the_phase() {
         );
     }
 }
+
+#[test]
+fn a_request_that_times_out_says_what_the_station_received() {
+    let scenario = Scenario::load("paper-line").expect("built in");
+    let mut channels = Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+    let mut pipe = InProcess::new(&mut robot);
+    // Every frame towards the station fails its CRC.
+    pipe.faults.corrupt_uplink = true;
+    let mut client = Client::new(pipe);
+    client.reply_timeout = std::time::Duration::from_millis(20);
+    client.tries = 2;
+    let error = station::ops::info(&mut client).expect_err("no reply");
+    let text = error.to_string();
+    assert!(
+        text.starts_with("no reply to Info from virtual robot (in process) after 2 tries"),
+        "{text}"
+    );
+    assert!(text.contains("failed their CRC"), "{text}");
+    assert!(!text.contains("not powered"), "{text}");
+}

@@ -574,7 +574,10 @@ fn an_error_names_each_cause_once() {
     let _ = std::fs::remove_dir_all(out);
 
     // A scenario file that is not there (robot-files' error prints its source too).
-    let output = station(&["run", "/nonexistent/scenario.toml", "--out", "/nonexistent"])
+    let missing = out_dir("missing");
+    let scenario = missing.join("scenario.toml");
+    let scenario = scenario.to_str().expect("utf-8 path");
+    let output = station(&["run", scenario, "--out", missing.to_str().expect("utf-8")])
         .output()
         .expect("the station runs");
     let stderr = String::from_utf8_lossy(&output.stderr);

@@ -25,14 +25,19 @@
 //! measured errors by Gauss–Newton in (d, E_b). With sharp corners and small errors the
 //! model reduces to UMBmark's closed form, which is printed beside it as a cross-check
 //! (α = (x_cw + x_ccw)/(−4L), β = (x_cw − x_ccw)/(−4L) in the frame of the start), as is
-//! Jung & Chung's heading-based E_b when headings are measured.
+//! Jung & Chung's heading-based E_b when headings are measured. That one holds for any
+//! corners: the odometry turned Θ (the path's arcs' sweeps, ±3π/2 for these squares of
+//! three corners) along a length S, the robot truly turned (Θ + S·d/L)/E_b, so the
+//! heading errors' difference θ_cw − θ_ccw = (Θ_cw − Θ_ccw)·(1/E_b − 1) gives E_b
+//! whatever d. It is exact under the model the fit uses, and agrees with the fit to the
+//! measurement noise.
 
 use std::io::{BufRead, Write};
 use std::sync::atomic::AtomicBool;
 
 use controller_core::kinematics::{Point, Pose};
 use controller_core::law::LawKind;
-use controller_core::path::Path;
+use controller_core::path::{Path, Segment};
 use controller_core::reference::ReferenceMode;
 use link::{ParamSet, Request};
 use robot_files::rng::Rng;
@@ -154,28 +159,30 @@ impl EndPoint {
 /// The true end point predicted for a robot that follows `path` exactly by odometry
 /// (believed track `track_m`), whose true wheels travel (1 − d/2) and (1 + d/2) times
 /// what they believe and whose true track is `track_m · e_b`: (x, y, θ) minus the
-/// path's end, m and rad.
+/// path's end, m and rad. Integrated segment by segment (each of constant curvature) in
+/// steps of at most 2 mm, so the believed turn is the path's own.
 pub fn predicted_error(path: &Path, track_m: f64, d: f64, e_b: f64) -> (f64, f64, f64) {
-    let length = f64::from(path.length_m());
-    let steps = (length / 0.002).ceil().max(1.0) as usize;
-    let ds = length / steps as f64;
     let start = path.sample(0.0);
     let (mut x, mut y, mut th) = (
         f64::from(start.point.x_m),
         f64::from(start.point.y_m),
         f64::from(start.heading_rad),
     );
-    for k in 0..steps {
-        let s = (k as f64 + 0.5) * ds;
-        let kappa = f64::from(path.sample(s as f32).curvature_per_m);
+    for segment in path.segments() {
+        let length = f64::from(segment.length_m());
+        let kappa = f64::from(segment.sample(segment.length_m() / 2.0).curvature_per_m);
+        let steps = (length / 0.002).ceil().max(1.0) as usize;
+        let ds = length / steps as f64;
         let left = ds * (1.0 - kappa * track_m / 2.0) * (1.0 - d / 2.0);
         let right = ds * (1.0 + kappa * track_m / 2.0) * (1.0 + d / 2.0);
         let dist = (left + right) / 2.0;
         let dth = (right - left) / (track_m * e_b);
-        let mid = th + dth / 2.0;
-        x += dist * mid.cos();
-        y += dist * mid.sin();
-        th += dth;
+        for _ in 0..steps {
+            let mid = th + dth / 2.0;
+            x += dist * mid.cos();
+            y += dist * mid.sin();
+            th += dth;
+        }
     }
     let end = path.sample(path.length_m());
     (
@@ -183,6 +190,17 @@ pub fn predicted_error(path: &Path, track_m: f64, d: f64, e_b: f64) -> (f64, f64
         y - f64::from(end.point.y_m),
         wrap_angle(th - f64::from(end.heading_rad)),
     )
+}
+
+/// The total turn of `path`, rad (+ counter-clockwise): the sum of its arcs' sweeps.
+pub fn total_turn(path: &Path) -> f64 {
+    path.segments()
+        .iter()
+        .map(|segment| match segment {
+            Segment::Arc { sweep_rad, .. } => f64::from(*sweep_rad),
+            Segment::Line { .. } => 0.0,
+        })
+        .sum()
 }
 
 /// What the squares say about the geometry.
@@ -194,7 +212,8 @@ pub struct Estimate {
     pub e_b: f64,
     /// UMBmark's closed form (turns on the spot), for comparison: (E_d, E_b).
     pub closed_form: (f64, f64),
-    /// Jung & Chung's heading-based E_b, when headings were measured.
+    /// Jung & Chung's heading-based E_b, when headings were measured: ΔΘ/(ΔΘ − Δθ), ΔΘ
+    /// the paths' turns' difference (ccw − cw), Δθ the mean heading errors' (cw − ccw).
     pub jung_chung_e_b: Option<f64>,
     /// Centroids of the end errors, clockwise and counter-clockwise, m.
     pub centroids: [(f64, f64); 2],
@@ -274,14 +293,17 @@ pub fn estimate(
         v.filter(|v| !v.is_empty())
             .map(|v| v.iter().sum::<f64>() / v.len() as f64)
     };
+    // Jung & Chung, from the headings: a robot whose odometry turned Θ along a path of
+    // length S truly turned (Θ + S·d/L)/E_b, so its heading error (true − odometry) is
+    // Θ·(1/E_b − 1) + S·d/(L·E_b). The two squares are equally long and turn opposite
+    // ways, so θ_cw − θ_ccw = (Θ_cw − Θ_ccw)·(1/E_b − 1) whatever d, and
+    // E_b = ΔΘ/(ΔΘ − Δθ), ΔΘ = Θ_ccw − Θ_cw, Δθ = θ_cw − θ_ccw. With UMBmark's four
+    // turns on the spot (ΔΘ = 4π) this is Jung & Chung's (π/2)/(π/2 − Δθ/8); the squares
+    // here turn three filleted corners each (ΔΘ = 3π).
+    let turned = total_turn(paths[1]) - total_turn(paths[0]);
     let jung_chung_e_b = match (heading(cw), heading(ccw)) {
-        (Some(t_cw), Some(t_ccw)) => {
-            let alpha_eb = (t_ccw - t_cw) / 8.0;
-            let beta = (t_cw + t_ccw) / 8.0;
-            let alpha_ed = std::f64::consts::PI * track_m * beta / (4.0 * l);
-            Some(
-                std::f64::consts::FRAC_PI_2 / (std::f64::consts::FRAC_PI_2 - (alpha_eb + alpha_ed)),
-            )
+        (Some(t_cw), Some(t_ccw)) if turned.abs() > 1e-9 => {
+            Some(turned / (turned - (t_cw - t_ccw)))
         }
         _ => None,
     };
@@ -329,6 +351,22 @@ pub enum Measure<'a> {
 }
 
 impl Measure<'_> {
+    /// Waits until the operator has put the robot back at the start of `label` (asked on
+    /// the terminal; at once for a file or the virtual robot, which its path upload
+    /// places).
+    fn ready(&mut self, label: &str) -> Result<(), String> {
+        if let Measure::Ask = self {
+            eprint!("{label}: put the robot back at the start, then press Enter: ");
+            let _ = std::io::stderr().flush();
+            let mut line = String::new();
+            std::io::stdin()
+                .lock()
+                .read_line(&mut line)
+                .map_err(|e| e.to_string())?;
+        }
+        Ok(())
+    }
+
     /// The measured end of a run whose odometry ended at `odometry` (the truth is the
     /// virtual robot's).
     fn end_point(
@@ -406,35 +444,82 @@ pub struct Outcome {
     pub after: ParamSet,
 }
 
+/// Why a calibration stopped. Nothing is persisted then, and the robot is given back
+/// the configuration it had before (if the link still works).
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrateError {
+    /// A run did not end at its time limit, nor when driven once more.
+    #[error(
+        "calibration stopped: {run} did not end at its time limit (it ended by {first}), nor \
+when driven again ({again}); nothing was persisted"
+    )]
+    RunCutShort {
+        /// The run (`clockwise square 2/5`, `straight run`).
+        run: String,
+        /// What ended it the first time.
+        first: String,
+        /// What ended it the second time, or why it could not be driven again.
+        again: String,
+    },
+    /// Anything else: the link, a measurement, the paths.
+    #[error("calibration stopped: {0}; nothing was persisted")]
+    Failed(String),
+}
+
+impl From<String> for CalibrateError {
+    fn from(text: String) -> Self {
+        CalibrateError::Failed(text)
+    }
+}
+
+impl From<&str> for CalibrateError {
+    fn from(text: &str) -> Self {
+        CalibrateError::Failed(text.to_string())
+    }
+}
+
+impl From<StationError> for CalibrateError {
+    fn from(e: StationError) -> Self {
+        CalibrateError::Failed(crate::error_text(&e))
+    }
+}
+
 /// The whole procedure (module doc) on `client`'s robot, whose scenario-side settings
 /// (plant, supervisor) come from `base`. `say` gets progress lines.
+///
+/// Every run must end at its time limit (the robot's `Disarmed(Timeout)`): a run that
+/// ended otherwise (the heartbeat timeout, a fault, the button, a link failure) is driven
+/// once more, and if that one does not end at its limit either, the calibration stops
+/// with [`CalibrateError::RunCutShort`]. The end point of a run is measured only once
+/// the run ended as asked, so a measurements file has one line per run whatever was
+/// repeated. On any error nothing is persisted and the robot gets its configuration
+/// from before the calibration back.
 pub fn calibrate<T: Transport>(
     client: &mut Client<T>,
     base: &Scenario,
     args: &CalibrateArgs,
     measure: &mut Measure<'_>,
     say: &mut dyn FnMut(&str),
-) -> Result<Outcome, String> {
-    let err = |e: StationError| e.to_string();
-    let before = crate::ops::get_params(client).map_err(err)?;
-    let interrupt = AtomicBool::new(false);
-    let run =
-        |client: &mut Client<T>, scenario: &Scenario| -> Result<(Pose, Option<Pose>), String> {
-            let mut progress = |_: u64, _: u64| {};
-            let rec = record::run(
-                client,
-                &mut RunPlan {
-                    scenario,
-                    law: LawKind::Tracking,
-                    telemetry_hz: 10,
-                    interrupt: &interrupt,
-                    progress: &mut progress,
-                },
-            )
-            .map_err(err)?;
-            let odometry = rec.final_estimate.ok_or("no telemetry from the run")?;
-            Ok((odometry, rec.final_truth))
-        };
+) -> Result<Outcome, CalibrateError> {
+    let before = crate::ops::get_params(client)?;
+    let outcome = procedure(client, base, args, measure, say, &before);
+    if outcome.is_err() {
+        // Best effort: the link may be what failed.
+        if crate::ops::get_params(client).is_ok_and(|now| now != before) {
+            let _ = crate::ops::set_params(client, before);
+        }
+    }
+    outcome
+}
+
+fn procedure<T: Transport>(
+    client: &mut Client<T>,
+    base: &Scenario,
+    args: &CalibrateArgs,
+    measure: &mut Measure<'_>,
+    say: &mut dyn FnMut(&str),
+    before: &ParamSet,
+) -> Result<Outcome, CalibrateError> {
     let cw_path = square(base, args.side_m, true)?;
     let ccw_path = square(base, args.side_m, false)?;
     let (mut cw, mut ccw) = (Vec::new(), Vec::new());
@@ -447,7 +532,7 @@ pub fn calibrate<T: Transport>(
             say(&format!(
                 "{label}: put the robot at the start mark, heading along the first side"
             ));
-            let (odometry, truth) = run(client, scenario)?;
+            let (odometry, truth) = drive(client, scenario, &label, measure, say)?;
             let end = measure.end_point(odometry, truth, &label)?;
             let (ex, ey) = end.error();
             say(&format!("{label}: end error ε = ({ex:+.4}, {ey:+.4}) m"));
@@ -461,12 +546,12 @@ pub fn calibrate<T: Transport>(
         f64::from(before.robot.track_width_m),
         args.side_m,
     );
-    let geometry = corrected(&before, &estimate, 1.0);
-    crate::ops::set_params(client, geometry).map_err(err)?;
+    let geometry = corrected(before, &estimate, 1.0);
+    crate::ops::set_params(client, geometry)?;
     // The straight run against the tape, with the corrected ratio and track.
     let line = straight(base, args.straight_m)?;
     say("straight run: put the robot at the tape's zero, heading along it");
-    let (odometry, truth) = run(client, &line)?;
+    let (odometry, truth) = drive(client, &line, "straight run", measure, say)?;
     let odo_m = f64::from(odometry.x_m).hypot(f64::from(odometry.y_m));
     let tape_m = match measure {
         Measure::Simulated { noise_m, rng } => {
@@ -491,17 +576,71 @@ pub fn calibrate<T: Transport>(
         }
     };
     let scale = if odo_m > 0.0 { tape_m / odo_m } else { 1.0 };
-    let after = corrected(&before, &estimate, scale);
-    crate::ops::set_params(client, after).map_err(err)?;
+    let after = corrected(before, &estimate, scale);
+    crate::ops::set_params(client, after)?;
     if !args.no_persist {
-        client.command(Request::PersistParams).map_err(err)?;
+        client.command(Request::PersistParams)?;
     }
     Ok(Outcome {
         estimate,
         scale,
-        before,
+        before: *before,
         after,
     })
+}
+
+/// Drives `scenario` (the run `label`); if it does not end at its time limit, says why
+/// and drives it once more. Returns the odometry's and the true end pose of the run
+/// that ended at its limit.
+fn drive<T: Transport>(
+    client: &mut Client<T>,
+    scenario: &Scenario,
+    label: &str,
+    measure: &mut Measure<'_>,
+    say: &mut dyn FnMut(&str),
+) -> Result<(Pose, Option<Pose>), CalibrateError> {
+    let interrupt = AtomicBool::new(false);
+    let mut first: Option<String> = None;
+    loop {
+        if let Some(why) = &first {
+            say(&format!(
+                "{label}: the run ended by {why}, not at its time limit; driving it again \
+from the start"
+            ));
+            measure.ready(label)?;
+        }
+        let mut progress = |_: u64, _: u64| {};
+        let recorded = record::run(
+            client,
+            &mut RunPlan {
+                scenario,
+                law: LawKind::Tracking,
+                telemetry_hz: 10,
+                interrupt: &interrupt,
+                progress: &mut progress,
+            },
+        );
+        let again = match (recorded, &first) {
+            (Ok(rec), _) if rec.ended_by.is_time_limit() => {
+                let odometry = rec
+                    .final_estimate
+                    .ok_or(format!("{label}: no telemetry from the run"))?;
+                return Ok((odometry, rec.final_truth));
+            }
+            (Ok(rec), None) => {
+                first = Some(rec.ended_by.to_string());
+                continue;
+            }
+            (Err(e), None) => return Err(e.into()),
+            (Ok(rec), Some(_)) => format!("it ended by {}", rec.ended_by),
+            (Err(e), Some(_)) => format!("it could not be driven: {}", crate::error_text(&e)),
+        };
+        return Err(CalibrateError::RunCutShort {
+            run: label.to_string(),
+            first: first.unwrap_or_default(),
+            again,
+        });
+    }
 }
 
 /// The before/after table of an outcome, for the terminal.
@@ -562,8 +701,13 @@ pub fn command<T: Transport>(
         (None, None) => Measure::Ask,
     };
     let mut say = |line: &str| eprintln!("{line}");
-    let outcome = calibrate(&mut client, &base, args, &mut measure, &mut say)
-        .map_err(|e| anyhow::anyhow!(e))?;
+    let outcome = match calibrate(&mut client, &base, args, &mut measure, &mut say) {
+        Ok(outcome) => outcome,
+        Err(e @ CalibrateError::RunCutShort { .. }) => {
+            return Err(crate::NotAsAsked(e.to_string()).into())
+        }
+        Err(e) => return Err(e.into()),
+    };
     print!("{}", table(&outcome));
     println!(
         "{}",
@@ -574,4 +718,41 @@ pub fn command<T: Transport>(
         }
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_heading_cross_check_agrees_with_the_fit_without_noise() {
+        let base = Scenario::load("square-waypoints").expect("built in");
+        let track = f64::from(base.robot.track_width_m);
+        let cw = square(&base, 2.0, true).expect("a square");
+        let ccw = square(&base, 2.0, false).expect("a square");
+        for (d, e_b) in [(0.005, 1.0175), (-0.01, 0.97), (0.0, 1.03), (0.002, 1.0)] {
+            // The robot follows each path exactly by odometry and ends where the model
+            // says, its heading measured exactly.
+            let end = |path: &Path| {
+                let (ex, ey, eth) = predicted_error(path, track, d, e_b);
+                let end = path.sample(path.length_m());
+                EndPoint {
+                    odometry: Pose::new(end.point.x_m, end.point.y_m, end.heading_rad),
+                    true_xy: (f64::from(end.point.x_m) + ex, f64::from(end.point.y_m) + ey),
+                    true_heading: Some(f64::from(end.heading_rad) + eth),
+                }
+            };
+            let e = estimate(
+                [&cw.path, &ccw.path],
+                &[end(&cw.path)],
+                &[end(&ccw.path)],
+                track,
+                2.0,
+            );
+            let jc = e.jung_chung_e_b.expect("headings measured");
+            println!("d {d} E_b {e_b}: fit {:.6}, Jung & Chung {jc:.6}", e.e_b);
+            assert!((e.e_b / e_b - 1.0).abs() < 1e-5, "fit {} for {e_b}", e.e_b);
+            assert!((jc / e_b - 1.0).abs() < 1e-4, "Jung & Chung {jc} for {e_b}");
+        }
+    }
 }

@@ -13,14 +13,18 @@ use link::{
 
 use crate::transport::Transport;
 
-/// Why a request failed. `Display` is a sentence for a terminal.
+/// Why a request failed. `Display` is a sentence for a terminal; a variant with a source
+/// leaves its text to [`crate::error_text`] (or anyhow's `{:#}`).
 #[derive(Debug, thiserror::Error)]
 pub enum StationError {
-    /// The link failed (port unplugged, connection closed).
-    #[error("link to the robot failed: {0}")]
+    /// The link failed (port unplugged, connection closed): the OS's error is the source.
+    #[error("link to the robot failed")]
     Io(#[from] io::Error),
     /// No reply, even after re-sending.
-    #[error("no reply to {request} from {link} after {tries} tries (wrong port or baud rate? robot not powered?)")]
+    #[error(
+        "no reply to {request} from {link} after {tries} tries: {}",
+        heard(received)
+    )]
     Timeout {
         /// The request's name.
         request: &'static str,
@@ -28,6 +32,8 @@ pub enum StationError {
         tries: u32,
         /// The transport.
         link: String,
+        /// What the station's decoder received and dropped while it waited.
+        received: RxCounters,
     },
     /// The robot speaks another protocol.
     #[error("{}", .0.describe("the robot", "this station"))]
@@ -51,6 +57,43 @@ pub enum StationError {
     /// The user pressed Ctrl-C.
     #[error("interrupted")]
     Interrupted,
+}
+
+/// What the decoder saw while a request waited, and what that points to.
+fn heard(c: &RxCounters) -> String {
+    let dropped = c.dropped();
+    if c.frames_ok == 0 && dropped == 0 {
+        return "nothing arrived (wrong port or baud rate? robot not powered?)".to_string();
+    }
+    if dropped == 0 {
+        return format!(
+            "{} frames arrived intact, none of them the reply (is the robot busy, or another \
+program answering on this link?)",
+            c.frames_ok
+        );
+    }
+    format!(
+        "of the frames that arrived, {} failed their CRC, {} were malformed, {} were too \
+long, {} were of another protocol or undecodable, and {} were intact: the line corrupts \
+frames (noise, a loose connection or ground, a baud rate off)",
+        c.crc_errors,
+        c.format_errors,
+        c.overflows,
+        c.mismatches.wrapping_add(c.decode_errors),
+        c.frames_ok
+    )
+}
+
+/// `now − then`, counter by counter (they wrap).
+fn since(now: RxCounters, then: RxCounters) -> RxCounters {
+    RxCounters {
+        frames_ok: now.frames_ok.wrapping_sub(then.frames_ok),
+        crc_errors: now.crc_errors.wrapping_sub(then.crc_errors),
+        format_errors: now.format_errors.wrapping_sub(then.format_errors),
+        overflows: now.overflows.wrapping_sub(then.overflows),
+        mismatches: now.mismatches.wrapping_sub(then.mismatches),
+        decode_errors: now.decode_errors.wrapping_sub(then.decode_errors),
+    }
 }
 
 /// The station's end of the link.
@@ -103,6 +146,7 @@ impl<T: Transport> Client<T> {
             }
         })?;
         let bytes = frame.get(..len).unwrap_or_default();
+        let before = self.decoder.counters();
         for _ in 0..self.tries.max(1) {
             self.transport.send(bytes)?;
             let deadline = Instant::now() + self.reply_timeout;
@@ -133,6 +177,7 @@ impl<T: Transport> Client<T> {
             request: name,
             tries: self.tries.max(1),
             link: self.transport.describe(),
+            received: since(self.decoder.counters(), before),
         })
     }
 
@@ -207,5 +252,43 @@ impl<T: Transport> Client<T> {
             }
         }
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn timeout(received: RxCounters) -> String {
+        StationError::Timeout {
+            request: "Info",
+            tries: 8,
+            link: "/dev/ttyACM0 at 230400 baud".to_string(),
+            received,
+        }
+        .to_string()
+    }
+
+    #[test]
+    fn a_timeout_says_what_arrived_and_what_that_points_to() {
+        let silent = timeout(RxCounters::default());
+        assert!(silent.ends_with("nothing arrived (wrong port or baud rate? robot not powered?)"));
+        let corrupted = timeout(RxCounters {
+            frames_ok: 3,
+            crc_errors: 41,
+            format_errors: 2,
+            ..RxCounters::default()
+        });
+        assert!(
+            corrupted.contains("41 failed their CRC, 2 were malformed")
+                && corrupted.contains("3 were intact: the line corrupts frames")
+                && !corrupted.contains("not powered"),
+            "{corrupted}"
+        );
+        let intact = timeout(RxCounters {
+            frames_ok: 12,
+            ..RxCounters::default()
+        });
+        assert!(intact.contains("12 frames arrived intact, none of them the reply"));
     }
 }

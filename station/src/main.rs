@@ -1,7 +1,7 @@
 //! `station`: drive the robot (serial) or the virtual robot (TCP) from a terminal.
 //! `station --help` lists the commands.
 
-use std::io::Write as _;
+use std::io::{IsTerminal as _, Write as _};
 use std::path::{Path as FsPath, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -14,16 +14,25 @@ use indicatif::{ProgressBar, ProgressStyle};
 use link::{Reply, Request, Uplink};
 use robot_files::cli::Law;
 use robot_files::metrics::{fault_names, ErrorReport};
-use robot_files::output::{self, settle_text};
+use robot_files::output::settle_text;
 use robot_files::scenario::Scenario;
 use station::client::Client;
 use station::record::{self, Recording, RunPlan};
 use station::transport::{self, Serial, Tcp, Transport};
-use station::{calibrate, ops, watch};
+use station::{calibrate, ops, watch, NotAsAsked, EXIT_NOT_AS_ASKED};
 
 /// Ground station for the differential-drive robot and its virtual twin.
 #[derive(Parser)]
-#[command(name = "station", version, about, long_about = None)]
+#[command(
+    name = "station",
+    version,
+    about,
+    long_about = None,
+    after_help = "Exit status: 0 done; 1 error; 2 bad command line; 3 a run did not end as \
+asked (`run` or a `calibrate` run not at its time limit, `record --duration-s` cut short, a \
+`tune` that did not finish): what ended it is printed, and what was recorded is written, \
+a run's summary.json marked \"complete\": false."
+)]
 struct Cli {
     #[command(flatten)]
     link: LinkArgs,
@@ -239,9 +248,10 @@ fn cmd_upload(link: &LinkArgs, scenario: &str, law: Law) -> Result<()> {
         &mut |_, _| {},
     )?;
     say!(
-        "path of {} committed: {} segments, {:.3} m{}, checksum 0x{:08x}",
+        "path of {} committed: {} segment{}, {:.3} m{}, checksum 0x{:08x}",
         scenario.name,
         summary.segment_count,
+        if summary.segment_count == 1 { "" } else { "s" },
         summary.length_m,
         if summary.closed { " (closed)" } else { "" },
         summary.checksum
@@ -260,12 +270,20 @@ fn cmd_stats(link: &LinkArgs) -> Result<()> {
     let mut client = open(link)?;
     if let Reply::Stats(s) = client.request(Request::GetStats)? {
         let r = s.link.received;
+        // A robot that does not measure them (the virtual one) says 0.
+        let measured = |value: u32, unit: &str| {
+            if value == 0 {
+                "not measured".to_string()
+            } else {
+                format!("{value} {unit}")
+            }
+        };
         say!(
-            "control: longest step {} cycles, missed ticks {}, overruns {}, stack {} B",
-            s.max_step_cycles,
+            "control: longest step {}, missed ticks {}, overruns {}, stack {}",
+            measured(s.max_step_cycles, "cycles"),
             s.missed_ticks,
             s.overruns,
-            s.stack_high_water_bytes
+            measured(s.stack_high_water_bytes, "B")
         );
         say!(
             "robot received: {} frames ok; dropped: {} CRC, {} framing, {} too long, {} other protocol, {} undecodable",
@@ -294,16 +312,13 @@ fn cmd_tune(link: &LinkArgs, timeout_s: f64) -> Result<()> {
         .supervisor
         .heartbeat_timeout_steps;
     eprintln!("tuning: the robot drives about a metre forward and back…");
-    let report = ops::tune(
+    let run = ops::tune(
         &mut client,
         timeout_steps,
         Duration::from_secs_f64(timeout_s),
     )?;
-    let text = ops::describe_tune(&report);
-    if report.outcome.is_err() || report.tunes_ended == 0 {
-        anyhow::bail!("{text}");
-    }
-    say!("{}", text.trim_end());
+    let report = run.finished().map_err(NotAsAsked)?;
+    say!("{}", ops::describe_tune(&report).trim_end());
     Ok(())
 }
 
@@ -336,6 +351,8 @@ fn live_view(
     mut heartbeat: Option<record::HeartbeatPacer>,
 ) -> Result<()> {
     let interrupt = interrupt_flag();
+    // Redrawn in place on a terminal; plain lines in a file or a pipe.
+    let terminal = std::io::stdout().is_terminal();
     let rate = ops::get_params(client)?.robot.control_rate_hz;
     record::set_telemetry_rate(client, hz)?;
     let mut robot_step = None;
@@ -385,7 +402,7 @@ fn live_view(
         last_draw = Instant::now();
         let text = watch::screen(&frame, truth.as_ref(), rate);
         let mut out = std::io::stdout();
-        write!(out, "{}{text}", watch::redraw_prefix(shown))?;
+        write!(out, "{}{text}", watch::separator(shown, terminal))?;
         out.flush()?;
         shown = text.lines().count();
     }
@@ -394,6 +411,9 @@ fn live_view(
 }
 
 fn cmd_record(link: &LinkArgs, out: &FsPath, hz: u8, duration_s: Option<f64>) -> Result<()> {
+    if let Some(d) = duration_s.filter(|d| !(d.is_finite() && *d > 0.0)) {
+        bail!("--duration-s must be a positive number of seconds, got {d}");
+    }
     let interrupt = interrupt_flag();
     let mut client = open(link)?;
     let rate = f64::from(ops::get_params(&mut client)?.robot.control_rate_hz);
@@ -408,6 +428,9 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
     let mut pending: Option<link::TelemetryFrame> = None;
     let mut first: Option<u32> = None;
     let mut rows = 0u64;
+    let period = (rate as u32 / u32::from(hz.max(1))).max(1);
+    let mut frames = record::GapCounter::default();
+    let mut last_k = 0u64;
     let push = |csv: &mut String,
                 first: u32,
                 f: &link::TelemetryFrame,
@@ -443,24 +466,35 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
         file.display()
     );
     let limit = duration_s.map(|d| (d * rate) as u64);
+    // Why the recording stopped before its duration, if it did.
+    let mut cut_short = None;
+    let mut reached = false;
     loop {
         if interrupt.load(Ordering::Relaxed) {
             break;
         }
-        let Some(message) = client.next_message(Duration::from_millis(50))? else {
-            continue;
+        let message = match client.next_message(Duration::from_millis(50)) {
+            Ok(Some(message)) => message,
+            Ok(None) => continue,
+            Err(e) => {
+                cut_short = Some(format!("the link failed: {}", station::error_text(&e)));
+                break;
+            }
         };
         match message {
             Uplink::Telemetry(f) => {
                 let start = *first.get_or_insert(f.step);
+                let k = u64::from(f.step.wrapping_sub(start));
+                // Steps 0 ≤ k < limit are the recording's: the frame at the limit is not.
+                if limit.is_some_and(|limit| k >= limit) {
+                    reached = true;
+                    break;
+                }
+                last_k = k;
+                frames.push(k, period);
                 if let Some(p) = pending.replace(f) {
                     push(&mut csv, start, &p, None);
                     rows += 1;
-                }
-                if let (Some(limit), Some(start)) = (limit, first) {
-                    if u64::from(f.step.wrapping_sub(start)) >= limit {
-                        break;
-                    }
                 }
             }
             Uplink::GroundTruth(g) => {
@@ -480,7 +514,36 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
     }
     std::fs::write(&file, csv).with_context(|| format!("writing {}", file.display()))?;
     say!("wrote {rows} rows to {}", file.display());
-    Ok(())
+    let steps = match limit {
+        Some(limit) if reached => limit,
+        _ => last_k + 1,
+    };
+    let (received, missing) = frames.count(steps, period);
+    say!(
+        "telemetry: {received} of {} frames at {hz} Hz ({missing} missing)",
+        received + missing
+    );
+    if received + missing > 0
+        && missing as f64 > record::MISSING_TELEMETRY_WARNING * (received + missing) as f64
+    {
+        eprintln!(
+            "warning: {missing} of {} telemetry frames are missing: the recording has gaps",
+            received + missing
+        );
+    }
+    match (duration_s, cut_short) {
+        (_, Some(why)) => Err(NotAsAsked(format!(
+            "the recording was cut short: {why}; what was recorded is in {}",
+            file.display()
+        ))
+        .into()),
+        (Some(d), None) if !reached => Err(NotAsAsked(format!(
+            "the recording was interrupted (Ctrl-C) before its {d} s; what was recorded is in {}",
+            file.display()
+        ))
+        .into()),
+        _ => Ok(()),
+    }
 }
 
 fn cmd_run(link: &LinkArgs, scenario: &str, law: Law, out: &FsPath, hz: u8) -> Result<()> {
@@ -518,32 +581,35 @@ the robot's (`station params set` sends a robot file)"
     };
     let outcome = record::run(&mut client, &mut plan);
     bar.finish_and_clear();
-    let recording = match outcome {
-        Err(station::StationError::Interrupted) => {
-            say!("interrupted: the robot was disarmed; nothing written");
-            return Ok(());
+    let recording = outcome?;
+    let mut files = recording.write(out)?;
+    // Figures of a run cut short are drawn as far as it went, if they can be.
+    if recording.complete() {
+        files.extend(write_figures(out, &scenario, &recording)?);
+    } else if !recording.trace.is_empty() {
+        match write_figures(out, &scenario, &recording) {
+            Ok(figures) => files.extend(figures),
+            Err(e) => eprintln!(
+                "note: no figures of the part recorded: {}",
+                station::causes_text(e.chain())
+            ),
         }
-        other => other?,
-    };
-    let mut files = output::write_trace_and_summary(out, &recording.summary, &recording.trace)?;
-    files.extend(write_figures(out, &scenario, &recording)?);
+    }
     let s = &recording.summary;
     say!(
-        "{} with the {} law on {}: {:.1} s recorded in {:.1} s ({} trace rows){}",
+        "{} with the {} law on {}: {:.1} s recorded in {:.1} s ({} trace rows), ended by {}",
         s.scenario,
         s.law,
         s.source,
         s.sim_time_s,
         s.wall_time_s,
         recording.trace.len(),
-        match recording.ended_by {
-            Some(event) => format!(", ended by {event:?}"),
-            None => String::new(),
-        }
+        recording.ended_by
     );
+    let window = record::final_window_text(s.sim_time_s);
     let line = |which: &str, e: &ErrorReport| {
         format!(
-            "  {which}: settle {}, final {:.4} m / {:+.2}°, last 10 s RMS {:.4} m, max {:.4} m",
+            "  {which}: settle {}, final {:.4} m / {:+.2}°, {window}: RMS {:.4} m, max {:.4} m",
             settle_text(e.settle_time_s),
             e.final_position_error_m,
             e.final_heading_error_rad.to_degrees(),
@@ -551,13 +617,17 @@ the robot's (`station params set` sends a robot file)"
             e.max_position_error_m
         )
     };
-    if let Some(t) = &s.true_error {
-        say!("{}", line("true error (ground truth)", t));
+    if recording.report.is_some() {
+        if let Some(t) = &s.true_error {
+            say!("{}", line("true error (ground truth)", t));
+        }
+        say!(
+            "{}",
+            line("estimated error (robot's odometry)", &s.estimated_error)
+        );
+    } else {
+        say!("  errors: none, the robot's run report did not come");
     }
-    say!(
-        "{}",
-        line("estimated error (robot's odometry)", &s.estimated_error)
-    );
     say!(
         "  supervisor: {}{}",
         s.supervisor.final_state,
@@ -567,12 +637,28 @@ the robot's (`station params set` sends a robot file)"
             format!(", faults {}", s.supervisor.faults.join(", "))
         }
     );
+    say!("  {}", recording.telemetry.text());
+    if let Some(warning) = recording.telemetry.warning() {
+        eprintln!("warning: {warning}");
+    }
     let names: Vec<String> = files
         .iter()
         .filter_map(|f| f.file_name())
         .map(|n| n.to_string_lossy().into_owned())
         .collect();
     say!("  wrote {} to {}", names.join(", "), out.display());
+    if !recording.complete() {
+        return Err(NotAsAsked(format!(
+            "the run did not end at its time limit: it ended by {}; what was recorded is in \
+{} (summary.json: \"complete\": false)",
+            recording.ended_by,
+            out.display()
+        ))
+        .into());
+    }
+    if let Some(e) = &recording.after_run_error {
+        bail!("the link failed after the run: {e}");
+    }
     Ok(())
 }
 
@@ -645,8 +731,12 @@ fn main() -> ExitCode {
             if broken_pipe {
                 return ExitCode::SUCCESS;
             }
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
+            eprintln!("error: {}", station::causes_text(e.chain()));
+            if e.downcast_ref::<NotAsAsked>().is_some() {
+                ExitCode::from(EXIT_NOT_AS_ASKED)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

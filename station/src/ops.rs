@@ -4,7 +4,7 @@
 use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::law::LawKind;
 use controller_core::params::Params;
-use controller_core::supervisor::Event;
+use controller_core::supervisor::{DisarmReason, Event};
 use link::{
     path_checksum, upload, ArmMode, CommitSummary, ParamSet, PathBegin, PathCommit, Reply, Request,
     RobotInfo, TuneReport, Uplink,
@@ -56,9 +56,35 @@ pub fn get_params<T: Transport>(client: &mut Client<T>) -> Result<ParamSet, Stat
     }
 }
 
-/// The robot's configuration as a robot file (`[robot]` and `[supervisor]`, every key).
+/// The robot's configuration as a robot file (`[robot]` and `[supervisor]`, every key),
+/// without the sections that hold no key.
 pub fn params_to_toml(set: &ParamSet) -> String {
-    RobotFile::of(&set.robot, &set.supervisor).to_toml()
+    without_empty_sections(&RobotFile::of(&set.robot, &set.supervisor).to_toml())
+}
+
+/// `toml` without its empty sections: a `[header]` followed by no key before the next
+/// header or the end goes, with the blank and comment lines after it.
+fn without_empty_sections(toml: &str) -> String {
+    let mut out = String::new();
+    let mut section = String::new();
+    let mut has_key = true;
+    for line in toml.split_inclusive('\n') {
+        let trimmed = line.trim();
+        if trimmed.starts_with('[') {
+            if has_key {
+                out.push_str(&section);
+            }
+            section.clear();
+            has_key = false;
+        } else if !trimmed.is_empty() && !trimmed.starts_with('#') {
+            has_key = true;
+        }
+        section.push_str(line);
+    }
+    if has_key {
+        out.push_str(&section);
+    }
+    out
 }
 
 /// The configuration `text` (a robot file named `file`) describes, over `current` (the
@@ -187,22 +213,84 @@ pub fn tune_report<T: Transport>(client: &mut Client<T>) -> Result<TuneReport, S
     }
 }
 
+/// How a tune went ([`tune`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TuneRun {
+    /// This tune's report; `None` when none came (the station gave up at its limit,
+    /// disarmed, and the robot still held the previous tune's).
+    pub report: Option<TuneReport>,
+    /// The event that ended the tune, if it reached the station.
+    pub ended_by: Option<Event>,
+    /// The link failed once the robot was armed (the error's text); the robot disarms
+    /// itself on its heartbeat timeout.
+    pub link_error: Option<String>,
+}
+
+impl TuneRun {
+    /// This tune's report if the tune finished (its outcome is a result), else why not:
+    /// the robot's reason, with the event that ended the tune when it was not the tune's
+    /// own end.
+    pub fn finished(&self) -> Result<TuneReport, String> {
+        let ended = match self.ended_by {
+            Some(Event::Disarmed(DisarmReason::TuneFinished)) | None => String::new(),
+            Some(event) => format!(" (ended by {event:?})"),
+        };
+        if let (Some(error), None) = (&self.link_error, self.report) {
+            return Err(format!(
+                "the link failed during the tune ({error}); the robot disarms itself on \
+its heartbeat timeout"
+            ));
+        }
+        match self.report {
+            None => Err(format!(
+                "the tune did not end within the station's limit; the robot was disarmed \
+and sent no report{ended}"
+            )),
+            Some(report @ TuneReport { outcome: Ok(_), .. }) => Ok(report),
+            Some(TuneReport {
+                outcome: Err(why), ..
+            }) => Err(format!("the tune stopped: {why}{ended}")),
+        }
+    }
+}
+
 /// Tunes the robot's wheel loops ([`ArmMode::Tune`]): arms it in tune mode, keeps it armed
 /// with heartbeats paced by its own step counter (from 10 Hz telemetry; a robot whose
 /// heartbeat timeout is `heartbeat_timeout_steps`) until the tune ends (the robot disarms
-/// by itself, or a fault, the button or a link loss stops it), and returns the new
-/// report. Gives up after `limit` of host time with the robot disarmed.
+/// by itself, or a fault, the button or a link loss stops it), and returns this tune's
+/// report, if one came. Gives up after `limit` of host time with the robot disarmed.
+/// An error only when the robot was not armed; a link failure after that is
+/// [`TuneRun::link_error`].
 pub fn tune<T: Transport>(
     client: &mut Client<T>,
     heartbeat_timeout_steps: u32,
     limit: std::time::Duration,
-) -> Result<TuneReport, StationError> {
+) -> Result<TuneRun, StationError> {
     let before = tune_report(client)?.tunes_ended;
     crate::record::set_telemetry_rate(client, 10)?;
     client.command(Request::Arm {
         mode: ArmMode::Tune,
         initial_motion: None,
     })?;
+    let mut run = TuneRun {
+        report: None,
+        ended_by: None,
+        link_error: None,
+    };
+    if let Err(e) = hold_tune(client, heartbeat_timeout_steps, limit, before, &mut run) {
+        run.link_error = Some(crate::error_text(&e));
+    }
+    Ok(run)
+}
+
+/// Keeps the tune armed until it ends or `limit`; fills `run`.
+fn hold_tune<T: Transport>(
+    client: &mut Client<T>,
+    heartbeat_timeout_steps: u32,
+    limit: std::time::Duration,
+    before: u16,
+    run: &mut TuneRun,
+) -> Result<(), StationError> {
     let mut pacer = crate::record::HeartbeatPacer::new(heartbeat_timeout_steps);
     let mut robot_step = None;
     let start = std::time::Instant::now();
@@ -215,9 +303,10 @@ pub fn tune<T: Transport>(
             Some(Uplink::Telemetry(frame)) => robot_step = Some(frame.step),
             Some(Uplink::TuneReport(r)) if r.tunes_ended != before => report = Some(r),
             Some(Uplink::Event {
-                event: Event::Disarmed(_) | Event::Faulted,
+                event: event @ (Event::Disarmed(_) | Event::Faulted),
                 ..
             }) => {
+                run.ended_by.get_or_insert(event);
                 // The report follows the event; ask for it should it have been lost.
                 let r = tune_report(client)?;
                 if r.tunes_ended != before {
@@ -227,15 +316,13 @@ pub fn tune<T: Transport>(
             _ => {}
         }
     }
-    let report = match report {
-        Some(r) => r,
-        None => {
-            client.command(Request::Disarm)?;
-            tune_report(client)?
-        }
-    };
+    if report.is_none() {
+        client.command(Request::Disarm)?;
+        report = Some(tune_report(client)?).filter(|r| r.tunes_ended != before);
+    }
+    run.report = report;
     client.request(Request::SetTelemetryRate { hz: 1 })?;
-    Ok(report)
+    Ok(())
 }
 
 /// A tune's report as text: per wheel the identified model, then the wheel loops as a
@@ -263,5 +350,21 @@ pub fn describe_tune(report: &TuneReport) -> String {
             text.push_str(&tuned_wheel_sections(&result));
             text
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_sections_are_left_out() {
+        let text = "[robot]\na = 1\n\n[robot.wheels]\n\n[robot.left_wheel]\n# a comment\n\
+b = 2\n\n[robot.none]\n# only a comment\n\n[supervisor]\n";
+        assert_eq!(
+            without_empty_sections(text),
+            "[robot]\na = 1\n\n[robot.left_wheel]\n# a comment\nb = 2\n\n"
+        );
+        assert_eq!(without_empty_sections("a = 1\n"), "a = 1\n");
     }
 }

@@ -42,10 +42,8 @@ pub enum ConnectError {
         /// What the system said.
         reason: String,
     },
-    /// The TCP connection failed.
-    #[error(
-        "cannot connect to {address}: {source} (is `host-sim serve --listen {address}` running?)"
-    )]
+    /// The TCP connection failed: the OS's error is the source.
+    #[error("cannot connect to {address} (is `host-sim serve --listen {address}` running?)")]
     Connect {
         /// The address asked for.
         address: String,

@@ -1,8 +1,9 @@
 //! The live view: the latest telemetry (state, pose, errors, speeds, volts, faults)
-//! redrawn in place in the terminal.
+//! redrawn in place in a terminal, one screen after the other in a file or a pipe.
 
 use std::fmt::Write as _;
 
+use controller_core::supervisor::State;
 use link::{GroundTruth, TelemetryFrame};
 
 /// The screen for `frame` (and the virtual robot's `truth` for the same step, if any),
@@ -60,15 +61,25 @@ pub fn screen(frame: &TelemetryFrame, truth: Option<&GroundTruth>, rate_hz: u32)
         frame.wheel_speed.right_rad_s
     );
     let volts = |p: &link::PidParts| p.p_v + p.i_v + p.d_v + p.ff_v;
-    let _ = writeln!(
-        s,
-        "motors            {:+6.2} V / {:+6.2} V   duty {:+5.2} / {:+5.2}   supply {:.2} V",
-        volts(&frame.pid_left),
-        volts(&frame.pid_right),
-        frame.duty.left,
-        frame.duty.right,
-        frame.supply_v
-    );
+    if frame.state == State::Armed {
+        let _ = writeln!(
+            s,
+            "motors            {:+6.2} V / {:+6.2} V   duty {:+5.2} / {:+5.2}   supply {:.2} V",
+            volts(&frame.pid_left),
+            volts(&frame.pid_right),
+            frame.duty.left,
+            frame.duty.right,
+            frame.supply_v
+        );
+    } else {
+        // Not armed, the bridge is off: nothing reaches the motors, whatever the wheel
+        // loops would ask.
+        let _ = writeln!(
+            s,
+            "motors            off ({:?})   supply {:.2} V",
+            frame.state, frame.supply_v
+        );
+    }
     let _ = writeln!(
         s,
         "faults            {}   missed ticks {}",
@@ -80,6 +91,17 @@ pub fn screen(frame: &TelemetryFrame, truth: Option<&GroundTruth>, rate_hz: u32)
         frame.missed_ticks
     );
     s
+}
+
+/// What goes before the next screen when `shown` lines of the last one are on the
+/// output: on a terminal, [`redraw_prefix`]; in a file or a pipe no escape code, a blank
+/// line between screens.
+pub fn separator(shown: usize, terminal: bool) -> String {
+    match (terminal, shown) {
+        (true, _) => redraw_prefix(shown),
+        (false, 0) => String::new(),
+        (false, _) => "\n".to_string(),
+    }
 }
 
 /// Terminal escape: cursor up `lines` lines and clear to the end of the screen, to
@@ -125,5 +147,45 @@ mod tests {
             .set(controller_core::supervisor::Fault::StallLeft);
         assert!(screen(&frame, None, 1000).contains("stall_left"));
         assert_eq!(redraw_prefix(7), "\x1b[7A\x1b[J");
+        assert_eq!(separator(7, true), "\x1b[7A\x1b[J");
+        assert_eq!(separator(7, false), "\n");
+        assert_eq!(separator(0, false), "");
+    }
+
+    #[test]
+    fn a_robot_not_armed_shows_its_motors_off() {
+        let mut frame = TelemetryFrame {
+            step: 10,
+            state: controller_core::supervisor::State::Disarmed,
+            run_mode: controller_core::supervisor::RunMode::FollowPath,
+            faults: Default::default(),
+            pose: Pose::new(0.0, 0.0, 0.0),
+            tracking_error: Default::default(),
+            lyapunov: 0.0,
+            lyapunov_rate: 0.0,
+            wheel_setpoint: Default::default(),
+            wheel_speed: Default::default(),
+            duty: controller_core::controller::MotorCommand::STOP,
+            // What the wheel loops would ask for (the feed-forward's breakaway).
+            pid_left: link::PidParts {
+                ff_v: 3.0,
+                ..Default::default()
+            },
+            pid_right: link::PidParts {
+                ff_v: 3.32,
+                ..Default::default()
+            },
+            supply_v: 6.0,
+            missed_ticks: 0,
+        };
+        let text = screen(&frame, None, 1000);
+        assert!(text.contains("motors            off (Disarmed)"), "{text}");
+        assert!(
+            !text.contains("3.00 V") && !text.contains("3.32 V"),
+            "{text}"
+        );
+        frame.state = controller_core::supervisor::State::Armed;
+        let text = screen(&frame, None, 1000);
+        assert!(text.contains("+3.00 V /  +3.32 V"), "{text}");
     }
 }

@@ -42,6 +42,14 @@ fn virtual_robot(scenario: &str, max_s: f64) -> (String, Receiver<StepReport>) {
     (address, received)
 }
 
+/// Held by each test for its whole length: one virtual robot and one station at a time,
+/// so that a loaded machine does not starve a station of the time its heartbeats need.
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    static LINE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    LINE.lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 fn station(args: &[&str]) -> Command {
     let mut command = Command::new(env!("CARGO_BIN_EXE_station"));
     command.args(args);
@@ -91,11 +99,14 @@ fn host_sim_summary() -> serde_json::Value {
 
 #[test]
 fn station_run_over_tcp_matches_host_sim_run() {
+    let _one = one_at_a_time();
     let (address, _events) = virtual_robot("paper-circle", 120.0);
     let out = std::env::temp_dir().join(format!("station-tcp-run-{}", std::process::id()));
     let got = run_and_check_summary(&address, &out);
     let want = host_sim_summary();
     assert_eq!(got["source"], "virtual-robot");
+    assert_eq!(got["complete"], true);
+    assert_eq!(got["ended_by"], "time_limit");
     assert_eq!(got["steps"], want["steps"]);
     // Bit for bit: the same f32 statistics, printed the same way.
     assert_eq!(got["true_error"], want["true_error"]);
@@ -105,6 +116,7 @@ fn station_run_over_tcp_matches_host_sim_run() {
 
 #[test]
 fn a_killed_station_leaves_the_robot_disarmed_within_the_heartbeat_timeout() {
+    let _one = one_at_a_time();
     let (address, events) = virtual_robot("paper-circle", 120.0);
     let out = std::env::temp_dir().join(format!("station-tcp-kill-{}", std::process::id()));
     let mut child: Child = station(&[
@@ -212,6 +224,7 @@ fn corrupting_proxy(robot: String, flip_every: usize) -> String {
 
 #[test]
 fn corrupted_and_random_bytes_are_dropped_and_the_run_goes_on() {
+    let _one = one_at_a_time();
     let (robot, _events) = virtual_robot("paper-circle", 120.0);
     let proxy = corrupting_proxy(robot.clone(), 1000);
     let out = std::env::temp_dir().join(format!("station-tcp-noise-{}", std::process::id()));
@@ -234,4 +247,475 @@ fn corrupted_and_random_bytes_are_dropped_and_the_run_goes_on() {
         .unwrap_or(0);
     assert!(crc > 0, "the robot dropped corrupted frames: {text}");
     let _ = std::fs::remove_dir_all(out);
+}
+
+/// What a [`cutting_proxy`] does to the link. Heartbeats are counted from the station's
+/// last `Arm`.
+#[derive(Clone, Copy, Debug, Default)]
+struct Cut {
+    /// Heartbeats after this many never reach the robot (it disarms on its timeout).
+    mute_heartbeats_after: Option<usize>,
+    /// The connection is closed after this many heartbeats.
+    close_after_heartbeats: Option<usize>,
+    /// The connection is closed after this much wall-clock time.
+    close_after: Option<Duration>,
+}
+
+/// Forwards bytes between a station and the robot at `robot`, cutting the link as `cut`
+/// says. Returns the proxy's address.
+fn cutting_proxy(robot: String, cut: Cut) -> String {
+    let listener = TcpListener::bind("127.0.0.1:0").expect("a free port");
+    let address = listener.local_addr().expect("bound").to_string();
+    thread::spawn(move || {
+        let Ok((station_side, _)) = listener.accept() else {
+            return;
+        };
+        let Ok(robot_side) = TcpStream::connect(&robot) else {
+            return;
+        };
+        let close = {
+            let (a, b) = (
+                station_side.try_clone().expect("clone"),
+                robot_side.try_clone().expect("clone"),
+            );
+            std::sync::Arc::new(move || {
+                let _ = a.shutdown(std::net::Shutdown::Both);
+                let _ = b.shutdown(std::net::Shutdown::Both);
+            })
+        };
+        if let Some(after) = cut.close_after {
+            let close = close.clone();
+            thread::spawn(move || {
+                thread::sleep(after);
+                close();
+            });
+        }
+        let (mut up_in, mut up_out) = (
+            station_side.try_clone().expect("clone"),
+            robot_side.try_clone().expect("clone"),
+        );
+        let close_up = close.clone();
+        thread::spawn(move || {
+            let close = close_up;
+            let mut buf = [0u8; 512];
+            let mut frame = Vec::new();
+            let mut heartbeats = 0usize;
+            while let Ok(n) = up_in.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                for &byte in &buf[..n] {
+                    frame.push(byte);
+                    if byte != 0 {
+                        continue;
+                    }
+                    let frame = std::mem::take(&mut frame);
+                    let request = link::Decoder::new()
+                        .feed::<link::Downlink>(&frame)
+                        .find_map(|o| match o {
+                            Ok(link::Received::Message(d)) => Some(d.request),
+                            _ => None,
+                        });
+                    match request {
+                        Some(link::Request::Arm { .. }) => heartbeats = 0,
+                        Some(link::Request::Heartbeat) => {
+                            heartbeats += 1;
+                            if cut.close_after_heartbeats.is_some_and(|n| heartbeats > n) {
+                                close();
+                                return;
+                            }
+                            if cut.mute_heartbeats_after.is_some_and(|n| heartbeats > n) {
+                                continue;
+                            }
+                        }
+                        _ => {}
+                    }
+                    if up_out.write_all(&frame).is_err() {
+                        return;
+                    }
+                }
+            }
+        });
+        let (mut down_in, mut down_out) = (robot_side, station_side);
+        let mut buf = [0u8; 512];
+        while let Ok(n) = down_in.read(&mut buf) {
+            if n == 0 || down_out.write_all(&buf[..n]).is_err() {
+                break;
+            }
+        }
+    });
+    address
+}
+
+/// A temporary output directory for the test `name`.
+fn out_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("station-tcp-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn summary_of(out: &std::path::Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(out.join("summary.json")).expect("summary written");
+    serde_json::from_str(&text).expect("json")
+}
+
+#[test]
+fn a_run_the_connection_drops_in_exits_3_and_keeps_what_was_recorded() {
+    let _one = one_at_a_time();
+    let (robot, _events) = virtual_robot("paper-circle", 120.0);
+    // 30 heartbeats: about 3 s of the 30 s run.
+    let proxy = cutting_proxy(
+        robot,
+        Cut {
+            close_after_heartbeats: Some(30),
+            ..Cut::default()
+        },
+    );
+    let out = out_dir("drop");
+    let output = station(&[
+        "--connect",
+        &proxy,
+        "run",
+        "paper-circle",
+        "--out",
+        out.to_str().expect("utf-8 path"),
+    ])
+    .output()
+    .expect("the station runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains("did not end at its time limit") && stderr.contains("closed"),
+        "says why: {stderr}"
+    );
+    let summary = summary_of(&out);
+    assert_eq!(summary["complete"], false);
+    assert_eq!(summary["ended_by"], "link_failed");
+    let steps = summary["steps"].as_u64().expect("steps");
+    assert!(steps > 1000 && steps < 30_000, "recorded {steps} steps");
+    let rows = std::fs::read_to_string(out.join("trace.csv"))
+        .expect("trace written")
+        .lines()
+        .count()
+        - 1;
+    assert!(
+        rows as u64 >= steps / 10 - 2,
+        "{rows} rows for {steps} steps"
+    );
+    let _ = std::fs::remove_dir_all(out);
+}
+
+#[test]
+fn a_run_the_robot_ends_on_its_heartbeat_timeout_exits_3_marked_incomplete() {
+    let _one = one_at_a_time();
+    let (robot, _events) = virtual_robot("paper-circle", 120.0);
+    let proxy = cutting_proxy(
+        robot,
+        Cut {
+            mute_heartbeats_after: Some(30),
+            ..Cut::default()
+        },
+    );
+    let out = out_dir("stall");
+    let output = station(&[
+        "--connect",
+        &proxy,
+        "run",
+        "paper-circle",
+        "--out",
+        out.to_str().expect("utf-8 path"),
+    ])
+    .output()
+    .expect("the station runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(3), "{stderr}");
+    assert!(stderr.contains("LinkLost"), "says why: {stderr}");
+    let summary = summary_of(&out);
+    assert_eq!(summary["complete"], false);
+    assert_eq!(summary["ended_by"], "link_lost");
+    let _ = std::fs::remove_dir_all(out);
+}
+
+#[test]
+fn a_tune_cut_short_exits_3_and_says_why() {
+    let _one = one_at_a_time();
+    let (robot, _events) = virtual_robot("paper-circle", 120.0);
+    let proxy = cutting_proxy(
+        robot,
+        Cut {
+            mute_heartbeats_after: Some(3),
+            ..Cut::default()
+        },
+    );
+    let output = station(&["--connect", &proxy, "tune"])
+        .output()
+        .expect("the station runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains("the tune stopped") && stderr.contains("LinkLost"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn a_recording_cut_short_exits_3_and_keeps_its_rows() {
+    let _one = one_at_a_time();
+    let (robot, _events) = virtual_robot("paper-circle", 120.0);
+    let proxy = cutting_proxy(
+        robot,
+        Cut {
+            close_after: Some(Duration::from_millis(1500)),
+            ..Cut::default()
+        },
+    );
+    let out = out_dir("record");
+    let output = station(&[
+        "--connect",
+        &proxy,
+        "record",
+        "--out",
+        out.to_str().expect("utf-8 path"),
+        "--duration-s",
+        "60",
+    ])
+    .output()
+    .expect("the station runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(3), "{stderr}");
+    assert!(stderr.contains("cut short"), "{stderr}");
+    let rows = std::fs::read_to_string(out.join("telemetry.csv"))
+        .expect("written")
+        .lines()
+        .count();
+    assert!(rows > 10, "{rows} lines");
+    let _ = std::fs::remove_dir_all(out);
+}
+
+#[test]
+fn a_calibration_whose_run_is_cut_short_twice_exits_3_naming_the_run() {
+    let _one = one_at_a_time();
+    let (robot, _events) = virtual_robot("square-waypoints", 300.0);
+    let proxy = cutting_proxy(
+        robot,
+        Cut {
+            mute_heartbeats_after: Some(5),
+            ..Cut::default()
+        },
+    );
+    let output = station(&[
+        "--connect",
+        &proxy,
+        "calibrate",
+        "--side-m",
+        "0.5",
+        "--runs",
+        "1",
+        "--simulated-noise-m",
+        "0.002",
+    ])
+    .output()
+    .expect("the station runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains("clockwise square 1/1") && stderr.contains("LinkLost"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("nothing was persisted"), "{stderr}");
+    assert!(!String::from_utf8_lossy(&output.stdout).contains("persisted"));
+}
+
+#[test]
+fn an_error_names_each_cause_once() {
+    let _one = one_at_a_time();
+    // A port nobody listens on.
+    let address = {
+        let listener = TcpListener::bind("127.0.0.1:0").expect("a free port");
+        listener.local_addr().expect("bound").to_string()
+    };
+    let output = station(&["--connect", &address, "info"])
+        .output()
+        .expect("the station runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains(&format!("cannot connect to {address}")),
+        "{stderr}"
+    );
+    assert_eq!(stderr.matches("refused").count(), 1, "{stderr}");
+
+    // A connection the robot closes mid-run.
+    let (robot, _events) = virtual_robot("paper-circle", 120.0);
+    let proxy = cutting_proxy(
+        robot,
+        Cut {
+            close_after_heartbeats: Some(10),
+            ..Cut::default()
+        },
+    );
+    let out = out_dir("closed");
+    let output = station(&[
+        "--connect",
+        &proxy,
+        "run",
+        "paper-circle",
+        "--out",
+        out.to_str().expect("utf-8 path"),
+    ])
+    .output()
+    .expect("the station runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(
+        stderr.matches("the robot closed the connection").count(),
+        1,
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(out);
+
+    // A scenario file that is not there (robot-files' error prints its source too).
+    let missing = out_dir("missing");
+    let scenario = missing.join("scenario.toml");
+    let scenario = scenario.to_str().expect("utf-8 path");
+    let output = station(&["run", scenario, "--out", missing.to_str().expect("utf-8")])
+        .output()
+        .expect("the station runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.matches("not found").count(), 1, "{stderr}");
+}
+
+#[test]
+fn counts_and_sections_print_as_they_are() {
+    let _one = one_at_a_time();
+    let (address, _events) = virtual_robot("paper-line", 120.0);
+    // One segment is a segment.
+    let output = station(&["--connect", &address, "path", "upload", "paper-line"])
+        .output()
+        .expect("the station runs");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}");
+    assert!(stdout.contains(": 1 segment, 10.000 m"), "{stdout}");
+    // No empty section in what `params get` prints.
+    let output = station(&["--connect", &address, "params", "get"])
+        .output()
+        .expect("the station runs");
+    let text = String::from_utf8_lossy(&output.stdout).to_string();
+    let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+    for (i, line) in lines.iter().enumerate() {
+        if line.starts_with('[') {
+            assert!(
+                lines.get(i + 1).is_some_and(|next| !next.starts_with('[')),
+                "section {line} is empty:\n{text}"
+            );
+        }
+    }
+    // A second's recording at 100 Hz on a 1 kHz robot: 100 rows, the frame at 1.000 s
+    // being the next second's.
+    let out = out_dir("one-second");
+    let output = station(&[
+        "--connect",
+        &address,
+        "record",
+        "--out",
+        out.to_str().expect("utf-8 path"),
+        "--duration-s",
+        "1",
+    ])
+    .output()
+    .expect("the station runs");
+    assert!(output.status.success());
+    let csv = std::fs::read_to_string(out.join("telemetry.csv")).expect("written");
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(
+        rows.len(),
+        100,
+        "{}",
+        String::from_utf8_lossy(&output.stdout)
+    );
+    assert!(rows[0].split(',').nth(1) == Some("0.000"), "{}", rows[0]);
+    assert!(rows[99].split(',').nth(1) == Some("0.990"), "{}", rows[99]);
+    let _ = std::fs::remove_dir_all(out);
+}
+
+#[test]
+fn a_short_run_says_what_its_rms_is_over_and_stats_say_what_is_not_measured() {
+    let _one = one_at_a_time();
+    let (address, _events) = virtual_robot("paper-line", 120.0);
+    let out = out_dir("short");
+    std::fs::create_dir_all(&out).expect("created");
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../robot-files/scenarios/paper-line.toml"),
+    )
+    .expect("paper-line");
+    let scenario = out.join("short-line.toml");
+    std::fs::write(
+        &scenario,
+        text.replace("duration_s = 30.0", "duration_s = 5.4")
+            .replace("name = \"paper-line\"", "name = \"short-line\""),
+    )
+    .expect("written");
+    let output = station(&[
+        "--connect",
+        &address,
+        "run",
+        scenario.to_str().expect("utf-8 path"),
+        "--out",
+        out.to_str().expect("utf-8 path"),
+    ])
+    .output()
+    .expect("the station runs");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}");
+    assert!(!stdout.contains("last 10 s"), "{stdout}");
+    assert!(
+        stdout.contains("over the whole run (0.0–5.4 s): RMS "),
+        "{stdout}"
+    );
+    let _ = std::fs::remove_dir_all(out);
+
+    // The virtual robot counts no CPU cycles and no stack.
+    let output = station(&["--connect", &address, "stats"])
+        .output()
+        .expect("the station runs");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.contains("longest step not measured") && stdout.contains("stack not measured"),
+        "{stdout}"
+    );
+    assert!(
+        !stdout.contains(" 0 cycles") && !stdout.contains(" 0 B"),
+        "{stdout}"
+    );
+}
+
+/// `station watch` into a pipe for `wait`, then Ctrl-C (SIGINT): what it printed.
+#[cfg(unix)]
+fn watched(address: &str, wait: Duration) -> String {
+    let child = station(&["--connect", address, "watch"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("the station starts");
+    thread::sleep(wait);
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(status.success());
+    let output = child.wait_with_output().expect("the station ends");
+    String::from_utf8_lossy(&output.stdout).to_string()
+}
+
+#[cfg(unix)]
+#[test]
+fn watch_into_a_pipe_writes_plain_lines_and_a_disarmed_robot_s_motors_off() {
+    let _one = one_at_a_time();
+    let (address, _events) = virtual_robot("paper-circle", 120.0);
+    let text = watched(&address, Duration::from_millis(2000));
+    let start: String = text.chars().take(800).collect();
+    assert!(text.matches("state Disarmed").count() >= 2, "{start}");
+    assert!(!text.contains('\u{1b}'), "no escape codes: {start:?}");
+    assert!(text.contains("motors            off (Disarmed)"), "{start}");
 }

@@ -11,7 +11,7 @@ use robot_app::Channels;
 use robot_files::scenario::Scenario;
 use station::client::Client;
 use station::record::{self, RunPlan};
-use support::InProcess;
+use support::{InProcess, LineFaults};
 
 #[test]
 fn a_run_through_the_station_matches_host_sim_run_bit_for_bit() {
@@ -141,8 +141,10 @@ fn a_tune_through_the_station_identifies_the_simulated_wheels() {
     let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
     let mut client = Client::new(InProcess::new(&mut robot));
     let timeout = scenario.supervisor.heartbeat_timeout_steps;
-    let report = station::ops::tune(&mut client, timeout, std::time::Duration::from_secs(120))
+    let run = station::ops::tune(&mut client, timeout, std::time::Duration::from_secs(120))
         .expect("the link works");
+    let report = run.report.expect("the tune's report");
+    assert_eq!(run.finished(), Ok(report), "the tune finished");
     assert_eq!(report.tunes_ended, 1);
     let result = report.outcome.expect("the tune finds a model");
     for m in result.models {
@@ -166,4 +168,227 @@ fn a_tune_through_the_station_identifies_the_simulated_wheels() {
         Some(result.loops[0].kp_v_per_rad_s)
     );
     assert_eq!(file.robot.right_wheel.ti_s, Some(result.loops[1].ti_s));
+}
+
+#[test]
+fn a_tune_the_link_cut_short_is_not_taken_for_a_finished_one() {
+    let scenario = Scenario::load("paper-circle").expect("built in");
+    let mut channels = Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+    let mut pipe = InProcess::new(&mut robot);
+    // Heartbeats stop reaching the robot 0.3 s into the tune.
+    pipe.faults = LineFaults {
+        mute_heartbeats: vec![(1, 300)],
+        ..LineFaults::default()
+    };
+    let mut client = Client::new(pipe);
+    let timeout = scenario.supervisor.heartbeat_timeout_steps;
+    let run = station::ops::tune(&mut client, timeout, std::time::Duration::from_secs(120))
+        .expect("the link works");
+    assert_eq!(
+        run.ended_by,
+        Some(controller_core::supervisor::Event::Disarmed(
+            controller_core::supervisor::DisarmReason::LinkLost
+        ))
+    );
+    let why = run.finished().expect_err("not finished");
+    assert!(
+        why.starts_with("the tune stopped: ") && why.contains("LinkLost"),
+        "{why}"
+    );
+}
+
+/// Runs paper-circle on a virtual robot behind a line with `faults`; `stop_at` (run
+/// steps) sets the Ctrl-C flag.
+fn faulty_run(faults: LineFaults, stop_at: Option<u64>) -> record::Recording {
+    let scenario = Scenario::load("paper-circle").expect("built in");
+    let mut channels = Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+    let mut pipe = InProcess::new(&mut robot);
+    pipe.faults = faults;
+    let mut client = Client::new(pipe);
+    let interrupt = AtomicBool::new(false);
+    let mut progress = |done: u64, _: u64| {
+        if stop_at.is_some_and(|s| done >= s) {
+            interrupt.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+    };
+    record::run(
+        &mut client,
+        &mut RunPlan {
+            scenario: &scenario,
+            law: LawKind::Tracking,
+            telemetry_hz: 100,
+            interrupt: &interrupt,
+            progress: &mut progress,
+        },
+    )
+    .expect("armed, so recorded")
+}
+
+/// The summary.json `recording` writes.
+fn written_summary(recording: &record::Recording, name: &str) -> serde_json::Value {
+    let dir = std::env::temp_dir().join(format!("station-vr-{name}-{}", std::process::id()));
+    let files = recording.write(&dir).expect("written");
+    assert_eq!(files.len(), 2);
+    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary");
+    let _ = std::fs::remove_dir_all(&dir);
+    serde_json::from_str(&text).expect("json")
+}
+
+#[test]
+fn a_run_cut_short_is_recorded_as_far_as_it_went_and_marked_incomplete() {
+    // The connection breaks 5 s into the run.
+    let broken = faulty_run(
+        LineFaults {
+            break_after: Some((1, 5000)),
+            ..LineFaults::default()
+        },
+        None,
+    );
+    assert!(
+        matches!(&broken.ended_by, record::RunEnd::LinkFailed(e) if e.contains("closed")),
+        "{:?}",
+        broken.ended_by
+    );
+    assert!(!broken.complete());
+    assert!(broken.report.is_none());
+    assert!(
+        (495..=500).contains(&broken.trace.len()),
+        "{} rows",
+        broken.trace.len()
+    );
+    assert!((4990..=5000).contains(&broken.summary.steps));
+    let summary = written_summary(&broken, "broken");
+    assert_eq!(summary["complete"], false);
+    assert_eq!(summary["ended_by"], "link_failed");
+    assert_eq!(summary["estimated_error"]["samples"], 0);
+
+    // Heartbeats stop reaching the robot 5 s into the run: it disarms 500 steps later.
+    let stalled = faulty_run(
+        LineFaults {
+            mute_heartbeats: vec![(1, 5000)],
+            ..LineFaults::default()
+        },
+        None,
+    );
+    assert_eq!(
+        stalled.ended_by,
+        record::RunEnd::Robot(controller_core::supervisor::Event::Disarmed(
+            controller_core::supervisor::DisarmReason::LinkLost
+        ))
+    );
+    assert!(!stalled.complete());
+    let summary = written_summary(&stalled, "stalled");
+    assert_eq!(summary["complete"], false);
+    assert_eq!(summary["ended_by"], "link_lost");
+
+    // Ctrl-C 3 s into the run.
+    let interrupted = faulty_run(LineFaults::default(), Some(3000));
+    assert_eq!(interrupted.ended_by, record::RunEnd::Interrupted);
+    assert!(
+        interrupted.trace.len() >= 299,
+        "{}",
+        interrupted.trace.len()
+    );
+    assert_eq!(
+        written_summary(&interrupted, "ctrl-c")["ended_by"],
+        "interrupted"
+    );
+}
+
+#[test]
+fn lost_telemetry_is_counted_in_the_summary() {
+    // One telemetry frame in ten never reaches the station.
+    let lossy = faulty_run(
+        LineFaults {
+            lose_telemetry_every: 10,
+            ..LineFaults::default()
+        },
+        None,
+    );
+    let summary = written_summary(&lossy, "lossy");
+    let t = &summary["telemetry"];
+    assert_eq!(t["expected_frames"], 3000, "{t}");
+    assert_eq!(t["period_steps"], 10, "{t}");
+    let missing = t["missing_frames"].as_u64().expect("a count");
+    assert!((299..=301).contains(&missing), "{t}");
+    assert_eq!(
+        t["received_frames"].as_u64(),
+        Some(3000 - missing),
+        "one row per frame received: {t}"
+    );
+    assert_eq!(lossy.trace.len() as u64, 3000 - missing);
+    assert_eq!(
+        t["dropped_on_robot"], 0,
+        "lost on the line, not on the robot"
+    );
+    assert!(lossy
+        .telemetry
+        .warning()
+        .is_some_and(|w| w.starts_with("10.0 % of the telemetry is missing")));
+    assert!(lossy.telemetry.text().contains("300 lost on the line") || missing != 300);
+
+    let clean = faulty_run(LineFaults::default(), None);
+    assert_eq!(clean.telemetry.missing_frames, 0, "{:?}", clean.telemetry);
+    assert_eq!(clean.telemetry.expected_frames, 3000);
+    assert_eq!(clean.telemetry.warning(), None);
+}
+
+#[test]
+fn a_run_has_one_trace_row_per_telemetry_period_whatever_the_phase() {
+    // 3 s at 1 kHz, telemetry at 100 Hz: 300 rows, at run steps k < 3000, whichever
+    // step of its period the telemetry is at when the robot arms.
+    let mut scenario = Scenario::load("paper-circle").expect("built in");
+    scenario.duration_s = 3.0;
+    for phase in 0..10 {
+        let mut channels = Channels::new();
+        let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+        let mut client = Client::new(InProcess::new(&mut robot));
+        record::set_telemetry_rate(&mut client, 100).expect("set");
+        for _ in 0..phase {
+            let _ = client.next_message(std::time::Duration::ZERO);
+        }
+        let interrupt = AtomicBool::new(false);
+        let mut progress = |_: u64, _: u64| {};
+        let recording = record::run(
+            &mut client,
+            &mut RunPlan {
+                scenario: &scenario,
+                law: LawKind::Tracking,
+                telemetry_hz: 100,
+                interrupt: &interrupt,
+                progress: &mut progress,
+            },
+        )
+        .expect("the run completes");
+        assert_eq!(recording.summary.steps, 3000);
+        assert_eq!(recording.trace.len(), 300, "phase {phase}");
+        let (first, last) = (recording.trace[0].t_s, recording.trace[299].t_s);
+        assert!(
+            first < 0.01 && last < 3.0,
+            "phase {phase}: {first} … {last}"
+        );
+    }
+}
+
+#[test]
+fn a_request_that_times_out_says_what_the_station_received() {
+    let scenario = Scenario::load("paper-line").expect("built in");
+    let mut channels = Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+    let mut pipe = InProcess::new(&mut robot);
+    // Every frame towards the station fails its CRC.
+    pipe.faults.corrupt_uplink = true;
+    let mut client = Client::new(pipe);
+    client.reply_timeout = std::time::Duration::from_millis(20);
+    client.tries = 2;
+    let error = station::ops::info(&mut client).expect_err("no reply");
+    let text = error.to_string();
+    assert!(
+        text.starts_with("no reply to Info from virtual robot (in process) after 2 tries"),
+        "{text}"
+    );
+    assert!(text.contains("failed their CRC"), "{text}");
+    assert!(!text.contains("not powered"), "{text}");
 }

@@ -2,9 +2,10 @@
 //!
 //! | command | what it does |
 //! |---|---|
-//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, the station end to end, firmware build and size budget, the panic check, the core and the link on an emulated Cortex-M4F, the firmware in the loop (`pil`), the docs. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
+//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, Miri on the lock-free channels, the station end to end, firmware build and size budget, the panic check, the core and the link on an emulated Cortex-M4F, the firmware in the loop (`pil`), the docs. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
 //! | `e2e` | the station against the virtual robot: in process, and the binary over TCP (same result as `host-sim run`, link loss, corruption, refusals) |
-//! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` |
+//! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` (the `miri` step sets up its own toolchain) |
+//! | `miri` | `robot-app`'s lock-free channels (`robot_app::channel`, its only `unsafe` code) under Miri: the channel modules' unit tests (including every interleaving of the mailbox's handshake and of the ring) and the integration tests that take the channels through the robot cheaply; each must run and pass. Sets itself up: installs the nightly toolchain with its `miri` and `rust-src` components when missing (rustup), then `cargo +nightly miri setup`; without a network, fails naming what is missing. Prints its times; under two minutes from a fresh clone on 2 cores |
 //! | `size` | builds the firmware and checks it against the flash and RAM budget |
 //! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
 //! | `link-qemu` | runs the link crate under QEMU and talks to it over its USART: replies, corrupted frames, counters |
@@ -25,6 +26,7 @@ mod figures;
 mod firmware_logger;
 mod link_qemu;
 mod long;
+mod miri;
 mod mutants;
 mod panic_check;
 mod pil;
@@ -43,9 +45,12 @@ use crate::steps::{Context, Step};
 const USAGE: &str = "usage: cargo xtask <command>
 
 commands:
-  ci      run every check (what CI runs): setup, fmt, clippy, tests, firmware size,
-          panic check, QEMU
+  ci      run every check (what CI runs): setup, fmt, clippy, tests, Miri, firmware
+          size, panic check, QEMU
   setup   install what is missing: ARM target, flip-link, qemu-system-arm
+  miri    robot-app's lock-free channels under Miri (their unit tests, every interleaving
+          of the mailbox and the ring, cheap integration tests); installs the nightly
+          toolchain with miri when missing and runs `cargo +nightly miri setup`
   size    build the firmware and check its flash / static RAM budget
   qemu    run the core on an emulated Cortex-M4F and compare with the host
   link-qemu
@@ -99,6 +104,7 @@ fn run() -> Result<bool> {
         ["size"] => vec![steps::setup(), steps::firmware_size()],
         ["qemu"] => vec![steps::setup(), steps::qemu()],
         ["e2e"] => vec![steps::end_to_end()],
+        ["miri"] => vec![steps::miri()],
         ["link-qemu"] => vec![steps::setup(), steps::link_qemu()],
         ["pil"] => vec![steps::setup(), steps::pil()],
         ["docs"] => vec![steps::setup(), steps::docs()],

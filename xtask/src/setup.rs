@@ -5,7 +5,10 @@
 //!   already installed (checked with rustup 1.29): then `rustup target add`;
 //! - `flip-link` (the ARM linker in `.cargo/config.toml`): `cargo install flip-link --locked`;
 //! - `qemu-system-arm`: Debian's package, installed with apt-get when running as root,
-//!   otherwise a message naming the package.
+//!   otherwise a message naming the package;
+//! - for the Miri step only ([`ensure_miri`]): the nightly toolchain with its `miri` and
+//!   `rust-src` components, installed with rustup, and Miri's own build of the standard
+//!   library (`cargo +nightly miri setup`).
 
 use std::env;
 use std::path::{Path, PathBuf};
@@ -154,4 +157,142 @@ fn running_as_root() -> bool {
             line.split_whitespace().nth(2).map(|euid| euid == "0")
         })
         .unwrap_or(false)
+}
+
+/// The toolchain Miri runs on (it ships with nightly only).
+pub const MIRI_TOOLCHAIN: &str = "nightly";
+/// The nightly components Miri needs: itself, and the standard library's source, which
+/// `cargo miri setup` builds Miri's standard library from.
+const MIRI_COMPONENTS: [&str; 2] = ["miri", "rust-src"];
+
+/// `cargo <args>` on the [`MIRI_TOOLCHAIN`], through rustup, in the workspace root (the
+/// variables that name another toolchain's tools are removed, so nothing of the stable
+/// toolchain that runs xtask leaks in).
+pub fn miri_cargo(ctx: &Context, args: &[&str]) -> Command {
+    let mut cmd = Command::new("rustup");
+    cmd.args(["run", MIRI_TOOLCHAIN, "cargo"])
+        .args(args)
+        .current_dir(&ctx.root)
+        .stdin(Stdio::null());
+    for var in ["RUSTUP_TOOLCHAIN", "RUSTC", "RUSTDOC", "CARGO"] {
+        cmd.env_remove(var);
+    }
+    cmd
+}
+
+/// The Miri components the nightly toolchain lacks; None when nightly itself is not
+/// installed.
+fn missing_miri_components(ctx: &Context) -> Result<Option<Vec<&'static str>>> {
+    let output = Command::new("rustup")
+        .args([
+            "component",
+            "list",
+            "--installed",
+            "--toolchain",
+            MIRI_TOOLCHAIN,
+        ])
+        .current_dir(&ctx.root)
+        .stdin(Stdio::null())
+        .output()
+        .context("could not run `rustup component list`")?;
+    if !output.status.success() {
+        return Ok(None);
+    }
+    let listed = String::from_utf8_lossy(&output.stdout);
+    // Listed as `miri-x86_64-unknown-linux-gnu`, `rust-src`.
+    let has = |component: &str| {
+        listed.lines().any(|line| {
+            let line = line.trim();
+            line == component || line.starts_with(&format!("{component}-"))
+        })
+    };
+    Ok(Some(
+        MIRI_COMPONENTS.into_iter().filter(|c| !has(c)).collect(),
+    ))
+}
+
+/// Makes `cargo +nightly miri` ready: installs the nightly toolchain with Miri's
+/// components when it is missing, adds the components when only they are, then runs
+/// `cargo miri setup` (which builds Miri's standard library once, into its cache, and is
+/// quick after that). Never updates a nightly already installed. The error names what is
+/// missing and the command that would install it.
+pub fn ensure_miri(ctx: &Context) -> Result<()> {
+    // `--allow-downgrade`: the newest nightly that has every component, should the very
+    // latest lack Miri. `--no-self-update`: rustup itself stays as it is (a fresh rustup
+    // home would otherwise let the install replace the rustup binary).
+    const INSTALL_ARGS: [&str; 11] = [
+        "toolchain",
+        "install",
+        MIRI_TOOLCHAIN,
+        "--allow-downgrade",
+        "--no-self-update",
+        "--component",
+        "miri",
+        "--component",
+        "rust-src",
+        "--profile",
+        "minimal",
+    ];
+    let install = format!("rustup {}", INSTALL_ARGS.join(" "));
+    if on_path("rustup").is_none() {
+        bail!(
+            "Miri needs the nightly toolchain with its miri component, and rustup is not \
+             available to install it: install rustup, then `{install}`"
+        );
+    }
+    match missing_miri_components(ctx)? {
+        None => {
+            println!("toolchain {MIRI_TOOLCHAIN}: missing, installing it with Miri");
+            run_command(
+                Command::new("rustup")
+                    .args(INSTALL_ARGS)
+                    .current_dir(&ctx.root)
+                    .stdin(Stdio::null()),
+            )
+            .with_context(|| {
+                format!(
+                    "the {MIRI_TOOLCHAIN} toolchain with its miri component is missing and \
+                     could not be installed (no network?)"
+                )
+            })?;
+        }
+        Some(missing) if !missing.is_empty() => {
+            println!(
+                "toolchain {MIRI_TOOLCHAIN}: missing the component(s) {}, adding them",
+                missing.join(", ")
+            );
+            run_command(
+                Command::new("rustup")
+                    .args(["component", "add", "--toolchain", MIRI_TOOLCHAIN])
+                    .args(&missing)
+                    .current_dir(&ctx.root)
+                    .stdin(Stdio::null()),
+            )
+            .with_context(|| {
+                format!(
+                    "the {MIRI_TOOLCHAIN} toolchain lacks {} and rustup could not add it \
+                     (no network?)",
+                    missing.join(" and ")
+                )
+            })?;
+        }
+        Some(_) => {}
+    }
+    match missing_miri_components(ctx)? {
+        Some(missing) if missing.is_empty() => {
+            println!(
+                "toolchain {MIRI_TOOLCHAIN}: with {}",
+                MIRI_COMPONENTS.join(", ")
+            )
+        }
+        Some(missing) => bail!(
+            "rustup ran but the {MIRI_TOOLCHAIN} toolchain still lacks {}",
+            missing.join(" and ")
+        ),
+        None => bail!("rustup ran but the {MIRI_TOOLCHAIN} toolchain is still not installed"),
+    }
+    run_command(&mut miri_cargo(ctx, &["miri", "setup"])).context(
+        "Miri's standard library could not be built (`cargo +nightly miri setup`, from the \
+         rust-src component and the crates it needs; no network?)",
+    )
 }

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Context as _, Result};
 
-use crate::{elf_size, link_qemu, panic_check, qemu, setup};
+use crate::{elf_size, link_qemu, miri, panic_check, qemu, setup};
 
 /// The ARM target of the firmware and the QEMU program.
 pub const TARGET: &str = "thumbv7em-none-eabihf";
@@ -262,6 +262,7 @@ pub fn ci() -> Vec<Step> {
             }
             run_command(&mut cmd)
         }),
+        self::miri(),
         end_to_end(),
         firmware_size(),
         panic_check(),
@@ -300,6 +301,12 @@ pub fn docs() -> Step {
             )
         },
     )
+}
+
+/// The lock-free channels of `robot-app` under Miri, with its own set-up (the nightly
+/// toolchain with Miri, and Miri's standard library): see `crate::miri`.
+pub fn miri() -> Step {
+    Step::new("miri: the lock-free channels", miri::check)
 }
 
 /// The station against the virtual robot (`station/tests`): in this process in lockstep

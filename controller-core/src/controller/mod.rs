@@ -442,9 +442,7 @@ impl<S: OuterLoopHolder> Controller<S> {
         }
         // A due job runs with the restarts it was due with, not this one's.
         self.run_due_job_aside();
-        // The schedule and the reference only move in path following, so restarting them
-        // on entering every other mode instead (`!=`) would restart them before each use
-        // all the same: an equivalent mutant (.cargo/mutants.toml).
+        // The schedule and the reference only move in path following.
         if mode == Mode::FollowPath {
             self.schedule = Schedule::default();
             self.restart_reference = true;
@@ -529,7 +527,6 @@ impl<S: OuterLoopHolder> Controller<S> {
         }
         let reachable = self.params.geometry().min_wheel_radius_m()
             * self.drive.top_speed_rad_s(self.telemetry.supply_v);
-        // Equal values give the same cap either way (`<=` is an equivalent mutant).
         if reachable < configured {
             reachable
         } else {
@@ -611,9 +608,7 @@ impl<S: OuterLoopHolder> Controller<S> {
                 }
             }
             // One check for all: NaN and ±∞ propagate through a sum (∞ − ∞ is NaN), and a
-            // sum that overflows comes from values no robot has. `-` or `*` for any `+`
-            // keeps that (∞ − ∞ and ∞ · 0 are NaN too) and differs only when finite values
-            // overflow: equivalent mutants (.cargo/mutants.toml).
+            // sum that overflows comes from values no robot has.
             let sum = t.pose.x_m
                 + t.pose.y_m
                 + t.pose.theta_rad

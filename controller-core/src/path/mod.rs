@@ -155,8 +155,6 @@ impl Segment {
         if !(finite && length_m.is_finite()) {
             return Err(PathError::NonFinite);
         }
-        // A zero radius gives a zero length, refused just below, so `>=` here is an
-        // equivalent mutant (.cargo/mutants.toml).
         let radius_ok = match *self {
             Segment::Line { .. } => true,
             Segment::Arc { radius_m, .. } => radius_m > 0.0,
@@ -361,8 +359,6 @@ impl Joint {
     fn between(before: &Segment, after: &Segment) -> Joint {
         let end = before.sample(before.length_m());
         let start = after.sample(0.0);
-        // Tolerance boundaries: `>=` for either `>` differs only when a distance or an
-        // angle equals its tolerance exactly (equivalent mutants, .cargo/mutants.toml).
         if end.point.distance_to(start.point) > JOINT_TOLERANCE_M {
             Joint::Gap
         } else if math::abs(math::wrap_angle(start.heading_rad - end.heading_rad))
@@ -584,8 +580,6 @@ impl Path {
             let incoming = headings[(i + edges - 1) % edges];
             let outgoing = headings[i % edges];
             let turn = math::wrap_angle(outgoing - incoming);
-            // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): it differs only for a
-            // turn of exactly π − 10⁻³ rad in f32, a tolerance whose own side is arbitrary.
             if math::abs(turn) > PI - 1e-3 {
                 return Err(PathError::CornerTooTight);
             }
@@ -602,9 +596,6 @@ impl Path {
         for i in 0..edges {
             let next = (i + 1) % n;
             let straight = lengths[i] - tangents[i] - tangents[next];
-            // Equivalent mutants (`<` → `<=` here, `>` → `>=` on the next test and on the
-            // arc's 1e-6 below, .cargo/mutants.toml): each differs only when the value is
-            // exactly the 1 µm (or 1 µrad) tolerance in f32, and then by a 1 µm segment.
             if straight < -1e-6 {
                 return Err(PathError::CornerTooTight);
             }
@@ -624,8 +615,7 @@ impl Path {
                     b.x_m - tangents[next] * cos_h,
                     b.y_m - tangents[next] * sin_h,
                 );
-                // Centre on the inside of the turn, one radius from the entry point. (`>` →
-                // `>=` is an equivalent mutant, .cargo/mutants.toml: |turn| > 1e-6 here.)
+                // Centre on the inside of the turn, one radius from the entry point.
                 let side = if turn > 0.0 { 1.0 } else { -1.0 };
                 let center = Point::new(
                     entry.x_m - side * corner_radius_m * sin_h,
@@ -748,8 +738,7 @@ impl Path {
         let (along_m, distance_m) = segment.closest(p);
         let mut offset = start_m + along_m - hint_m;
         if self.closed && behind_m.is_finite() {
-            // Into [−L/2, L/2]. (`+` → `-` inside is an equivalent mutant,
-            // .cargo/mutants.toml: ±L/2 are the same residue modulo the lap L.)
+            // Into [−L/2, L/2].
             offset = self.normalize_m(offset + 0.5 * self.length_m) - 0.5 * self.length_m;
         }
         let in_window = math::clamp(offset, -behind_m, ahead_m);
@@ -805,12 +794,6 @@ impl Path {
         ahead_m: f32,
     ) -> bool {
         let (lo, hi) = (hint_m - behind_m, hint_m + ahead_m);
-        // Equivalent mutants (`from_m + shift` → `-` or `*`, `to_m + shift` → `-`,
-        // .cargo/mutants.toml): they only let more segments through (ones wholly before the
-        // window, or a closed path's shifted by a lap), never fewer while the window meets
-        // the path. This is a cost filter: an extra segment's candidate is clamped to an
-        // edge of the window, a point the segments inside the window already offer, so the
-        // projection is unchanged; only its cost grows.
         let meets = |shift: f32| from_m + shift <= hi && to_m + shift >= lo;
         meets(0.0) || (self.closed && (meets(self.length_m) || meets(-self.length_m)))
     }

@@ -459,9 +459,7 @@ impl Supervisor {
     ) {
         let t = controller.telemetry();
         self.faults.latch_core(controller.faults());
-        // A second line of defence: the controller already clamps its duties to [−1, 1], so
-        // `||` for `&&` below (letting a finite duty beyond ±1 pass) cannot be observed
-        // with this controller; an equivalent mutant, listed in .cargo/mutants.toml.
+        // A second line of defence: the controller already clamps its duties to [−1, 1].
         let duty_ok = [duty.left, duty.right]
             .iter()
             .all(|d| d.is_finite() && math::abs(*d) <= 1.0);

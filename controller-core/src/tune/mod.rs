@@ -334,9 +334,6 @@ impl Tuner {
             sign * t.wheel_loop.volts.left_v,
             sign * t.wheel_loop.volts.right_v,
         ];
-        // Equivalent mutants (`>` → `>=` and `<` → `<=` here, .cargo/mutants.toml): each
-        // differs only when a speed equals its limit exactly in f32, a limit whose own side
-        // no experiment can rely on.
         for (side, w) in Side::BOTH.iter().zip(speed) {
             if math::abs(w) > self.config.max_speed_rad_s {
                 return Err(TuneAbort::TooFast(*side));
@@ -380,8 +377,6 @@ impl Tuner {
                 } else {
                     (r, Side::Right)
                 };
-                // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): it differs only for a
-                // breakaway of exactly 0.6 u_hi in f32.
                 if u_b > MAX_BREAKAWAY_FRACTION * high {
                     return Err(TuneAbort::BreakawayTooHigh(side));
                 }
@@ -398,8 +393,6 @@ impl Tuner {
                     };
                     return Err(TuneAbort::NoBreakaway(side));
                 }
-                // Equivalent mutant (`<` → `<=`, .cargo/mutants.toml): at ramp = high both
-                // branches give the same value.
                 self.command = if ramp < high { ramp } else { high };
             }
         }
@@ -456,15 +449,13 @@ impl Tuner {
             .zip(self.hold_volts);
         for (((side, fit), (sums, step_volts)), hold_volts) in wheels {
             let delta_u = step_volts / tail_n - hold_volts;
-            // Equivalent mutants (the three in this filter, .cargo/mutants.toml): `fit`
-            // returns τ > 0 (a bisection's midpoint) and K = Δω/Δu > 0 (both > 0) unless
-            // Δω/Δu underflows f32; the filter only guards against that.
+            // `fit` returns τ > 0 (a bisection's midpoint) and K = Δω/Δu > 0 (both > 0)
+            // unless Δω/Δu underflows f32; the filter guards against that.
             let model = sums
                 .fit(delta_u, self.period_s, self.window_steps, weights)
                 .filter(|m| m.gain > 0.0 && m.tau > 0.0)
                 .ok_or(TuneAbort::NoFit(*side))?;
             fit.model = model;
-            // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): on a tie both are the same.
             slowest = if model.tau > slowest {
                 model.tau
             } else {
@@ -487,8 +478,6 @@ impl Tuner {
         }
         let next = self.config.experiment_volts_v
             - self.ramp_rate * self.period_s * (self.steps + 1) as f32;
-        // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): it differs only when the
-        // ramp lands on u_lo exactly in f32, one step more or less of a ramp of 12 τ.
         if next > self.low_v {
             self.command = next;
             return Ok(());
@@ -500,8 +489,6 @@ impl Tuner {
             .get_mut(self.direction)
             .ok_or(TuneAbort::Stopped)?;
         for ((side, fit), line) in Side::BOTH.iter().zip(fits.iter_mut()).zip(&self.ramp) {
-            // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): a slope of exactly 0 is
-            // refused either way (here, or as inconsistent: K k_V ≠ 1).
             let (intercept, slope) = line
                 .line()
                 .filter(|(_, k)| *k > 0.0)
@@ -540,9 +527,6 @@ impl Tuner {
     }
 
     /// A wheel that should turn stopped, after `grace` steps of the phase.
-    ///
-    /// Equivalent mutants (`<` → `<=` on the grace and on each speed, .cargo/mutants.toml):
-    /// a grace one step longer, or a speed of exactly the threshold in f32.
     fn check_turning(&self, speed: [f32; 2], grace: u32) -> Result<(), TuneAbort> {
         if self.steps < grace {
             return Ok(());
@@ -618,7 +602,6 @@ impl Tuner {
         };
         // The loop's dead time: the plant's (never below 0) and the controller's own.
         let window_lag = self.window_lag_s();
-        // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): at θ = 0 both give 0.
         let dead_time = if model.theta > 0.0 { model.theta } else { 0.0 } + window_lag;
         let (kp, ti) = simc(
             &model,
@@ -626,7 +609,6 @@ impl Tuner {
             self.config.tau_c_per_dead_time * dead_time,
         );
         let ks = mean(f.ks_v, b.ks_v);
-        // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): at k_S = 0 both give 0.
         let ks = if ks > 0.0 { ks } else { 0.0 };
         if ![ks, kv, kp, ti].iter().all(|x| x.is_finite()) {
             return Err(TuneAbort::NoFit(side));

@@ -124,8 +124,7 @@ impl SupplyFilter {
     pub fn update(&mut self, supply_v: f32) -> f32 {
         // NaN fails both comparisons; no battery reads a kilovolt. (Written as two float
         // compares: a test against infinity compiles to a 20-instruction bit
-        // classification on the Cortex-M4F.) Whether exactly 1 kV is garbage is no
-        // battery's concern: `<=` is an equivalent mutant (.cargo/mutants.toml).
+        // classification on the Cortex-M4F.)
         #[allow(clippy::manual_range_contains)]
         let valid = supply_v >= 0.0 && supply_v < MAX_SUPPLY_READING_V;
         if valid {
@@ -219,7 +218,6 @@ impl WheelDrive {
             .wheels
             .map(|w| w.speed_per_volt * volts - w.speed_offset_rad_s);
         let top = min(left, right);
-        // At exactly 0 both branches return 0 (`>=` is an equivalent mutant).
         if top > 0.0 {
             top
         } else {
@@ -348,9 +346,7 @@ impl WheelDrive {
             (false, true) => (1, 0),
             _ => return sp,
         };
-        // The fraction of its set-point the saturated wheel achieves, in [0, 1]. (Which side
-        // a set-point of exactly the ramp's half-width falls on is no caller's concern:
-        // `>=` is an equivalent mutant.)
+        // The fraction of its set-point the saturated wheel achieves, in [0, 1].
         let achieved = if math::abs(sp[sat]) > FF_SIGN_RAMP_RAD_S {
             math::clamp(measured[sat] / sp[sat], 0.0, 1.0)
         } else {
@@ -386,7 +382,6 @@ fn duty_for(volts: WheelVolts, supply_v: f32) -> MotorCommand {
 /// The smaller of `a` and `b`; a NaN `a` passes through (like [`math::clamp`]), so a
 /// fault stays visible.
 fn min(a: f32, b: f32) -> f32 {
-    // Equal values return the same number either way (`<=` is an equivalent mutant).
     if b < a {
         b
     } else {
@@ -396,7 +391,6 @@ fn min(a: f32, b: f32) -> f32 {
 
 /// The larger of `a` and `b`; a NaN `a` passes through.
 fn max_of(a: f32, b: f32) -> f32 {
-    // Equal values return the same number either way (`>=` is an equivalent mutant).
     if b > a {
         b
     } else {

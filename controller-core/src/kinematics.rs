@@ -199,7 +199,6 @@ impl DiffDrive {
 
     /// The smaller of the two wheel radii, m (the wheel that limits the rim speed).
     pub fn min_wheel_radius_m(&self) -> f32 {
-        // Equal radii: either branch returns the same value (`<=` is an equivalent mutant).
         if self.wheel_radius_left_m < self.wheel_radius_right_m {
             self.wheel_radius_left_m
         } else {

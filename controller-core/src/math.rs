@@ -92,8 +92,6 @@ const SINC_SERIES_MAX_X2: f32 = 1e-2;
 /// chord factor, whose argument is a fraction of a step's turn (|x| < 0.1): there the
 /// series alone is used and no sine is evaluated.
 pub fn sinc(x: f32) -> f32 {
-    // `<=` is an equivalent mutant (.cargo/mutants.toml): at x² = 0.01 exactly the series
-    // and sin x / x agree to within their f32 rounding.
     if x * x < SINC_SERIES_MAX_X2 {
         sinc_series(x * x)
     } else {
@@ -105,9 +103,8 @@ pub fn sinc(x: f32) -> f32 {
 /// is < 3e-13.
 #[inline]
 fn sinc_series(z: f32) -> f32 {
-    // The x⁶ term is < 2e-10, under half an ulp of the sum (≈ 1), so the sign it is
-    // subtracted with never changes the f32 result (an equivalent mutant,
-    // .cargo/mutants.toml); it is kept for the series' stated accuracy in f64 reasoning.
+    // The x⁶ term is < 2e-10, under half an ulp of the sum (≈ 1), so it does not change
+    // the f32 result; it is kept for the series' stated accuracy.
     1.0 - z * (1.0 / 6.0) + z * z * (1.0 / 120.0) - z * z * z * (1.0 / 5040.0)
 }
 
@@ -127,8 +124,7 @@ pub fn sinc_with_sin(x: f32, sin_x: f32) -> f32 {
 /// Arc tangent of `a` for 0 ≤ a ≤ 1 (Cephes `atanf` polynomial, with the π/8 reduction).
 #[inline]
 fn atan_unit(a: f32) -> f32 {
-    // tan(π/8). (`>` → `>=` is an equivalent mutant, .cargo/mutants.toml: at a = tan(π/8)
-    // exactly both reductions are accurate and agree to within their rounding.)
+    // tan(π/8).
     let (base, t) = if a > 0.414_213_57 {
         (FRAC_PI_4, (a - 1.0) / (a + 1.0))
     } else {
@@ -151,9 +147,6 @@ pub fn atan2(y: f32, x: f32) -> f32 {
         return 0.0;
     }
     let mut angle = atan_unit(lo / hi);
-    // Equivalent mutants (.cargo/mutants.toml): `>=` here gives π/2 − π/4 = π/4 on the
-    // diagonal, exactly (atan_unit(1) is FRAC_PI_4); `<=` on the next test only adds x = ±0,
-    // where the angle is π/2 and π − π/2 = π/2 exactly in f32.
     if ay > ax {
         angle = FRAC_PI_2 - angle;
     }
@@ -221,8 +214,6 @@ pub fn abs(x: f32) -> f32 {
 /// Clamps `x` into `[lo, hi]`. NaN is returned unchanged so that faults stay visible.
 #[inline]
 pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
-    // Equivalent mutants (`<` → `<=` here, `>` → `>=` below, .cargo/mutants.toml): they
-    // return the bound where x equals it, the same value (at most a zero changes sign).
     if x < lo {
         lo
     } else if x > hi {
@@ -313,7 +304,6 @@ pub fn ln(x: f32) -> f32 {
     let bits = x.to_bits();
     e += ((bits >> 23) & 0xff) as i32 - 127;
     // The mantissa m in [1, 2), then in [√½, √2) so |z| below is ≤ 0.172.
-    // (Equivalent mutants: `^` for `|`, no bit in common; `>=`, both accurate at √2.)
     let mut m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
     if m > core::f32::consts::SQRT_2 {
         m *= 0.5;

@@ -138,9 +138,7 @@ impl Odometry {
         let dtheta = n_right * k_right - n_left * k_left;
         let half = 0.5 * dtheta;
         // Both branches compute the same pose to within f32 rounding; this test and the
-        // resync count below only choose the cheaper one. So `<` → `<=` or `==` here and
-        // `>=` → `<` there (always the exact sine, or a resync every step) are equivalent
-        // mutants (.cargo/mutants.toml): they change the cost, not the behaviour.
+        // resync count below only choose the cheaper one.
         if math::abs(half) < SMALL_HALF_TURN_RAD {
             let turn = small_sin_cos(half);
             let chord = ds * math::sinc(half);

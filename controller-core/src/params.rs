@@ -408,7 +408,6 @@ impl WheelLoopConfig {
     /// (0 when `volts` is below the static-friction voltage).
     pub fn speed_at_volts(&self, volts: f32) -> f32 {
         let speed = (volts - self.ks_v) / self.kv_v_per_rad_s;
-        // At speed 0 both branches return 0 (`>=` is an equivalent mutant).
         if speed > 0.0 {
             speed
         } else {

@@ -198,9 +198,7 @@ impl IncrementalPid {
     /// A non-finite error or feed-forward leaves the state untouched and returns 0
     /// clamped into `bounds`.
     pub fn step(&mut self, error: f32, feed_forward: f32, bounds: Bounds, periods: f32) -> f32 {
-        // One check covers both: NaN + x is NaN, and ±∞ + finite is not finite. (`-` or `*`
-        // in place of `+` would decide alike short of an overflow at 1e38: equivalent
-        // mutants, listed in .cargo/mutants.toml.)
+        // One check covers both: NaN + x is NaN, and ±∞ + finite is not finite.
         if !(error + feed_forward).is_finite() {
             return bounds.clamp(0.0);
         }
@@ -220,10 +218,7 @@ impl IncrementalPid {
         let output = bounds.clamp(wanted);
         self.clamped = output != wanted;
         // Anti-windup by conditional integration: an integral increment that pushes the
-        // output further into the bound it is held at is dropped. Only the sign of the
-        // product matters and `wanted − output` is never 0 while clamped, so `/` for `*`,
-        // and `>=` for `>` (which differs only for a zero increment, dropped or added
-        // alike), are equivalent mutants (.cargo/mutants.toml).
+        // output further into the bound it is held at is dropped.
         self.feedback = if self.clamped && integral * (wanted - output) > 0.0 {
             held
         } else {

@@ -38,7 +38,6 @@ pub const fn bytes_per_second(baud: u32) -> u32 {
 /// `baud` carries while keeping `reserved_percent` % of it free (clamped to 100 %),
 /// rounded down.
 pub const fn max_frame_rate_hz(baud: u32, frame_wire_len: usize, reserved_percent: u8) -> u32 {
-    // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): at 100 both give 100.
     let reserved = if reserved_percent > 100 {
         100
     } else {

@@ -114,8 +114,7 @@ pub fn encode_raw(id: ProtocolId, body: &[u8], out: &mut [u8]) -> Result<usize, 
 }
 
 /// Bytes COBS adds at most to the largest payload (one per 254, plus one): where the
-/// payload is put before it is encoded in place. Equivalent mutant (the second `+` to
-/// `-`, .cargo/mutants.toml): with these lengths 329/254 and 321/254 are both 1.
+/// payload is put before it is encoded in place.
 const COBS_ROOM: usize = 1 + (HEADER_LEN + MAX_BODY_LEN + CRC_LEN) / 254;
 
 /// The frame of `value` under the header of `id`. `value` is a message or a byte slice
@@ -154,8 +153,6 @@ fn frame_into<T: Encodable + ?Sized>(id: ProtocolId, value: &T, out: &mut [u8]) 
     let crc = CRC32.checksum(out.get(COBS_ROOM..crc_at)?);
     out.get_mut(crc_at..crc_at + CRC_LEN)?
         .copy_from_slice(&crc.to_le_bytes());
-    // Equivalent mutant (`-` → `/`, .cargo/mutants.toml): CRC_LEN − COBS_ROOM and
-    // CRC_LEN / COBS_ROOM are both 2.
     let stuffed = cobs_in_place(out, COBS_ROOM, crc_at + CRC_LEN - COBS_ROOM)?;
     *out.get_mut(stuffed)? = 0;
     Some(stuffed + 1)

@@ -416,3 +416,80 @@ fn a_path_run_ends_with_its_report_computed_on_the_robot() {
     assert_eq!(rig.ask(Request::Disarm), Ok(Reply::Ack));
     assert_eq!(rig.ask(Request::GetRunReport), Ok(Reply::RunReport(report)));
 }
+
+#[test]
+fn a_run_that_ends_while_the_uplink_is_full_still_wakes_the_link_and_sends_its_report() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    let config = default_params().supervisor;
+    let mut background = 0u32;
+    // Control steps only, the link task never running: the uplink is not drained.
+    let mut step = |rig: &mut Rig<'_>, button_pressed: bool| {
+        background = background.wrapping_add(1);
+        rig.control.step(robot_app::Sensors {
+            ticks: controller_core::controller::TickDeltas::default(),
+            periods: core::num::NonZeroU32::MIN,
+            supply_v: support::SUPPLY_V,
+            button_pressed,
+            overrun: false,
+            background_heartbeat: background,
+        })
+    };
+    let mut press = |rig: &mut Rig<'_>, steps: u32| {
+        let mut events = 0;
+        for _ in 0..steps {
+            events += usize::from(step(rig, true).event.is_some());
+        }
+        for _ in 0..2 * config.debounce_steps {
+            events += usize::from(step(rig, false).event.is_some());
+        }
+        events
+    };
+    // Nine long presses, each an event (the mode selected): eight fill the uplink, and the
+    // ninth brings the mode round to path following again.
+    let long = config.long_press_steps + 2 * config.debounce_steps;
+    let selected: usize = (0..9).map(|_| press(&mut rig, long)).sum();
+    assert_eq!(selected, 9);
+    assert_eq!(rig.control.supervisor().run_mode(), RunMode::FollowPath);
+    // A short press arms (its event has no room either), and the run goes on for a while.
+    press(&mut rig, 2 * config.debounce_steps);
+    for _ in 0..20 {
+        assert_eq!(step(&mut rig, false).state, State::Armed);
+    }
+    // The press that ends the run: its event is dropped, but the run's report is queued,
+    // and the step says the link task has work.
+    let mut ended = None;
+    for _ in 0..2 * config.debounce_steps {
+        let out = step(&mut rig, true);
+        if out.state != State::Armed {
+            ended = Some(out);
+            break;
+        }
+    }
+    let ended = ended.expect("the press disarmed");
+    assert_eq!(
+        ended.event,
+        Some(Event::Disarmed(
+            controller_core::supervisor::DisarmReason::Button
+        ))
+    );
+    assert!(ended.link_has_work, "the run's report waits for the link");
+    // The link task runs: the report goes out.
+    rig.link.poll();
+    rig.drain_tx();
+    let reports: Vec<_> = rig
+        .received
+        .iter()
+        .filter_map(|m| match m {
+            Uplink::RunReport(r) => Some(*r),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(reports.len(), 1, "{:?}", rig.received);
+    assert_eq!(reports[0].runs_ended, 1);
+    // The uplink held the first eight mode selections; the rest, the arming and the
+    // disarming, found it full.
+    let events = rig.events();
+    assert_eq!(events.len(), 8, "{events:?}");
+    assert!(events.iter().all(|e| matches!(e, Event::ModeSelected(_))));
+}

@@ -3,7 +3,7 @@
 //! Runs `cargo mutants --no-shuffle` on `controller-core` and, when the workspace has it,
 //! the runtime-link protocol crate `link`, then prints the score, the missed mutants and
 //! the wall time. Extra arguments go to cargo-mutants unchanged, so one file can be run
-//! on its own: `cargo xtask mutants -f controller-core/src/path.rs` (the glob is matched
+//! on its own: `cargo xtask mutants -f controller-core/src/pid.rs` (the glob is matched
 //! against the path from the workspace root, or against the file name when it has no
 //! `/`).
 //!

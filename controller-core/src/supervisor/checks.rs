@@ -61,8 +61,6 @@ impl Stall {
         for (i, (volts, speed)) in wheels.into_iter().enumerate() {
             let driven = math::abs(volts) >= check.min_volts;
             let direction = if volts >= 0.0 { 1.0 } else { -1.0 };
-            // Equivalent mutants (.cargo/mutants.toml): `/` for `*` (direction is ±1) and
-            // `<=` for `<` (a speed of exactly the threshold).
             if driven && speed * direction < check.min_speed_rad_s {
                 self.steps[i] = self.steps[i].saturating_add(1);
             } else {
@@ -139,8 +137,7 @@ impl Divergence {
         if self.armed_periods <= check.settle_steps {
             return false;
         }
-        // A NaN error is caught as a non-finite fault; it does not count here. (`>=`: an
-        // error of exactly the bound, an equivalent mutant.)
+        // A NaN error is caught as a non-finite fault; it does not count here.
         if telemetry.error.position_m() > check.bound_m {
             self.above_periods = self.above_periods.saturating_add(periods);
         } else {

@@ -161,8 +161,6 @@ pub struct SupervisorConfig {
 /// Steps of a `rate_hz` loop in `ms` milliseconds, rounded down, at least 1.
 pub const fn ms_to_steps(rate_hz: u32, ms: u32) -> u32 {
     let steps = rate_hz as u64 * ms as u64 / 1000;
-    // Equivalent mutant (`>` → `>=` below, .cargo/mutants.toml): at u32::MAX both
-    // branches return u32::MAX.
     if steps == 0 {
         1
     } else if steps > u32::MAX as u64 {
@@ -324,8 +322,6 @@ impl DivergenceCheck {
             path.sample(path.project(start.position(), 0.0, f32::INFINITY, f32::INFINITY));
         let initial_m = start.position().distance_to(nearest.point);
         let settle_s = 3.0 + 2.0 * initial_m / speed;
-        // Equivalent mutant (`<` → `<=`, .cargo/mutants.toml): it differs only for a
-        // settle time of exactly one day in f32, a cap whose own side is arbitrary.
         let settle_steps = if settle_s.is_finite() && settle_s < 86_400.0 {
             (settle_s * control_rate_hz as f32) as u32
         } else {
@@ -347,7 +343,6 @@ pub fn geofence_radius_m(path: &Path, start: Pose) -> f32 {
         .segments()
         .iter()
         .map(|segment| farthest_distance_m(segment, origin))
-        // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): on a tie both are the same.
         .fold(0.0f32, |a, b| if b > a { b } else { a });
     farthest + 1.0
 }
@@ -379,9 +374,7 @@ fn farthest_distance_m(segment: &Segment, p: Point) -> f32 {
                 p.distance_to(at(start_angle_rad + sweep_rad)),
             );
             // The farthest point of the full circle is opposite p; it counts if the arc
-            // sweeps over it. Equivalent mutants (`<` → `<=` and `>` → `>=` on `offset`
-            // below, .cargo/mutants.toml): they differ only at offset = 0 exactly, where
-            // that point is the arc's start, already in `ends` (to within rounding).
+            // sweeps over it.
             let away = crate::math::atan2(center.y_m - p.y_m, center.x_m - p.x_m);
             let offset = crate::math::wrap_angle(away - start_angle_rad);
             let swept = if sweep_rad >= 0.0 {
@@ -409,7 +402,6 @@ fn farthest_distance_m(segment: &Segment, p: Point) -> f32 {
 }
 
 fn max(a: f32, b: f32) -> f32 {
-    // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): on a tie both are the same.
     if b > a {
         b
     } else {

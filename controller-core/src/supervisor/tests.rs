@@ -1,7 +1,8 @@
 //! The supervisor against a controller on a straight line and a fake world.
 
 use super::*;
-use crate::kinematics::Pose;
+use crate::controller::TickDeltas;
+use crate::kinematics::{BodyVelocity, Pose, WheelSpeeds};
 use crate::tune::TuneAbort;
 
 const HOLD: WheelSpeeds = WheelSpeeds {

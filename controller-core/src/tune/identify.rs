@@ -197,8 +197,6 @@ impl StepSums {
         weights: &[f32; BANK],
     ) -> Option<Fopdt> {
         let delta = self.delta();
-        // Equivalent mutants (`<` → `==` and `<=` on `samples`, .cargo/mutants.toml): the
-        // only caller, the tune, always has at least 50 (`TuneConfig::validate`).
         if self.samples < 2 || delta <= 0.0 || delta_u <= 0.0 {
             return None;
         }
@@ -250,8 +248,6 @@ fn solve_tau(sa: f32, sb: f32, target: f32) -> Option<f32> {
     if !(f(lo) >= 0.0 && f(hi) <= 0.0) {
         return None;
     }
-    // Equivalent mutant (`>` → `>=` below, .cargo/mutants.toml): at f(mid) = 0 exactly
-    // mid is the root, and either half keeps it as an end.
     for _ in 0..60 {
         let mid = 0.5 * (lo + hi);
         if f(mid) > 0.0 {
@@ -269,7 +265,6 @@ fn solve_tau(sa: f32, sb: f32, target: f32) -> Option<f32> {
 pub(crate) fn simc(model: &Fopdt, dead_time_s: f32, tau_c_s: f32) -> (f32, f32) {
     let horizon = tau_c_s + dead_time_s;
     let kc = model.tau / (model.gain * horizon);
-    // Equivalent mutant (`<` → `<=`, .cargo/mutants.toml): on a tie both are the same.
     let ti = if model.tau < 4.0 * horizon {
         model.tau
     } else {

@@ -59,14 +59,17 @@
 //! ground), when a step comes late (the data would be skewed), or when a fit fails.
 
 mod identify;
+mod vocabulary;
 
-use core::fmt;
+pub use vocabulary::{
+    Side, TuneAbort, TuneConfig, TuneConfigError, TuneLoad, TuneResult, TuneStep, WheelModel,
+};
 
 use crate::controller::Telemetry;
 use crate::drive::WheelVolts;
 use crate::kinematics::Pose;
 use crate::math;
-use crate::params::{Params, RobotConfig, WheelLoopConfig};
+use crate::params::{Params, WheelLoopConfig};
 
 use identify::{simc, Bank, Fopdt, LineFit, StepSums};
 
@@ -96,265 +99,6 @@ const BREAKAWAY_TIMEOUT_S: f32 = 0.5;
 /// Largest relative difference between the two directions, and between the step's gain
 /// and the ramp's 1/k_V, accepted as one motor.
 const MAX_MISMATCH: f32 = 0.3;
-
-/// One of the two wheels.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(
-    feature = "serde",
-    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
-)]
-pub enum Side {
-    /// The left wheel.
-    Left,
-    /// The right wheel.
-    Right,
-}
-
-impl Side {
-    const BOTH: [Side; 2] = [Side::Left, Side::Right];
-}
-
-/// What the wheels turn during the tune.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(
-    feature = "serde",
-    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
-)]
-pub enum TuneLoad {
-    /// The robot on the floor: the identified plant is the driving plant. The tune drives
-    /// about 0.9 m forward and back (the reference robot).
-    Ground,
-    /// The robot on a stand: the identified τ is multiplied by `ground_inertia_factor`
-    /// (the driving inertia over the lifted one, ≥ 1 and < 1 000) before the PI is set.
-    Lifted {
-        /// (J_w + m R²/2) / J_w, see [`TuneLoad::lifted`].
-        ground_inertia_factor: f32,
-    },
-}
-
-impl TuneLoad {
-    /// The lifted load of a robot of mass `chassis_mass_kg` (kg) on wheels of radius
-    /// `wheel_radius_m` (m) whose own inertia, rotor reflected through the gearbox
-    /// included, is `wheel_inertia_kg_m2` (kg·m²): factor 1 + m R² / (2 J_w). The
-    /// reference robot: 0.5 kg, 32.5 mm, 1.1e-4 kg·m², factor 3.4.
-    pub fn lifted(chassis_mass_kg: f32, wheel_radius_m: f32, wheel_inertia_kg_m2: f32) -> Self {
-        TuneLoad::Lifted {
-            ground_inertia_factor: 1.0
-                + chassis_mass_kg * wheel_radius_m * wheel_radius_m / (2.0 * wheel_inertia_kg_m2),
-        }
-    }
-}
-
-/// How the tune drives the wheels (see the module doc).
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(
-    feature = "serde",
-    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
-)]
-pub struct TuneConfig {
-    /// u_hi, the largest voltage the experiments apply, V (≤ the motor's rated voltage).
-    pub experiment_volts_v: f32,
-    /// Rate of the breakaway ramp, V/s (> 0 and < 1 000).
-    pub breakaway_ramp_v_per_s: f32,
-    /// Length of the hold before the step and of the step, s (at least 6 τ of the
-    /// slowest wheel for a clean fit; 0.1 to 10 s, and at least 50 control periods).
-    pub hold_s: f32,
-    /// A wheel faster than this stops the tune, rad/s (> 0 and < 10⁴).
-    pub max_speed_rad_s: f32,
-    /// On the ground, the odometry farther than this from where the tune began stops it,
-    /// m (> 0 and < 1 000).
-    pub max_distance_m: f32,
-    /// SIMC's closed-loop time constant over the loop's effective dead time (1 is
-    /// Skogestad's "tight" setting; larger is slower and more robust; > 0 and < 100).
-    pub tau_c_per_dead_time: f32,
-    /// On the ground or lifted.
-    pub load: TuneLoad,
-}
-
-impl TuneConfig {
-    /// The defaults for `robot`: u_hi = 40 % of the rated voltage (2.4 V, about 13 rad/s on
-    /// the reference robot), breakaway ramp 1 V/s, 1 s holds (6 τ of a motor with
-    /// 30 % less torque constant than the reference), 75 % of the rated top
-    /// speed, 1.5 m, τ_c = 1.2 θ_e, on the ground.
-    pub fn for_robot(robot: &RobotConfig) -> Self {
-        let rated = robot.motor.rated_voltage_v;
-        let top = robot.left_wheel.speed_at_volts(rated);
-        Self {
-            experiment_volts_v: 0.4 * rated,
-            breakaway_ramp_v_per_s: 1.0,
-            hold_s: 1.0,
-            max_speed_rad_s: 0.75 * top,
-            max_distance_m: 1.5,
-            tau_c_per_dead_time: 1.2,
-            load: TuneLoad::Ground,
-        }
-    }
-
-    /// Checks every field against the robot `params`; the error names the first bad one.
-    pub fn validate(&self, params: &Params) -> Result<(), TuneConfigError> {
-        let bad = |field, value| Err(TuneConfigError { field, value });
-        let rated = params.config().motor.rated_voltage_v;
-        let steps = self.hold_s * params.control_rate().get() as f32;
-        #[allow(clippy::neg_cmp_op_on_partial_ord)]
-        if !(self.experiment_volts_v > 0.0 && self.experiment_volts_v <= rated) {
-            bad("experiment_volts_v", self.experiment_volts_v)
-        } else if !(self.breakaway_ramp_v_per_s > 0.0 && self.breakaway_ramp_v_per_s < 1e3) {
-            bad("breakaway_ramp_v_per_s", self.breakaway_ramp_v_per_s)
-        } else if !(self.hold_s >= 0.1 && self.hold_s <= 10.0 && steps >= 50.0) {
-            bad("hold_s", self.hold_s)
-        } else if !(self.max_speed_rad_s > 0.0 && self.max_speed_rad_s < 1e4) {
-            bad("max_speed_rad_s", self.max_speed_rad_s)
-        } else if !(self.max_distance_m > 0.0 && self.max_distance_m < 1e3) {
-            bad("max_distance_m", self.max_distance_m)
-        } else if !(self.tau_c_per_dead_time > 0.0 && self.tau_c_per_dead_time < 100.0) {
-            bad("tau_c_per_dead_time", self.tau_c_per_dead_time)
-        } else {
-            match self.load {
-                TuneLoad::Lifted {
-                    ground_inertia_factor: f,
-                } if !(1.0..1e3).contains(&f) => bad("load.ground_inertia_factor", f),
-                _ => Ok(()),
-            }
-        }
-    }
-}
-
-/// A [`TuneConfig`] field out of range.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct TuneConfigError {
-    /// The field, e.g. `hold_s`.
-    pub field: &'static str,
-    /// Its value.
-    pub value: f32,
-}
-
-impl fmt::Display for TuneConfigError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "tune.{} is out of range, got {}", self.field, self.value)
-    }
-}
-
-/// Why a tune ended without a result.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(
-    feature = "serde",
-    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
-)]
-pub enum TuneAbort {
-    /// The supervisor stopped it: a fault, the button, the link or a time limit.
-    Stopped,
-    /// A wheel was turning when the tune began.
-    NotAtRest,
-    /// This wheel did not turn at u_hi: blocked, disconnected, or u_hi too low.
-    NoBreakaway(Side),
-    /// This wheel needed more than 60 % of u_hi to break away: raise
-    /// [`TuneConfig::experiment_volts_v`].
-    BreakawayTooHigh(Side),
-    /// This wheel turned against its voltage: motor or encoder wired the wrong way round.
-    WrongDirection(Side),
-    /// This wheel stopped while driven.
-    Stalled(Side),
-    /// This wheel exceeded [`TuneConfig::max_speed_rad_s`].
-    TooFast(Side),
-    /// The robot left [`TuneConfig::max_distance_m`] of where the tune began.
-    TooFar,
-    /// A control step came late: the data would be skewed.
-    LateStep,
-    /// The wheels did not come to rest under the brake.
-    NotStopped,
-    /// This wheel's step response or ramp did not fit a first-order model.
-    NoFit(Side),
-    /// This wheel's two directions, or its step and ramp, disagree by more than 30 %.
-    Inconsistent(Side),
-}
-
-impl fmt::Display for TuneAbort {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            TuneAbort::Stopped => f.write_str("stopped by the supervisor (fault, button, link)"),
-            TuneAbort::NotAtRest => f.write_str("a wheel was turning at the start"),
-            TuneAbort::NoBreakaway(w) => write!(f, "{w:?} wheel did not turn at u_hi"),
-            TuneAbort::BreakawayTooHigh(w) => {
-                write!(f, "{w:?} wheel needs over 60 % of u_hi to break away")
-            }
-            TuneAbort::WrongDirection(w) => {
-                write!(f, "{w:?} wheel turned against its voltage (wiring)")
-            }
-            TuneAbort::Stalled(w) => write!(f, "{w:?} wheel stopped while driven"),
-            TuneAbort::TooFast(w) => write!(f, "{w:?} wheel exceeded the speed limit"),
-            TuneAbort::TooFar => f.write_str("the robot left the allowed distance"),
-            TuneAbort::LateStep => f.write_str("a control step came late"),
-            TuneAbort::NotStopped => f.write_str("the wheels did not stop under the brake"),
-            TuneAbort::NoFit(w) => write!(f, "{w:?} wheel's response did not fit"),
-            TuneAbort::Inconsistent(w) => {
-                write!(f, "{w:?} wheel's measurements disagree by over 30 %")
-            }
-        }
-    }
-}
-
-/// One wheel's identified model (both directions averaged).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(
-    feature = "serde",
-    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
-)]
-pub struct WheelModel {
-    /// Static-friction feed-forward k_S, V.
-    pub ks_v: f32,
-    /// Speed feed-forward k_V, V per rad/s (the ramp's slope).
-    pub kv_v_per_rad_s: f32,
-    /// Step gain K, rad/s per V.
-    pub gain_rad_s_per_v: f32,
-    /// Time constant τ as identified (lifted: on the stand), s.
-    pub time_constant_s: f32,
-    /// Dead time θ, s (the plant's own, the speed estimate's window removed).
-    pub dead_time_s: f32,
-    /// The τ the PI was designed for (lifted: corrected for the chassis), s.
-    pub design_time_constant_s: f32,
-}
-
-/// What a tune found: per wheel [left, right], the model and the loop to use, ready for
-/// [`RobotConfig::left_wheel`] and [`RobotConfig::right_wheel`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[cfg_attr(
-    feature = "serde",
-    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
-)]
-pub struct TuneResult {
-    /// The identified models.
-    pub models: [WheelModel; 2],
-    /// Feed-forward k_S, k_V from the models; K_p, T_i by SIMC; no D.
-    pub loops: [WheelLoopConfig; 2],
-}
-
-impl TuneResult {
-    /// `robot` with the tuned wheel loops.
-    pub fn apply_to(&self, robot: &RobotConfig) -> RobotConfig {
-        let [left, right] = self.loops;
-        RobotConfig {
-            left_wheel: left,
-            right_wheel: right,
-            ..*robot
-        }
-    }
-}
-
-/// What the tune asks for the next step.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum TuneStep {
-    /// Apply these voltages (V) in the next step.
-    Drive(WheelVolts),
-    /// The tune is over: its result or why not. Brake and disarm.
-    Finished(Result<TuneResult, TuneAbort>),
-}
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Phase {
@@ -590,9 +334,6 @@ impl Tuner {
             sign * t.wheel_loop.volts.left_v,
             sign * t.wheel_loop.volts.right_v,
         ];
-        // Equivalent mutants (`>` → `>=` and `<` → `<=` here, .cargo/mutants.toml): each
-        // differs only when a speed equals its limit exactly in f32, a limit whose own side
-        // no experiment can rely on.
         for (side, w) in Side::BOTH.iter().zip(speed) {
             if math::abs(w) > self.config.max_speed_rad_s {
                 return Err(TuneAbort::TooFast(*side));
@@ -636,8 +377,6 @@ impl Tuner {
                 } else {
                     (r, Side::Right)
                 };
-                // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): it differs only for a
-                // breakaway of exactly 0.6 u_hi in f32.
                 if u_b > MAX_BREAKAWAY_FRACTION * high {
                     return Err(TuneAbort::BreakawayTooHigh(side));
                 }
@@ -654,8 +393,6 @@ impl Tuner {
                     };
                     return Err(TuneAbort::NoBreakaway(side));
                 }
-                // Equivalent mutant (`<` → `<=`, .cargo/mutants.toml): at ramp = high both
-                // branches give the same value.
                 self.command = if ramp < high { ramp } else { high };
             }
         }
@@ -712,15 +449,13 @@ impl Tuner {
             .zip(self.hold_volts);
         for (((side, fit), (sums, step_volts)), hold_volts) in wheels {
             let delta_u = step_volts / tail_n - hold_volts;
-            // Equivalent mutants (the three in this filter, .cargo/mutants.toml): `fit`
-            // returns τ > 0 (a bisection's midpoint) and K = Δω/Δu > 0 (both > 0) unless
-            // Δω/Δu underflows f32; the filter only guards against that.
+            // `fit` returns τ > 0 (a bisection's midpoint) and K = Δω/Δu > 0 (both > 0)
+            // unless Δω/Δu underflows f32; the filter guards against that.
             let model = sums
                 .fit(delta_u, self.period_s, self.window_steps, weights)
                 .filter(|m| m.gain > 0.0 && m.tau > 0.0)
                 .ok_or(TuneAbort::NoFit(*side))?;
             fit.model = model;
-            // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): on a tie both are the same.
             slowest = if model.tau > slowest {
                 model.tau
             } else {
@@ -743,8 +478,6 @@ impl Tuner {
         }
         let next = self.config.experiment_volts_v
             - self.ramp_rate * self.period_s * (self.steps + 1) as f32;
-        // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): it differs only when the
-        // ramp lands on u_lo exactly in f32, one step more or less of a ramp of 12 τ.
         if next > self.low_v {
             self.command = next;
             return Ok(());
@@ -756,8 +489,6 @@ impl Tuner {
             .get_mut(self.direction)
             .ok_or(TuneAbort::Stopped)?;
         for ((side, fit), line) in Side::BOTH.iter().zip(fits.iter_mut()).zip(&self.ramp) {
-            // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): a slope of exactly 0 is
-            // refused either way (here, or as inconsistent: K k_V ≠ 1).
             let (intercept, slope) = line
                 .line()
                 .filter(|(_, k)| *k > 0.0)
@@ -796,9 +527,6 @@ impl Tuner {
     }
 
     /// A wheel that should turn stopped, after `grace` steps of the phase.
-    ///
-    /// Equivalent mutants (`<` → `<=` on the grace and on each speed, .cargo/mutants.toml):
-    /// a grace one step longer, or a speed of exactly the threshold in f32.
     fn check_turning(&self, speed: [f32; 2], grace: u32) -> Result<(), TuneAbort> {
         if self.steps < grace {
             return Ok(());
@@ -874,7 +602,6 @@ impl Tuner {
         };
         // The loop's dead time: the plant's (never below 0) and the controller's own.
         let window_lag = self.window_lag_s();
-        // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): at θ = 0 both give 0.
         let dead_time = if model.theta > 0.0 { model.theta } else { 0.0 } + window_lag;
         let (kp, ti) = simc(
             &model,
@@ -882,7 +609,6 @@ impl Tuner {
             self.config.tau_c_per_dead_time * dead_time,
         );
         let ks = mean(f.ks_v, b.ks_v);
-        // Equivalent mutant (`>` → `>=`, .cargo/mutants.toml): at k_S = 0 both give 0.
         let ks = if ks > 0.0 { ks } else { 0.0 };
         if ![ks, kv, kp, ti].iter().all(|x| x.is_finite()) {
             return Err(TuneAbort::NoFit(side));

@@ -1,0 +1,321 @@
+//! The words the supervisor speaks: its states and run modes, the operator's commands
+//! and their refusals, the events it reports, what it reads each step ([`Inputs`]) and
+//! what it decides ([`SupervisorOutput`]).
+
+use core::num::NonZeroU32;
+
+use super::{Faults, SupervisorConfigError};
+use crate::controller::{MotorCommand, TickDeltas};
+use crate::kinematics::{BodyVelocity, WheelSpeeds};
+use crate::tune::TuneConfigError;
+
+#[cfg(doc)]
+use super::{Supervisor, SupervisorConfig};
+#[cfg(doc)]
+use crate::controller::Controller;
+
+/// What the robot does while armed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum RunMode {
+    /// Follow the controller's reference path from [`SupervisorConfig::start_pose`].
+    FollowPath,
+    /// Hold [`SupervisorConfig::hold_speeds`] with the wheel loops only (bring-up).
+    HoldWheelSpeeds,
+    /// Identify both wheels and compute their loops ([`crate::tune`]); disarms by itself
+    /// when done ([`DisarmReason::TuneFinished`]), the outcome in
+    /// [`Supervisor::tune_outcome`].
+    Tune,
+}
+
+impl RunMode {
+    /// The mode a long press selects after this one: follow the path, hold wheel speeds,
+    /// tune, and round again.
+    pub const fn next(self) -> RunMode {
+        match self {
+            RunMode::FollowPath => RunMode::HoldWheelSpeeds,
+            RunMode::HoldWheelSpeeds => RunMode::Tune,
+            RunMode::Tune => RunMode::FollowPath,
+        }
+    }
+}
+
+/// The supervisor's state (see the module doc).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum State {
+    /// Motors off; waiting for a press, the link or auto-arm.
+    Disarmed,
+    /// The controller drives the motors.
+    Armed,
+    /// Motors off; faults latched until acknowledged.
+    Faulted,
+    /// Motors off while the firmware writes flash.
+    Persisting,
+}
+
+/// What the motor bridge does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum Bridge {
+    /// Enabled, driving [`SupervisorOutput::duty`] (slow decay: 0 is a short brake).
+    Drive,
+    /// Enabled with both duties 0: the motors short-brake.
+    Brake,
+    /// In standby (TB6612 STBY / DRV8833 nSLEEP low): outputs off, the motors coast.
+    Coast,
+}
+
+impl Bridge {
+    /// Level of the bridge's enable line (STBY / nSLEEP): high unless coasting.
+    pub const fn enabled(self) -> bool {
+        !matches!(self, Bridge::Coast)
+    }
+}
+
+/// Why the chip last reset, decoded from the reset-flag register (RCC_CSR on an STM32).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum ResetCause {
+    /// Power-on reset.
+    PowerOn,
+    /// The supply dipped below the brown-out threshold while running: the battery sagged
+    /// or a connector bounced. Never auto-arms: the robot is no longer where it started.
+    BrownOut,
+    /// The reset pin (NRST), e.g. the board's reset button or a debug probe.
+    Pin,
+    /// The independent or window watchdog: the control loop stalled.
+    Watchdog,
+    /// A software reset (`SCB::sys_reset`), e.g. after a fault handler.
+    Software,
+    /// A low-power-management reset.
+    LowPower,
+    /// No flag set.
+    Unknown,
+}
+
+impl ResetCause {
+    /// True for the resets a person causes on purpose (power-on, reset pin): the only
+    /// ones after which [`SupervisorConfig::auto_arm_after_steps`] may arm the motors.
+    pub const fn allows_auto_arm(self) -> bool {
+        matches!(self, ResetCause::PowerOn | ResetCause::Pin)
+    }
+}
+
+/// Why the robot left [`State::Armed`] without a fault.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum DisarmReason {
+    /// The button was pressed.
+    Button,
+    /// The link asked.
+    Link,
+    /// [`SupervisorConfig::max_armed_steps`] ran out.
+    Timeout,
+    /// The link armed the robot and then fell silent for
+    /// [`SupervisorConfig::heartbeat_timeout_steps`].
+    LinkLost,
+    /// A tune ended, with a result or the reason it stopped
+    /// ([`Supervisor::tune_outcome`]).
+    TuneFinished,
+}
+
+/// A state change, reported once in the step it happened (for the log).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum Event {
+    /// Motors armed in this mode.
+    Armed(RunMode),
+    /// Motors disarmed.
+    Disarmed(DisarmReason),
+    /// A fault stopped the motors; the flags are in [`SupervisorOutput::faults`].
+    Faulted,
+    /// The faults were acknowledged; the robot is Disarmed.
+    FaultsCleared,
+    /// A long press selected this mode for the next arming.
+    ModeSelected(RunMode),
+    /// The supply fell below the battery's warning threshold.
+    BatteryLow,
+    /// Entered [`State::Persisting`].
+    PersistStarted,
+    /// Left [`State::Persisting`].
+    PersistEnded,
+}
+
+/// How to arm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct ArmRequest {
+    /// What to do once armed.
+    pub mode: RunMode,
+    /// Wheel speeds to hold (rad/s) instead of [`SupervisorConfig::hold_speeds`], in
+    /// [`RunMode::HoldWheelSpeeds`].
+    pub hold_speeds: Option<WheelSpeeds>,
+    /// The motion (v m/s, ω rad/s, robot frame) the operator asserts the robot already
+    /// has, for a run that starts in motion ([`Controller::seed_motion`]).
+    pub initial_motion: Option<BodyVelocity>,
+}
+
+impl ArmRequest {
+    /// Arm into path following from rest.
+    pub const fn follow_path() -> Self {
+        Self {
+            mode: RunMode::FollowPath,
+            hold_speeds: None,
+            initial_motion: None,
+        }
+    }
+}
+
+/// An operator command from the link (or a simulation's script).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum Command {
+    /// Arm (from Disarmed only).
+    Arm(ArmRequest),
+    /// Disarm.
+    Disarm,
+    /// Stop now and latch a fault until acknowledged.
+    EmergencyStop,
+    /// Acknowledge the faults (from Faulted only).
+    ClearFaults,
+    /// The link is alive.
+    Heartbeat,
+    /// Enter [`State::Persisting`] (from Disarmed only).
+    BeginPersist,
+    /// Leave [`State::Persisting`].
+    EndPersist,
+}
+
+/// Why a [`Command`] was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum CommandRefusal {
+    /// Not in this state (e.g. arming while Armed, Faulted or Persisting).
+    WrongState(State),
+    /// The button is held: the local kill wins over the link.
+    ButtonHeld,
+}
+
+impl core::fmt::Display for CommandRefusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            CommandRefusal::WrongState(state) => write!(f, "not possible while {state:?}"),
+            CommandRefusal::ButtonHeld => f.write_str("the robot's button is held (local stop)"),
+        }
+    }
+}
+
+/// What the firmware reads each step, besides the controller.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Inputs {
+    /// Encoder ticks since the previous step, forward positive.
+    pub ticks: TickDeltas,
+    /// Control periods since the previous step (1 on time).
+    pub periods: NonZeroU32,
+    /// Measured supply voltage, V.
+    pub supply_v: f32,
+    /// Raw (undebounced) button level, true while pressed.
+    pub button_pressed: bool,
+    /// True when the previous step was still running when this period began.
+    pub overrun: bool,
+    /// A counter the background work increments (any change proves it runs).
+    pub background_heartbeat: u32,
+    /// A command from the link, at most one per step.
+    pub command: Option<Command>,
+}
+
+impl Inputs {
+    /// A quiet, on-time step at rest on a supply of `supply_v` (V).
+    pub const fn at_supply(supply_v: f32) -> Self {
+        Self {
+            ticks: TickDeltas { left: 0, right: 0 },
+            periods: NonZeroU32::MIN,
+            supply_v,
+            button_pressed: false,
+            overrun: false,
+            background_heartbeat: 0,
+            command: None,
+        }
+    }
+}
+
+/// What the supervisor decided in one step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SupervisorOutput {
+    /// Duties to write now, each in [−1, 1]; exactly 0 unless Armed.
+    pub duty: MotorCommand,
+    /// What the bridge does (drive, brake, coast).
+    pub bridge: Bridge,
+    /// Feed the watchdog in this step (see the module doc for the rule).
+    pub feed_watchdog: bool,
+    /// State after this step.
+    pub state: State,
+    /// Mode used when armed.
+    pub run_mode: RunMode,
+    /// Latched faults.
+    pub faults: Faults,
+    /// The supply is below the battery's warning threshold.
+    pub battery_low: bool,
+    /// Overrun steps since boot (saturating).
+    pub overruns_total: u32,
+    /// Missed control ticks since boot (saturating).
+    pub missed_ticks_total: u32,
+    /// The state change of this step, if any.
+    pub event: Option<Event>,
+    /// The outcome of this step's [`Inputs::command`], if there was one.
+    pub command_result: Option<Result<(), CommandRefusal>>,
+    /// The controller's duties of this step, before the supervisor zeroed anything (its
+    /// telemetry is [`Controller::telemetry`]).
+    pub controller_duty: MotorCommand,
+}
+
+/// Why [`Supervisor::set_config`] or [`Supervisor::set_tune_config`] refused new
+/// settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SupervisorSetError {
+    /// Only while Disarmed.
+    NotDisarmed(State),
+    /// The settings are invalid.
+    Invalid(SupervisorConfigError),
+    /// The tune's settings are invalid.
+    InvalidTune(TuneConfigError),
+}

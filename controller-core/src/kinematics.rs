@@ -155,6 +155,8 @@ impl core::fmt::Display for GeometryError {
     }
 }
 
+impl core::error::Error for GeometryError {}
+
 fn positive(x: f32) -> bool {
     x > 0.0 && x.is_finite()
 }

@@ -323,6 +323,8 @@ impl fmt::Display for ParamError {
     }
 }
 
+impl core::error::Error for ParamError {}
+
 /// A validated [`RobotConfig`] with the quantities derived from it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Params {

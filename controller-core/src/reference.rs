@@ -77,6 +77,24 @@ pub enum RebuildError {
     Reference(ReferenceError),
 }
 
+impl core::fmt::Display for RebuildError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            RebuildError::Path(_) => "the segments do not make a path",
+            RebuildError::Reference(_) => "the reference's speed or mode is out of range",
+        })
+    }
+}
+
+impl core::error::Error for RebuildError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            RebuildError::Path(e) => Some(e),
+            RebuildError::Reference(e) => Some(e),
+        }
+    }
+}
+
 /// Speed and mode checks of [`Reference::new`].
 fn check_motion(speed_m_s: f32, mode: ReferenceMode) -> Result<(), ReferenceError> {
     if !(speed_m_s > 0.0 && speed_m_s.is_finite()) {
@@ -102,6 +120,8 @@ impl core::fmt::Display for ReferenceError {
         })
     }
 }
+
+impl core::error::Error for ReferenceError {}
 
 /// The reference at one instant: pose (world frame), its body velocity and progress.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -331,6 +351,15 @@ impl Reference {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_rebuild_error_says_which_part_failed_and_keeps_its_cause() {
+        use core::error::Error as _;
+        let e = RebuildError::Reference(ReferenceError::NonPositiveSpeed);
+        assert!(e.to_string().contains("speed or mode"));
+        let cause = e.source().map(std::string::ToString::to_string);
+        assert_eq!(cause, Some(ReferenceError::NonPositiveSpeed.to_string()));
+    }
     use core::f32::consts::{FRAC_PI_2, PI};
 
     /// 100 Hz: one period is 0.01 s.

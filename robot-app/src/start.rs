@@ -61,6 +61,8 @@ impl fmt::Display for StartError {
     }
 }
 
+/// No `source`: the message already states the field and its requirement, and a cause
+/// printed after it would repeat them.
 impl core::error::Error for StartError {}
 
 /// The control side and the link side for `config`, talking through `channels`: the

@@ -80,8 +80,8 @@ pub fn check(ctx: &Context) -> Result<()> {
     let output = run_qemu(elf)?;
     let report = Report::parse(&output)?;
 
-    let host = run_scenario(&Scenario::paper_circle())
-        .map_err(|e| anyhow::anyhow!("setting up the scenario on the host: {e}"))?;
+    let host =
+        run_scenario(&Scenario::paper_circle()).context("setting up the scenario on the host")?;
     println!("host:   {host}");
     println!("target: {}", report.digest);
     let mut problems = Vec::new();

@@ -285,6 +285,8 @@ impl core::fmt::Display for PathError {
     }
 }
 
+impl core::error::Error for PathError {}
+
 /// A path: a chain of [`Segment`]s parameterised by arc length, open or closed.
 #[derive(Debug)]
 pub struct Path {

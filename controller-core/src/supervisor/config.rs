@@ -538,6 +538,8 @@ impl fmt::Display for SupervisorConfigError {
     }
 }
 
+impl core::error::Error for SupervisorConfigError {}
+
 #[cfg(test)]
 mod tests {
     use super::*;

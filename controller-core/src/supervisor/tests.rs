@@ -1072,3 +1072,16 @@ fn a_loop_stuck_at_its_limits_faults() {
     assert!((500..=550).contains(&at), "{at}");
     assert_eq!(outs[at].state, State::Faulted);
 }
+
+#[test]
+fn a_refused_setting_says_why_and_keeps_its_cause() {
+    use core::error::Error as _;
+    let armed = SupervisorSetError::NotDisarmed(State::Armed);
+    assert!(armed.to_string().contains("Armed") && armed.source().is_none());
+    let invalid = SupervisorSetError::Invalid(SupervisorConfigError::NonFiniteStartPose);
+    assert_eq!(
+        invalid.source().map(ToString::to_string),
+        Some(SupervisorConfigError::NonFiniteStartPose.to_string())
+    );
+    assert_ne!(invalid.to_string(), armed.to_string());
+}

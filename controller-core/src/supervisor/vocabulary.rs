@@ -242,6 +242,8 @@ impl core::fmt::Display for CommandRefusal {
     }
 }
 
+impl core::error::Error for CommandRefusal {}
+
 /// What the firmware reads each step, besides the controller.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -318,4 +320,29 @@ pub enum SupervisorSetError {
     Invalid(SupervisorConfigError),
     /// The tune's settings are invalid.
     InvalidTune(TuneConfigError),
+}
+
+impl core::fmt::Display for SupervisorSetError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            SupervisorSetError::NotDisarmed(state) => {
+                write!(
+                    f,
+                    "new settings are taken only while disarmed, not {state:?}"
+                )
+            }
+            SupervisorSetError::Invalid(_) => f.write_str("the supervisor settings are invalid"),
+            SupervisorSetError::InvalidTune(_) => f.write_str("the tune's settings are invalid"),
+        }
+    }
+}
+
+impl core::error::Error for SupervisorSetError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            SupervisorSetError::NotDisarmed(_) => None,
+            SupervisorSetError::Invalid(e) => Some(e),
+            SupervisorSetError::InvalidTune(e) => Some(e),
+        }
+    }
 }

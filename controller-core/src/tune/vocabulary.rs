@@ -147,6 +147,8 @@ impl fmt::Display for TuneConfigError {
     }
 }
 
+impl core::error::Error for TuneConfigError {}
+
 /// Why a tune ended without a result.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

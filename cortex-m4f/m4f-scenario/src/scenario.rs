@@ -126,10 +126,20 @@ pub enum SetupError {
 
 impl fmt::Display for SetupError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            SetupError::Params(_) => "bad robot config",
+            SetupError::Path(_) => "bad path",
+            SetupError::Reference(_) => "bad reference",
+        })
+    }
+}
+
+impl core::error::Error for SetupError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
         match self {
-            SetupError::Params(e) => write!(f, "bad robot config: {e}"),
-            SetupError::Path(e) => write!(f, "bad path: {e:?}"),
-            SetupError::Reference(e) => write!(f, "bad reference: {e:?}"),
+            SetupError::Params(e) => Some(e),
+            SetupError::Path(e) => Some(e),
+            SetupError::Reference(e) => Some(e),
         }
     }
 }

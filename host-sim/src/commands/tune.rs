@@ -261,9 +261,7 @@ pub fn run(options: &Options, progress: &mut Progress<'_>) -> Result<TuneReport>
     if let Some(x) = options.hold_s {
         config.hold_s = x;
     }
-    config
-        .validate(&scenario.params()?)
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    config.validate(&scenario.params()?)?;
     let truth = tune::truth(&scenario)?;
     progress(&TuneStart {
         scenario: scenario.name.clone(),

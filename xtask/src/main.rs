@@ -73,7 +73,7 @@ commands:
   mutants [ARGS...]
           mutation testing of controller-core (and link, when the workspace has it) with
           cargo-mutants: prints the score, the missed mutants and the wall time; ARGS go to
-          cargo-mutants, e.g. `-f controller-core/src/path.rs` for one file or `-j 2`.
+          cargo-mutants, e.g. `-f controller-core/src/pid.rs` for one file or `-j 2`.
           Slow (a build and a test run per mutant); not part of `ci`. Needs
           `cargo install cargo-mutants --locked`";
 

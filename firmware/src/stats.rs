@@ -102,7 +102,7 @@ impl TaskTiming {
     }
 }
 
-/// The control task (TIM5), from its first instruction to its last, every step.
+/// The control task (TIM5), every step: its own time (module doc).
 pub static CONTROL: TaskTiming = TaskTiming::new();
 /// The control task in the armed steady state: the steps that end armed and report no
 /// event (the ones that drive the motors, arming and faults aside).

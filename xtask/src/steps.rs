@@ -365,7 +365,7 @@ pub fn panic_check() -> Step {
 /// The core on an emulated Cortex-M4F: digest against the host, step budget.
 pub fn qemu() -> Step {
     Step::new(
-        "qemu: core on an emulated Cortex-M4F (digest vs host, instruction budget)",
+        "qemu: core on an emulated Cortex-M4F (digest vs host, instructions reported)",
         qemu::check,
     )
 }

@@ -347,6 +347,24 @@ fn cutting_proxy(robot: String, cut: Cut) -> String {
     address
 }
 
+/// The station with `args` against a virtual robot of `scenario` (run for at most
+/// `max_s` s) behind a proxy that cuts the link as `cut` says: its output and its
+/// standard error.
+fn behind_a_cut(
+    scenario: &str,
+    max_s: f64,
+    cut: Cut,
+    args: &[&str],
+) -> (std::process::Output, String) {
+    let (robot, _events) = virtual_robot(scenario, max_s);
+    let proxy = cutting_proxy(robot, cut);
+    let mut all = vec!["--connect", proxy.as_str()];
+    all.extend_from_slice(args);
+    let output = station(&all).output().expect("the station runs");
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    (output, stderr)
+}
+
 /// A temporary output directory for the test `name`.
 fn out_dir(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("station-tcp-{name}-{}", std::process::id()));
@@ -362,27 +380,22 @@ fn summary_of(out: &std::path::Path) -> serde_json::Value {
 #[test]
 fn a_run_the_connection_drops_in_exits_3_and_keeps_what_was_recorded() {
     let _one = one_at_a_time();
-    let (robot, _events) = virtual_robot("paper-circle", 120.0);
     // 30 heartbeats: about 3 s of the 30 s run.
-    let proxy = cutting_proxy(
-        robot,
+    let out = out_dir("drop");
+    let (output, stderr) = behind_a_cut(
+        "paper-circle",
+        120.0,
         Cut {
             close_after_heartbeats: Some(30),
             ..Cut::default()
         },
+        &[
+            "run",
+            "paper-circle",
+            "--out",
+            out.to_str().expect("utf-8 path"),
+        ],
     );
-    let out = out_dir("drop");
-    let output = station(&[
-        "--connect",
-        &proxy,
-        "run",
-        "paper-circle",
-        "--out",
-        out.to_str().expect("utf-8 path"),
-    ])
-    .output()
-    .expect("the station runs");
-    let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(3), "{stderr}");
     assert!(
         stderr.contains("did not end at its time limit") && stderr.contains("closed"),
@@ -408,26 +421,21 @@ fn a_run_the_connection_drops_in_exits_3_and_keeps_what_was_recorded() {
 #[test]
 fn a_run_the_robot_ends_on_its_heartbeat_timeout_exits_3_marked_incomplete() {
     let _one = one_at_a_time();
-    let (robot, _events) = virtual_robot("paper-circle", 120.0);
-    let proxy = cutting_proxy(
-        robot,
+    let out = out_dir("stall");
+    let (output, stderr) = behind_a_cut(
+        "paper-circle",
+        120.0,
         Cut {
             mute_heartbeats_after: Some(30),
             ..Cut::default()
         },
+        &[
+            "run",
+            "paper-circle",
+            "--out",
+            out.to_str().expect("utf-8 path"),
+        ],
     );
-    let out = out_dir("stall");
-    let output = station(&[
-        "--connect",
-        &proxy,
-        "run",
-        "paper-circle",
-        "--out",
-        out.to_str().expect("utf-8 path"),
-    ])
-    .output()
-    .expect("the station runs");
-    let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(3), "{stderr}");
     assert!(stderr.contains("LinkLost"), "says why: {stderr}");
     let summary = summary_of(&out);
@@ -439,18 +447,15 @@ fn a_run_the_robot_ends_on_its_heartbeat_timeout_exits_3_marked_incomplete() {
 #[test]
 fn a_tune_cut_short_exits_3_and_says_why() {
     let _one = one_at_a_time();
-    let (robot, _events) = virtual_robot("paper-circle", 120.0);
-    let proxy = cutting_proxy(
-        robot,
+    let (output, stderr) = behind_a_cut(
+        "paper-circle",
+        120.0,
         Cut {
             mute_heartbeats_after: Some(3),
             ..Cut::default()
         },
+        &["tune"],
     );
-    let output = station(&["--connect", &proxy, "tune"])
-        .output()
-        .expect("the station runs");
-    let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(3), "{stderr}");
     assert!(
         stderr.contains("the tune stopped") && stderr.contains("LinkLost"),
@@ -461,27 +466,22 @@ fn a_tune_cut_short_exits_3_and_says_why() {
 #[test]
 fn a_recording_cut_short_exits_3_and_keeps_its_rows() {
     let _one = one_at_a_time();
-    let (robot, _events) = virtual_robot("paper-circle", 120.0);
-    let proxy = cutting_proxy(
-        robot,
+    let out = out_dir("record");
+    let (output, stderr) = behind_a_cut(
+        "paper-circle",
+        120.0,
         Cut {
             close_after: Some(Duration::from_millis(1500)),
             ..Cut::default()
         },
+        &[
+            "record",
+            "--out",
+            out.to_str().expect("utf-8 path"),
+            "--duration-s",
+            "60",
+        ],
     );
-    let out = out_dir("record");
-    let output = station(&[
-        "--connect",
-        &proxy,
-        "record",
-        "--out",
-        out.to_str().expect("utf-8 path"),
-        "--duration-s",
-        "60",
-    ])
-    .output()
-    .expect("the station runs");
-    let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(3), "{stderr}");
     assert!(stderr.contains("cut short"), "{stderr}");
     let rows = std::fs::read_to_string(out.join("telemetry.csv"))
@@ -495,28 +495,23 @@ fn a_recording_cut_short_exits_3_and_keeps_its_rows() {
 #[test]
 fn a_calibration_whose_run_is_cut_short_twice_exits_3_naming_the_run() {
     let _one = one_at_a_time();
-    let (robot, _events) = virtual_robot("square-waypoints", 300.0);
-    let proxy = cutting_proxy(
-        robot,
+    let (output, stderr) = behind_a_cut(
+        "square-waypoints",
+        300.0,
         Cut {
             mute_heartbeats_after: Some(5),
             ..Cut::default()
         },
+        &[
+            "calibrate",
+            "--side-m",
+            "0.5",
+            "--runs",
+            "1",
+            "--simulated-noise-m",
+            "0.002",
+        ],
     );
-    let output = station(&[
-        "--connect",
-        &proxy,
-        "calibrate",
-        "--side-m",
-        "0.5",
-        "--runs",
-        "1",
-        "--simulated-noise-m",
-        "0.002",
-    ])
-    .output()
-    .expect("the station runs");
-    let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(3), "{stderr}");
     assert!(
         stderr.contains("clockwise square 1/1") && stderr.contains("LinkLost"),
@@ -546,26 +541,21 @@ fn an_error_names_each_cause_once() {
     assert_eq!(stderr.matches("refused").count(), 1, "{stderr}");
 
     // A connection the robot closes mid-run.
-    let (robot, _events) = virtual_robot("paper-circle", 120.0);
-    let proxy = cutting_proxy(
-        robot,
+    let out = out_dir("closed");
+    let (_, stderr) = behind_a_cut(
+        "paper-circle",
+        120.0,
         Cut {
             close_after_heartbeats: Some(10),
             ..Cut::default()
         },
+        &[
+            "run",
+            "paper-circle",
+            "--out",
+            out.to_str().expect("utf-8 path"),
+        ],
     );
-    let out = out_dir("closed");
-    let output = station(&[
-        "--connect",
-        &proxy,
-        "run",
-        "paper-circle",
-        "--out",
-        out.to_str().expect("utf-8 path"),
-    ])
-    .output()
-    .expect("the station runs");
-    let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(
         stderr.matches("the robot closed the connection").count(),
         1,

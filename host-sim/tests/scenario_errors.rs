@@ -158,6 +158,51 @@ fn syntax_unknown_keys_and_wrong_types_name_the_key() {
     );
 }
 
+#[test]
+fn deep_nesting_names_the_line_and_what_is_too_deep() {
+    let base = BUILTIN[0].1;
+    // `with` appends after one blank line: the extra text starts two lines past the base.
+    let first_extra_line = base.lines().count() + 2;
+    let deep_key = vec!["a"; 200].join(".");
+    let e = error(&format!("{deep_key} = 1"));
+    assert_eq!(
+        e,
+        format!(
+            "test.toml: line {first_extra_line}: the key `{}…` has 200 parts; a key may \
+             have at most 16",
+            &deep_key[..40]
+        )
+    );
+    // The same in a table header, one line further down.
+    let e = error(&format!("x = 1\n[{deep_key}]\nb = 1"));
+    assert!(
+        e.starts_with(&format!(
+            "test.toml: line {}: the key `a.a.",
+            first_extra_line + 1
+        )),
+        "{e}"
+    );
+    // Arrays nested past the limit, under a real key.
+    let e = error(&format!(
+        "[robot]\nwheel_radius_m = {}{}",
+        "[".repeat(200),
+        "]".repeat(200)
+    ));
+    assert_eq!(
+        e,
+        format!(
+            "test.toml: line {}: arrays and inline tables nest more than 16 deep; a value \
+             may nest at most 16",
+            first_extra_line + 1
+        )
+    );
+    // A robot file (the station's `params set`) is read the same way.
+    let e = robot_files::robot_file::RobotFile::from_toml(&format!("\n{deep_key} = 1\n"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("line 2: the key `a.a."), "{e}");
+}
+
 /// Every float in every built-in scenario replaced, one at a time, by values that are out
 /// of range, absurd or not numbers: loading returns `Ok` or `Err`, never panics, and a
 /// scenario that loads also runs (briefly) without panicking.

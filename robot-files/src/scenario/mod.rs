@@ -66,7 +66,10 @@
 //!
 //! A bad file gets an error naming the key and the problem, e.g.
 //! `robot.wheel_radius_m must be > 0, got -0.03`; an array key of the wrong length, e.g.
-//! `path.center_m must have exactly 2 numbers, got 3`. Nothing in here panics on input.
+//! `path.center_m must have exactly 2 numbers, got 3`; text nested past
+//! [`MAX_NESTING`](crate::toml_text::MAX_NESTING) gets its line and what is too deep, e.g.
+//! ``line 3: the key `a.a.a.…` has 200 parts; a key may have at most 16``. Nothing in here
+//! panics on input.
 
 //!
 //! | file | what it holds |
@@ -131,8 +134,9 @@ pub enum ScenarioError {
         /// The OS error.
         source: std::io::Error,
     },
-    /// The text is not valid TOML, or a key is unknown or of the wrong type (the TOML
-    /// parser's message names the key and line).
+    /// The text is not valid TOML, nests deeper than
+    /// [`MAX_NESTING`](crate::toml_text::MAX_NESTING), or a key is unknown or of the
+    /// wrong type (the message names the line, and the key where there is one).
     #[error("{origin}: {message}")]
     Syntax {
         /// File name or built-in name.
@@ -367,10 +371,11 @@ impl fmt::Display for Scenario {
 }
 
 fn parse(text: &str, origin: &str, default_name: &str) -> Result<Scenario, ScenarioError> {
-    let file: ScenarioFile = toml::from_str(text).map_err(|e| ScenarioError::Syntax {
-        origin: origin.to_string(),
-        message: e.to_string().trim_end().to_string(),
-    })?;
+    let file: ScenarioFile =
+        crate::toml_text::from_str(text).map_err(|message| ScenarioError::Syntax {
+            origin: origin.to_string(),
+            message,
+        })?;
     build::build(file, default_name)
 }
 

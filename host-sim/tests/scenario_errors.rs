@@ -159,6 +159,47 @@ fn syntax_unknown_keys_and_wrong_types_name_the_key() {
 }
 
 #[test]
+fn far_positions_and_long_lengths_are_refused_on_the_key_written() {
+    let circle = BUILTIN[0].1;
+    let line = BUILTIN[1].1;
+    let refused = |text: &str, from: &str, to: &str| replaced_error(text, from, to);
+    // Each was refused as `supervisor.geofence_radius_m must be > 0`: the geofence derived
+    // from the path and the start overflowed f32.
+    assert_eq!(
+        refused(circle, "radius_m = 1.25", "radius_m = 1e30"),
+        "path.radius_m must be ≤ 1000 m, got 1e30"
+    );
+    assert_eq!(
+        refused(circle, "x_m = -1.0", "x_m = 1e30"),
+        "start.x_m must be within ±1000 m of the origin, got 1e30"
+    );
+    assert_eq!(
+        refused(circle, "y_m = -1.2", "y_m = -1e30"),
+        "start.y_m must be within ±1000 m of the origin, got -1e30"
+    );
+    assert_eq!(
+        refused(circle, "center_m = [0.0, 0.0]", "center_m = [0.0, 2e3]"),
+        "path.center_m[1] must be within ±1000 m of the origin, got 2000"
+    );
+    assert_eq!(
+        refused(line, "length_m = 10.0", "length_m = 1e30"),
+        "path.length_m must be ≤ 1000 m, got 1e30"
+    );
+    // At the bound, everything the supervisor derives is finite and the run starts.
+    let mut far = replaced(circle, "radius_m = 1.25", "radius_m = 1000.0").unwrap();
+    let geofence = far
+        .supervisor
+        .geofence_radius_m
+        .expect("derived from the path");
+    assert!(geofence.is_finite() && geofence > 1000.0, "{geofence}");
+    far.duration_s = 0.01;
+    let options = RunOptions {
+        trace_every_steps: 0,
+    };
+    run_scenario_with(&far, controller_core::law::LawKind::Tracking, options).unwrap();
+}
+
+#[test]
 fn deep_nesting_names_the_line_and_what_is_too_deep() {
     let base = BUILTIN[0].1;
     // `with` appends after one blank line: the extra text starts two lines past the base.

@@ -2,7 +2,8 @@
 //! controller believes about the robot and what the robot really is.
 //!
 //! Every quantity is in SI units named in its key (`_m`, `_m_s`, `_rad`, `_rad_s`, `_s`,
-//! `_hz`, `_v`, `_ohm`, …); percentages end in `_pct`. Only `[path]`, `[reference]` and
+//! `_hz`, `_v`, `_ohm`, …); percentages end in `_pct`. Positions are within ±1 km of the
+//! origin and lengths at most 1 km ([`MAX_POSITION_M`]). Only `[path]`, `[reference]` and
 //! `[start]` are required; everything else has a documented default. The built-in
 //! scenarios in `robot-files/scenarios/` are commented examples of every section:
 //!
@@ -385,6 +386,15 @@ pub const MAX_DURATION_S: f64 = 86_400.0;
 /// Most control steps one run may take (duration × control rate): bounds the memory a
 /// scenario file can ask for (the run keeps a trace and per-steering-step samples).
 pub const MAX_CONTROL_STEPS: f64 = 1e8;
+
+/// Largest distance a scenario takes, m: every coordinate of the path and the start is
+/// within ± this of the origin, and every length and radius (the path's, the reference's
+/// offset and look-ahead) at most this. The controller holds poses in `f32`, which
+/// resolves 0.25 mm or finer within 4 km (an encoder tick of wheel travel is 0.14 mm), and
+/// what the supervisor derives from the path and the start (the geofence, the
+/// divergence check's settle time) stays far inside `f32`'s range; at 1e30 m the square
+/// of a distance overflows it, and the refusal would name a key the file never wrote.
+pub const MAX_POSITION_M: f64 = 1_000.0;
 
 /// Fastest control loop accepted, Hz (the plant then runs at ≥ 10× this).
 pub const MAX_CONTROL_RATE_HZ: u32 = 100_000;

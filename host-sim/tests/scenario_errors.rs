@@ -199,6 +199,44 @@ fn far_positions_and_long_lengths_are_refused_on_the_key_written() {
     run_scenario_with(&far, controller_core::law::LawKind::Tracking, options).unwrap();
 }
 
+/// The paper's start in motion on a floor where the wheels slip 99 %: the run reported
+/// peaks of 1 300 rad/s and 42 A, the plant having been started with its wheels 36 × above
+/// the motor's no-load speed (the body's 0.4 m/s needs the wheels 100 × faster than they
+/// roll). It is refused, with the keys and the figures; a reachable slip runs, and no
+/// wheel in it turns faster than the no-load speed.
+#[test]
+fn a_start_in_motion_beyond_the_motors_is_refused() {
+    let slip = |s: f64| with(&format!("[plant.slip]\nleft = {s}\nright = {s}")).unwrap();
+    let e = run_scenario_with(
+        &slip(0.99),
+        controller_core::law::LawKind::Tracking,
+        RunOptions {
+            trace_every_steps: 0,
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert_eq!(
+        e,
+        "start.v_m_s = 0.4 m/s with start.omega_rad_s = 0.3 rad/s cannot be the robot's \
+         motion: the right wheel would turn at 1300.0 rad/s (slip 0.99), beyond its motor's \
+         no-load speed of 35.7 rad/s on 6 V"
+    );
+    let mut reachable = slip(0.5);
+    reachable.duration_s = 2.0;
+    let r = run_scenario_with(
+        &reachable,
+        controller_core::law::LawKind::Tracking,
+        RunOptions {
+            trace_every_steps: 0,
+        },
+    )
+    .unwrap();
+    let peak = r.summary.max_wheel_speed_rad_s;
+    assert!(peak > 25.0 && peak <= 35.72, "{peak} rad/s");
+    assert!(r.max_current_a < 1.4, "{} A", r.max_current_a);
+}
+
 #[test]
 fn deep_nesting_names_the_line_and_what_is_too_deep() {
     let base = BUILTIN[0].1;

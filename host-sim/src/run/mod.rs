@@ -396,7 +396,9 @@ pub fn run_with_logic<L: RobotLogic>(
             source: source.to_string(),
             true_error: Some(ErrorReport::from(true_stats.summary())),
             estimated_error: ErrorReport::from(est_stats.summary()),
-            hourly_rms_true_position_error_m: hourly.finish(),
+            // The true error is sampled from arming to the end of the run.
+            hourly_rms_true_position_error_m: hourly
+                .finish(armed_at.map_or(0.0, |a| total.saturating_sub(a) as f64 / rate)),
             max_wheel_speed_rad_s: max_wheel,
             max_duty,
             supervisor,

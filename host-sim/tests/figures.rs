@@ -100,18 +100,32 @@ fn span(values: &[f64]) -> f64 {
     max - min
 }
 
-/// A fresh directory for `test`'s figures.
-fn out_dir(test: &str) -> PathBuf {
+/// A fresh directory for one test's figures, removed when dropped.
+struct OutDir(PathBuf);
+
+impl OutDir {
+    fn join(&self, file: &str) -> PathBuf {
+        self.0.join(file)
+    }
+}
+
+impl Drop for OutDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn out_dir(test: &str) -> OutDir {
     let dir = std::env::temp_dir().join(format!("host-sim-figures-{}-{test}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    dir
+    OutDir(dir)
 }
 
 fn run(scenario: &Scenario, law: LawKind) -> RunResult {
     run_scenario(scenario, law).unwrap()
 }
 
-fn paper_circle_comparison(dir: &std::path::Path) -> String {
+fn paper_circle_comparison(dir: &OutDir) -> String {
     let s = Scenario::load("paper-circle").unwrap();
     let results: Vec<(LawKind, RunResult)> = LawKind::ALL
         .into_iter()
@@ -228,9 +242,9 @@ fn no_axis_is_labelled_minus_zero() {
             let r = run(&s, law);
             let settle = r.summary.headline_error().settle_time_s;
             let files = [
-                dir.join(format!("{name}-{}-5.svg", law.name())),
-                dir.join(format!("{name}-{}-6.svg", law.name())),
-                dir.join(format!("{name}-{}-7.svg", law.name())),
+                dir.join(&format!("{name}-{}-5.svg", law.name())),
+                dir.join(&format!("{name}-{}-6.svg", law.name())),
+                dir.join(&format!("{name}-{}-7.svg", law.name())),
             ];
             fig5_path(&files[0], "t", &s.path, &r.trace).unwrap();
             fig6_errors(&files[1], "t", &r.trace, settle).unwrap();

@@ -266,7 +266,10 @@ impl<'a> VirtualRobot<'a> {
                 self.frozen = false;
                 if let Some(motion) = self.arm_motion {
                     let (v, omega) = self.start_motion(motion);
-                    self.hardware.start_moving(v, omega);
+                    // A motion the motors could not have given the wheels is not the
+                    // plant's state: refused, the robot starts from rest, as a real one
+                    // armed with a false claim would (the ground truth shows it).
+                    let _ = self.hardware.start_moving(v, omega);
                 }
             }
             // The virtual robot runs its outer loop in the step: it is always seated.

@@ -10,7 +10,7 @@
 //! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
 //! | `link-qemu` | runs the link crate under QEMU and talks to it over its USART: replies, corrupted frames, counters |
 //! | `docs` | `cargo doc --no-deps` with warnings denied, for the host crates and the firmware |
-//! | `figures` | regenerates `docs/figures.md` from the simulator's JSON (`ci` fails when it is stale) |
+//! | `figures` | regenerates `docs/figures.md` and the README's headline rows from what the simulator writes (`ci` fails when either is stale) |
 //! | `protocol-page` | checks `docs/protocol.md` against the `link` crate: every type, field and variant of the messages in wire order, the constants (the schema hash among them) and the example frame; names each difference with the row or section to write |
 //! | `protocol-client` | runs the Python client written from `docs/protocol.md` (`tools/protocol-client/`) against `host-sim serve` on an ephemeral port: handshake, `Info`, the configuration and telemetry decoded and checked; needs `python3` (installed with apt-get as root, otherwise named) |
 //! | `pil` | processor in the loop: the firmware (emulated `qemu` board) under QEMU against host-sim's plant, driven over its link: `paper-circle` and `longest-path` identical to `host-sim run`, the control interrupt's instructions and the stack, an encoder disconnect and a link loss stopping the motors in time |
@@ -60,7 +60,8 @@ commands:
   link-qemu
           run the link on an emulated Cortex-M4F and talk to it over its USART
   docs    cargo doc --no-deps with warnings denied (host crates, firmware)
-  figures regenerate docs/figures.md from the simulator's JSON (CI fails when stale)
+  figures regenerate docs/figures.md and the README's headline rows from the
+          simulator (CI fails when stale)
   protocol-page
           check docs/protocol.md against the link crate (types, constants, schema
           hash, example frame); names each difference
@@ -117,14 +118,16 @@ fn run() -> Result<bool> {
         ["link-qemu"] => vec![steps::setup(), steps::link_qemu()],
         ["pil"] => vec![steps::setup(), steps::pil()],
         ["docs"] => vec![steps::setup(), steps::docs()],
-        ["figures"] => vec![Step::new("figures: regenerate docs/figures.md", |ctx| {
-            figures::run(ctx, false)
-        })],
+        ["figures"] => vec![Step::new(
+            "figures: regenerate docs/figures.md and the README's headline rows",
+            |ctx| figures::run(ctx, false),
+        )],
         ["protocol-page"] => vec![steps::protocol_page()],
         ["protocol-client"] => vec![steps::protocol_client()],
-        ["figures", "--check"] => vec![Step::new("figures: docs/figures.md up to date", |ctx| {
-            figures::run(ctx, true)
-        })],
+        ["figures", "--check"] => vec![Step::new(
+            "figures: docs/figures.md and the README's headline rows up to date",
+            |ctx| figures::run(ctx, true),
+        )],
         ["size-of", elf] => {
             let elf = PathBuf::from(elf);
             vec![Step::new("size of an ELF", move |_| {

@@ -273,7 +273,7 @@ pub fn ci() -> Vec<Step> {
         protocol_page(),
         protocol_client(),
         Step::new(
-            "figures: docs/figures.md up to date with the simulator",
+            "figures: docs/figures.md and the README's headline rows up to date with the simulator",
             |ctx| crate::figures::run(ctx, true),
         ),
     ]

@@ -13,8 +13,11 @@ use std::time::Duration;
 use controller_core::law::LawKind;
 use controller_core::supervisor::{DisarmReason, Event};
 use host_sim::serve::{serve, ServeOptions, StepReport, VirtualRobot};
+use link::{Reply, Request, Uplink};
 use robot_app::Channels;
 use robot_files::scenario::Scenario;
+use station::client::Client;
+use station::transport::Tcp;
 
 /// Simulated time per wall-clock time: 30 s runs take 7.5 s; the station's heartbeats
 /// (every 100 robot steps) have 125 ms of wall-clock time before the 500-step timeout.
@@ -97,12 +100,47 @@ fn host_sim_summary() -> serde_json::Value {
     serde_json::from_str(&text).expect("json")
 }
 
+#[cfg(unix)]
+/// `station watch` into a pipe, started now; [`stop_watching`] ends it.
+fn start_watching(address: &str) -> Child {
+    station(&["--connect", address, "watch"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the station starts")
+}
+
+#[cfg(unix)]
+/// Ctrl-C (SIGINT) to a watch: what it printed, and on stderr.
+fn stop_watching(child: Child) -> (String, String) {
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(status.success());
+    let output = child.wait_with_output().expect("the station ends");
+    (
+        String::from_utf8_lossy(&output.stdout).to_string(),
+        String::from_utf8_lossy(&output.stderr).to_string(),
+    )
+}
+
+/// A run beside a watch that connected first: the run commands the robot, the watch
+/// observes the whole run, and the run's result is host-sim's, bit for bit.
+#[cfg(unix)]
 #[test]
 fn station_run_over_tcp_matches_host_sim_run() {
     let _one = one_at_a_time();
     let (address, _events) = virtual_robot("paper-circle", 120.0);
     let out = std::env::temp_dir().join(format!("station-tcp-run-{}", std::process::id()));
+    let watch = start_watching(&address);
+    thread::sleep(Duration::from_millis(1500));
     let got = run_and_check_summary(&address, &out);
+    let (watched, watch_errors) = stop_watching(watch);
+    assert!(
+        watched.contains("state Armed"),
+        "the watch saw the run: {watch_errors}"
+    );
     let want = host_sim_summary();
     assert_eq!(got["source"], "virtual-robot");
     assert_eq!(got["complete"], true);
@@ -112,6 +150,35 @@ fn station_run_over_tcp_matches_host_sim_run() {
     assert_eq!(got["true_error"], want["true_error"]);
     assert_eq!(got["estimated_error"], want["estimated_error"]);
     let _ = std::fs::remove_dir_all(out);
+}
+
+#[test]
+fn a_station_overtaken_by_a_newer_connection_is_told_it_only_observes() {
+    let _one = one_at_a_time();
+    let (address, _events) = virtual_robot("paper-circle", 120.0);
+    let connect = || Client::new(Tcp::connect(&address).expect("the robot listens"));
+    let mut first = connect();
+    assert!(matches!(first.request(Request::Info), Ok(Reply::Info(_))));
+    let mut second = connect();
+    assert!(matches!(second.request(Request::Info), Ok(Reply::Info(_))));
+    let refused = first
+        .request(Request::Info)
+        .expect_err("first only observes");
+    assert!(
+        refused
+            .to_string()
+            .contains("another connection commands this robot; this one only observes"),
+        "{refused}"
+    );
+    // The observer still hears the robot.
+    second
+        .request(Request::SetTelemetryRate { hz: 50 })
+        .expect("the newest connection commands");
+    let heard = (0..100).find_map(|_| match first.next_message(Duration::from_millis(20)) {
+        Ok(Some(Uplink::Telemetry(frame))) => Some(frame),
+        _ => None,
+    });
+    assert!(heard.is_some(), "the observer receives telemetry");
 }
 
 #[test]
@@ -683,19 +750,9 @@ fn a_short_run_says_what_its_rms_is_over_and_stats_say_what_is_not_measured() {
 /// `station watch` into a pipe for `wait`, then Ctrl-C (SIGINT): what it printed.
 #[cfg(unix)]
 fn watched(address: &str, wait: Duration) -> String {
-    let child = station(&["--connect", address, "watch"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("the station starts");
+    let child = start_watching(address);
     thread::sleep(wait);
-    let status = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .expect("kill runs");
-    assert!(status.success());
-    let output = child.wait_with_output().expect("the station ends");
-    String::from_utf8_lossy(&output.stdout).to_string()
+    stop_watching(child).0
 }
 
 #[cfg(unix)]

@@ -36,10 +36,11 @@
 //!
 //! After a run the plant goes on (braking, coasting) until the next path is committed.
 
+mod hosts;
 mod truth;
 
-use std::io::{ErrorKind, Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::io::ErrorKind;
+use std::net::TcpListener;
 use std::num::NonZeroU32;
 use std::time::{Duration, Instant};
 
@@ -62,6 +63,7 @@ use robot_files::scenario::{Scenario, StartState};
 use crate::hardware::{Actuation, SimHardware};
 use crate::plant::PlantError;
 
+use self::hosts::Hosts;
 pub use self::truth::TrueRun;
 
 /// The UART rate the virtual robot's link pretends to have, baud: fast enough for the
@@ -415,10 +417,10 @@ pub struct ServeOptions {
     pub max_steps: Option<u64>,
 }
 
-/// Runs the virtual robot on `listener`, one host at a time (a new connection replaces
-/// the previous one), paced at `options.speed` × real time. `log` gets every step that
-/// changed the supervisor's state. Returns after `options.max_steps`, or on an I/O error
-/// of the listener.
+/// Runs the virtual robot on `listener`, paced at `options.speed` × real time. Every
+/// connection receives what the robot sends; the newest one commands it, the older ones
+/// observe ([`Hosts`]). `log` gets every step that changed the supervisor's state. Returns
+/// after `options.max_steps`, or on an I/O error of the listener.
 pub fn serve(
     robot: &mut VirtualRobot<'_>,
     listener: &TcpListener,
@@ -432,7 +434,7 @@ pub fn serve(
     } else {
         1.0
     };
-    let mut host: Option<TcpStream> = None;
+    let mut hosts = Hosts::default();
     let started = Instant::now();
     let mut steps: u64 = 0;
     let mut buf = [0u8; 4096];
@@ -444,9 +446,9 @@ pub fn serve(
             Ok((stream, _)) => {
                 stream.set_nonblocking(true)?;
                 let _ = stream.set_nodelay(true);
-                host = Some(stream);
+                hosts.connect(stream);
+                // What the previous commanding host left half-sent is not the new one's.
                 robot.pending_in.clear();
-                robot.outgoing.clear();
             }
             Err(e) if e.kind() == ErrorKind::WouldBlock => {}
             Err(e) => return Err(e),
@@ -460,49 +462,14 @@ pub fn serve(
             continue;
         }
         for _ in 0..batch {
-            if let Some(stream) = &mut host {
-                if !read_from(stream, &mut buf, robot) {
-                    host = None;
-                }
-            }
+            hosts.read(&mut buf, &mut |bytes| robot.receive(bytes));
             let report = robot.step();
             if report.event.is_some() {
                 log(&report);
             }
-            if let Some(stream) = &mut host {
-                if !write_to(stream, robot) {
-                    host = None;
-                }
-            }
+            hosts.write(robot.outgoing());
+            robot.outgoing.clear();
             steps += 1;
         }
     }
-}
-
-/// Moves what the host sent into the robot; false when the connection is gone.
-fn read_from(stream: &mut TcpStream, buf: &mut [u8], robot: &mut VirtualRobot<'_>) -> bool {
-    loop {
-        match stream.read(buf) {
-            Ok(0) => return false,
-            Ok(n) => robot.receive(&buf[..n]),
-            Err(e) if e.kind() == ErrorKind::WouldBlock => return true,
-            Err(e) if e.kind() == ErrorKind::Interrupted => {}
-            Err(_) => return false,
-        }
-    }
-}
-
-/// Sends what the robot has for the host; false when the connection is gone. Bytes the
-/// socket cannot take now wait.
-fn write_to(stream: &mut TcpStream, robot: &mut VirtualRobot<'_>) -> bool {
-    while !robot.outgoing().is_empty() {
-        match stream.write(robot.outgoing()) {
-            Ok(0) => return false,
-            Ok(n) => robot.consume(n),
-            Err(e) if e.kind() == ErrorKind::WouldBlock => return true,
-            Err(e) if e.kind() == ErrorKind::Interrupted => {}
-            Err(_) => return false,
-        }
-    }
-    true
 }

@@ -248,6 +248,9 @@ pub enum NotPermitted {
     /// Writing persistent storage failed (erase, program or read-back check); the
     /// configuration in use is unchanged. Retry, or power-cycle if it keeps failing.
     StorageFailed,
+    /// Another host commands this robot; this connection only observes (the virtual
+    /// robot's rule: its newest connection commands, see `docs/station.md`).
+    AnotherHostCommands,
 }
 
 impl fmt::Display for NotPermitted {
@@ -258,6 +261,9 @@ impl fmt::Display for NotPermitted {
             NotPermitted::Unsupported => "this robot does not support that request",
             NotPermitted::ButtonHeld => "the robot's button is held (local stop)",
             NotPermitted::StorageFailed => "writing the robot's persistent storage failed",
+            NotPermitted::AnotherHostCommands => {
+                "another connection commands this robot; this one only observes"
+            }
         })
     }
 }

@@ -183,6 +183,7 @@ fn set_params_while_armed_is_refused_and_nothing_changes() {
     let arm = Request::Arm {
         mode: ArmMode::HoldWheelSpeeds(controller_core::kinematics::WheelSpeeds::new(3.0, 3.0)),
         initial_motion: None,
+        run_time_limit_steps: None,
     };
     assert_eq!(rig.ask(arm), Ok(Reply::Ack));
     assert_eq!(rig.last.map(|a| a.state), Some(State::Armed));
@@ -328,6 +329,7 @@ fn a_tune_runs_and_reports_how_it_ended() {
     let tune = Request::Arm {
         mode: ArmMode::Tune,
         initial_motion: None,
+        run_time_limit_steps: None,
     };
     assert_eq!(rig.ask(tune), Ok(Reply::Ack));
     rig.run(200);
@@ -371,6 +373,7 @@ fn a_path_run_ends_with_its_report_computed_on_the_robot() {
     let arm = Request::Arm {
         mode: ArmMode::FollowPath,
         initial_motion: None,
+        run_time_limit_steps: None,
     };
     assert_eq!(rig.ask(arm), Ok(Reply::Ack));
     rig.run(1500);
@@ -410,6 +413,7 @@ fn a_path_run_ends_with_its_report_computed_on_the_robot() {
     let hold = Request::Arm {
         mode: ArmMode::HoldWheelSpeeds(controller_core::kinematics::WheelSpeeds::new(3.0, 3.0)),
         initial_motion: None,
+        run_time_limit_steps: None,
     };
     assert_eq!(rig.ask(hold), Ok(Reply::Ack));
     rig.run(50);

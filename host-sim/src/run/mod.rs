@@ -243,6 +243,7 @@ pub fn run_with_logic<L: RobotLogic>(
             mode: RunMode::FollowPath,
             hold_speeds: None,
             initial_motion: motion,
+            max_armed_steps: None,
         };
         if logic.arm_locally(request) {
             armed_at = Some(0);

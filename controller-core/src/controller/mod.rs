@@ -498,6 +498,14 @@ impl<S: OuterLoopHolder> Controller<S> {
         self.reference_afresh = true;
     }
 
+    /// Starts the odometry's heading recomputation afresh ([`Odometry::resync_heading`]),
+    /// the pose unchanged: a run's estimate then does not depend on how long the robot
+    /// stood before it was armed. A due steering job keeps the pose it was due with.
+    pub fn resync_heading(&mut self) {
+        self.run_due_job_aside();
+        self.odometry.resync_heading();
+    }
+
     /// Asserts that the robot is moving at `body` (v m/s, ω rad/s, robot frame) although
     /// the controller has not seen it: the speed estimates are filled with the encoder
     /// ticks that motion would have produced. For a run that starts in motion (the

@@ -763,6 +763,9 @@ impl Supervisor {
         self.brake_steps_left = 0;
         self.stall.reset();
         self.divergence.reset();
+        // The estimate of the run does not depend on how long the robot stood before it
+        // (the odometry's periodic heading recomputation counts from the arming step).
+        controller.resync_heading();
         if self.run_mode == RunMode::Tune {
             // From where the robot stands; the tune checks that it stands still.
             self.tune_volts = WheelVolts::default();

@@ -154,8 +154,8 @@ fn upload_arm_record<T: Transport>(
     let stats_before = stats(client)?;
     ops::set_pose(client, ops::start_pose(scenario))?;
     let limit = u32::try_from(total).unwrap_or(u32::MAX);
+    arm_once_at_rest(client, ops::initial_motion(scenario), limit)?;
     let wall = Instant::now();
-    ops::arm(client, ops::initial_motion(scenario), Some(limit))?;
     let mut recorder = Recorder::new(scenario, plan.law, params, before, total, hz);
     let recorded = record_until_end(client, plan, &mut recorder, total);
     let (stats_after, error) = match recorded.and_then(|()| stats(client)) {
@@ -173,6 +173,33 @@ fn upload_arm_record<T: Transport>(
         dropped,
         error,
     ))
+}
+
+/// How long `run` waits for the wheels to stand still before it gives up arming (a run
+/// just ended leaves them turning for a few hundred milliseconds), s of the host's clock.
+const REST_WAIT: Duration = Duration::from_secs(5);
+
+/// Arms for the run, asking again while the robot refuses because its wheels still turn
+/// (the robot's messages meanwhile are not part of the run), for at most [`REST_WAIT`].
+fn arm_once_at_rest<T: Transport>(
+    client: &mut Client<T>,
+    initial_motion: Option<controller_core::kinematics::BodyVelocity>,
+    limit_steps: u32,
+) -> Result<(), StationError> {
+    let give_up = Instant::now() + REST_WAIT;
+    loop {
+        match ops::arm(client, initial_motion, Some(limit_steps)) {
+            Err(StationError::Refused { refusal, .. })
+                if *refusal == link::Refusal::NotPermitted(link::NotPermitted::WheelsTurning)
+                    && Instant::now() < give_up =>
+            {
+                for _ in 0..10 {
+                    client.next_message(Duration::from_millis(10))?;
+                }
+            }
+            other => return other,
+        }
+    }
 }
 
 /// The robot's statistics (`None` if it answers with something else).

@@ -90,7 +90,7 @@ fn rebuilding_in_place_equals_building_anew() {
     assert_eq!(format!("{rebuilt:?}"), format!("{fresh:?}"));
 
     let mut followed = driven();
-    let odometry = followed.odometry.clone();
+    let odometry = followed.odometry;
     followed
         .follow(&other_reference, LawKind::Kanayama)
         .expect("owned outer loop");

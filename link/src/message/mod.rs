@@ -15,6 +15,8 @@
 //! | [`Request::GetStats`] | [`Reply::Stats`] |
 //! | [`Request::GetRunReport`] | [`Reply::RunReport`] |
 //! | [`Request::GetTuneReport`] | [`Reply::TuneReport`] |
+//! | [`Request::Arm`] | [`Reply::Ack`]; refused while a wheel still turns unless it asserts the motion ([`NotPermitted::WheelsTurning`]) |
+//! | [`Request::SetPose`] | [`Reply::Ack`]; only while disarmed, every field finite |
 //! | every other request | [`Reply::Ack`] |
 //!
 //! The other [`Uplink`] messages are sent by the robot on its own: [`Uplink::Telemetry`]

@@ -124,7 +124,10 @@ impl Odometry {
         self.resync_heading();
     }
 
-    fn resync_heading(&mut self) {
+    /// Recomputes the heading's sine and cosine exactly from θ and starts the count to
+    /// the next recomputation afresh: the pose is unchanged, and what follows no longer
+    /// depends on how many steps were integrated since the last one.
+    pub fn resync_heading(&mut self) {
         self.heading = math::sin_cos(self.theta.to_rad());
         self.steps_since_resync = 0;
     }

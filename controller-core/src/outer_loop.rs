@@ -45,15 +45,31 @@ pub struct OuterLoopJob {
     pub elapsed_periods: u32,
     /// Rim-speed cap in force at that step, m/s.
     pub rim_speed_cap_m_s: f32,
-    /// Path following (re)started since the last job: restart the reference's time index
-    /// and progress first.
-    pub restart_reference: bool,
+    /// Whether path following (re)started since the last job, and how the reference
+    /// meets that, before this job samples it.
+    pub reference_restart: ReferenceRestart,
     /// The wheel loops restarted since the last job, at this body velocity (v m/s,
     /// ω rad/s, robot frame): the command limiter continues from it.
     pub restart_limiter_from: Option<BodyVelocity>,
     /// The inner loop's restart count when it handed the job over (its outcome is stale
     /// after another restart).
     pub epoch: u32,
+}
+
+/// What the reference does before a job samples it: path following went on, resumed
+/// after a pause, or started afresh. Ordered by how much of the reference's state goes
+/// (two entries into path following before a job meet it as the larger of the two).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord)]
+pub enum ReferenceRestart {
+    /// Path following went on since the last job: the reference moves on as it does.
+    #[default]
+    None,
+    /// Path following resumed after a pause ([`Reference::resume`]): a time-indexed
+    /// reference goes on from where it stopped, path following projects the robot again.
+    Resume,
+    /// Path following starts afresh ([`Reference::restart`]): the time index at its
+    /// start, the projection forgotten (a new path, or the robot put somewhere new).
+    Afresh,
 }
 
 /// What the outer loop hands back: the steering law's command after its limits, and how
@@ -256,8 +272,10 @@ fn update(
     (reference, error, law): (&mut ReferenceState, &mut TrackingError, &mut LawOutput),
     (command, limit_flags): (&mut BodyVelocity, &mut LimitFlags),
 ) {
-    if job.restart_reference {
-        path.restart();
+    match job.reference_restart {
+        ReferenceRestart::None => {}
+        ReferenceRestart::Resume => path.resume(),
+        ReferenceRestart::Afresh => path.restart(),
     }
     if let Some(from) = job.restart_limiter_from {
         limiter.reset(from);

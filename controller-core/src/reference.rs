@@ -19,6 +19,11 @@
 //!
 //! On an open path the reference stops at the end (v_r = ω_r = 0, `finished`), so the
 //! robot comes to rest there instead of running on.
+//!
+//! A run that pauses (the robot disarmed) and goes on [`Reference::resume`]s: the
+//! time-indexed reference's clock counts only the periods it was sampled over, so it
+//! stands still while the robot does and goes on from there; path following projects
+//! the robot afresh. [`Reference::restart`] starts over from the start offset.
 
 use core::num::NonZeroU32;
 
@@ -270,6 +275,14 @@ impl Reference {
         };
         let start = DoubleF32::from_f32(self.path.normalize_m(start_m)) / self.path.length_m();
         self.progress = PathFraction::from_fraction(start);
+        self.projection_m = None;
+    }
+
+    /// Goes on after a pause (the robot was disarmed, and may have been moved): the
+    /// time-indexed reference stays where it stopped, its clock having paused, and path
+    /// following forgets its progress, so the next sample projects the robot onto the
+    /// whole path from wherever it now is.
+    pub fn resume(&mut self) {
         self.projection_m = None;
     }
 
@@ -619,6 +632,29 @@ mod tests {
             (f64::from(previous) - expected).abs() < 1e-5,
             "{previous} vs {expected}"
         );
+    }
+
+    #[test]
+    fn resuming_keeps_the_clock_and_projects_the_robot_again() {
+        // Time-indexed: 2 s along, resumed: the next sample of 0 periods is where it
+        // stopped, not at the start offset.
+        let indexed = ReferenceMode::TimeIndexed {
+            start_offset_m: 0.0,
+        };
+        let mut r = Reference::new(circle(), 0.25, indexed).unwrap();
+        let stopped = r.sample(200, HZ_100, &Pose::default()).progress_m;
+        r.resume();
+        assert_eq!(r.sample(0, HZ_100, &Pose::default()).progress_m, stopped);
+        assert!((stopped - 0.5).abs() < 1e-6);
+        // Path following: a robot carried 1.5 m on along a line, beyond the search window
+        // ahead of its last projection, is found where it now is.
+        let line = Path::line(Point::new(0.0, 0.0), 0.0, 3.0).unwrap();
+        let following = ReferenceMode::PathFollowing { lookahead_m: 0.0 };
+        let mut r = Reference::new(line, 0.25, following).unwrap();
+        assert!(r.sample(0, HZ_100, &Pose::new(0.2, 0.1, 0.0)).progress_m < 0.21);
+        r.resume();
+        let found = r.sample(0, HZ_100, &Pose::new(1.7, 0.1, 0.0)).progress_m;
+        assert!((found - 1.7).abs() < 1e-4, "{found}");
     }
 
     #[test]

@@ -9,12 +9,18 @@
 //!   `limit_s`, which follows from the detector's settings (stated per case);
 //! - **harmless**: it must trip nothing (a short slip patch, one late step);
 //! - **undetectable**: odometry stays self-consistent, so nothing the firmware has can
-//!   see it; reported with `detected: false`, no limit, and the sensor that would.
+//!   see it; reported with `detected: false`, no limit, and the sensor that would;
+//! - **re-arm**: the button pressed twice while following: the first press must stop the
+//!   robot within `limit_s`; the second re-arms it only once the wheels are at rest, from
+//!   the pose odometry kept, so it ends on the path ([`REARM_FINAL_ERROR_M`]). These cases
+//!   follow the path by projection (the true error is the distance to the path, whatever
+//!   the reference's clock).
 //!
 //! The detectors run on the robot's signals only (ticks, applied voltages, the step count,
 //! the supply measurement); the simulator's truth only measures what the fault did.
 
 use controller_core::law::LawKind;
+use controller_core::reference::ReferenceMode;
 use robot_files::faults::{Fault, FaultKind, Wheel};
 use robot_files::metrics::FaultReport;
 use robot_files::scenario::Scenario;
@@ -27,6 +33,10 @@ use crate::run::{run_scenario_with, RunError, RunOptions};
 pub const INJECT_AT_S: f64 = 10.0;
 /// How long each case runs after the injection, s.
 pub const RUN_AFTER_S: f64 = 10.0;
+
+/// A re-armed robot ends at most this far from the path (true position error at the
+/// end), m: it resumed from where it really was.
+pub const REARM_FINAL_ERROR_M: f64 = 0.05;
 
 /// What a case is expected to do (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -46,6 +56,16 @@ pub enum Expectation {
         /// The sensor that would see it.
         sensor: &'static str,
     },
+    /// Pressed twice: stopped within `limit_s` by the first press; the second re-arms
+    /// (`armed_again`) or is refused because the wheels still turn.
+    Rearm {
+        /// The first press's limit, s.
+        limit_s: f64,
+        /// Whether the second press re-arms.
+        armed_again: bool,
+        /// Why.
+        because: &'static str,
+    },
 }
 
 /// One case: a fault and what it should do.
@@ -57,6 +77,8 @@ pub struct Case {
     pub kind: FaultKind,
     /// How long it lasts, s (`None`: to the end).
     pub duration_s: Option<f64>,
+    /// The same fault again, this long after the first began, s (`None`: once).
+    pub again_after_s: Option<f64>,
     /// What it should do.
     pub expect: Expectation,
 }
@@ -74,12 +96,14 @@ pub fn cases() -> Vec<Case> {
             name: "encoder disconnected",
             kind: EncoderDisconnect(Wheel::Left),
             duration_s: None,
+            again_after_s: None,
             expect: stall,
         },
         Case {
             name: "encoder glitch",
             kind: EncoderGlitch(Wheel::Left, 1000),
             duration_s: None,
+            again_after_s: None,
             expect: Detect {
                 limit_s: 0.001,
                 because: "encoder-jump check: one step",
@@ -89,6 +113,7 @@ pub fn cases() -> Vec<Case> {
             name: "encoder cables swapped",
             kind: EncodersSwapped,
             duration_s: None,
+            again_after_s: None,
             expect: Detect {
                 limit_s: 1.5,
                 because: "divergence check: 0.5 m for 1 s (or the stall check first)",
@@ -98,6 +123,7 @@ pub fn cases() -> Vec<Case> {
             name: "motor disconnected",
             kind: MotorDisconnect(Wheel::Left),
             duration_s: None,
+            again_after_s: None,
             expect: Detect {
                 limit_s: 1.5,
                 because: "stall check, or divergence if the chassis drags the wheel",
@@ -107,18 +133,21 @@ pub fn cases() -> Vec<Case> {
             name: "wheel blocked",
             kind: WheelBlocked(Wheel::Right),
             duration_s: None,
+            again_after_s: None,
             expect: stall,
         },
         Case {
             name: "slip patch (0.2 s at 30 %)",
             kind: SlipPatch(Wheel::Left, 0.3),
             duration_s: Some(0.2),
+            again_after_s: None,
             expect: Harmless,
         },
         Case {
             name: "supply sag to 4.0 V",
             kind: SupplySag(4.0),
             duration_s: Some(2.0),
+            again_after_s: None,
             expect: Detect {
                 limit_s: 0.3,
                 because: "battery check: below 4.6 V for 0.2 s (20 ms supply filter)",
@@ -128,6 +157,7 @@ pub fn cases() -> Vec<Case> {
             name: "supply dip to 4.8 V",
             kind: SupplySag(4.8),
             duration_s: Some(2.0),
+            again_after_s: None,
             expect: Harmless,
         },
         Case {
@@ -137,6 +167,7 @@ pub fn cases() -> Vec<Case> {
                 periods: 3,
             },
             duration_s: None,
+            again_after_s: None,
             expect: Harmless,
         },
         Case {
@@ -146,6 +177,7 @@ pub fn cases() -> Vec<Case> {
                 periods: 12,
             },
             duration_s: None,
+            again_after_s: None,
             expect: Detect {
                 limit_s: 0.012,
                 because: "missed-tick check: a gap of 10 periods",
@@ -155,15 +187,39 @@ pub fn cases() -> Vec<Case> {
             name: "button pressed",
             kind: ButtonPress,
             duration_s: Some(0.1),
+            again_after_s: None,
             expect: Detect {
                 limit_s: 0.021,
                 because: "button: disarm on the debounced press (20 ms)",
             },
         },
         Case {
+            name: "button pressed twice 60 ms apart",
+            kind: ButtonPress,
+            duration_s: Some(0.03),
+            again_after_s: Some(0.06),
+            expect: Rearm {
+                limit_s: 0.021,
+                armed_again: false,
+                because: "re-arming needs both wheels below 0.5 rad/s for 0.1 s",
+            },
+        },
+        Case {
+            name: "button pressed twice 1 s apart",
+            kind: ButtonPress,
+            duration_s: Some(0.03),
+            again_after_s: Some(1.0),
+            expect: Rearm {
+                limit_s: 0.021,
+                armed_again: true,
+                because: "at rest: re-armed where it stopped, back on the path",
+            },
+        },
+        Case {
             name: "track width 5 % off",
             kind: TrackWidthError(5.0),
             duration_s: None,
+            again_after_s: None,
             expect: Undetectable {
                 sensor: "a gyro (its yaw rate against odometry's) or an absolute position fix",
             },
@@ -172,6 +228,7 @@ pub fn cases() -> Vec<Case> {
             name: "left motor and encoder both inverted",
             kind: BothInverted(Wheel::Left),
             duration_s: None,
+            again_after_s: None,
             expect: Undetectable {
                 sensor: "a gyro (its yaw rate against odometry's) or an absolute position fix",
             },
@@ -199,20 +256,41 @@ pub struct CaseResult {
     /// What the run reported for the fault (detector, motors at 0, wheels stopped,
     /// distance after).
     pub report: FaultReport,
+    /// The supervisor's state at the end of the run (`Armed` for a re-armed robot).
+    pub final_state: String,
+    /// The true position error at the end of the run, m.
+    pub final_true_error_m: Option<f64>,
 }
 
 /// Runs every case on `scenario` with `law`.
 pub fn run_suite(scenario: &Scenario, law: LawKind) -> Result<Vec<CaseResult>, RunError> {
+    cases()
+        .into_iter()
+        .map(|case| run_case(scenario, law, case))
+        .collect()
+}
+
+/// Runs `case` on `scenario` with `law`.
+pub fn run_case(scenario: &Scenario, law: LawKind, case: Case) -> Result<CaseResult, RunError> {
     let rate = f64::from(scenario.robot.control_rate_hz);
-    let mut results = Vec::new();
-    for case in cases() {
+    {
         let mut s = scenario.clone();
         s.duration_s = INJECT_AT_S + RUN_AFTER_S;
-        s.faults = vec![Fault {
+        let fault = Fault {
             kind: case.kind,
             at_step: (INJECT_AT_S * rate).round() as u64,
             duration_steps: case.duration_s.map(|d| ((d * rate).round() as u64).max(1)),
-        }];
+        };
+        s.faults = vec![fault];
+        if let Some(after) = case.again_after_s {
+            s.faults.push(Fault {
+                at_step: fault.at_step + (after * rate).round() as u64,
+                ..fault
+            });
+        }
+        if let Expectation::Rearm { .. } = case.expect {
+            s.reference_mode = ReferenceMode::PathFollowing { lookahead_m: 0.0 };
+        }
         if let FaultKind::TrackWidthError(_) = case.kind {
             // The mismatch exists from the start: odometry is wrong all run long.
             s.faults[0].at_step = 0;
@@ -242,8 +320,23 @@ pub fn run_suite(scenario: &Scenario, law: LawKind) -> Result<Vec<CaseResult>, R
                     .is_some_and(|l| report.detected && l <= limit_s + 1e-9),
             ),
             Expectation::Harmless | Expectation::Undetectable { .. } => (None, !report.detected),
+            Expectation::Rearm {
+                limit_s,
+                armed_again,
+                ..
+            } => {
+                let stopped = report
+                    .latency_s
+                    .is_some_and(|l| report.detected && l <= limit_s + 1e-9);
+                let armed_at_end = run.summary.supervisor.final_state == "Armed";
+                let on_path = final_true_error_m(&run).is_some_and(|e| e <= REARM_FINAL_ERROR_M);
+                (
+                    Some(limit_s),
+                    stopped && armed_at_end == armed_again && (!armed_again || on_path),
+                )
+            }
         };
-        results.push(CaseResult {
+        Ok(CaseResult {
             case: case.name,
             fault: report.fault.clone(),
             detected: report.detected,
@@ -252,7 +345,44 @@ pub fn run_suite(scenario: &Scenario, law: LawKind) -> Result<Vec<CaseResult>, R
             expect: case.expect,
             passed,
             report,
-        });
+            final_state: run.summary.supervisor.final_state.clone(),
+            final_true_error_m: final_true_error_m(&run),
+        })
     }
-    Ok(results)
+}
+
+/// The true position error at the end of `run`, m.
+fn final_true_error_m(run: &crate::run::RunResult) -> Option<f64> {
+    run.summary
+        .true_error
+        .as_ref()
+        .map(|e| e.final_position_error_m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The re-arm rows: a second press 60 ms after the first is refused (the wheels still
+    /// turn); one a second later re-arms the robot where it stopped, and it ends on the
+    /// path.
+    #[test]
+    fn a_second_press_re_arms_only_at_rest_and_resumes_from_the_real_pose() {
+        let scenario = Scenario::load("paper-circle").unwrap();
+        for case in cases().into_iter().filter(|c| c.again_after_s.is_some()) {
+            let r = run_case(&scenario, LawKind::Tracking, case).unwrap();
+            let Expectation::Rearm { armed_again, .. } = case.expect else {
+                panic!("{}: a repeated press is a re-arm case", case.name);
+            };
+            assert!(r.passed, "{r:?}");
+            assert_eq!(r.final_state == "Armed", armed_again, "{r:?}");
+            if armed_again {
+                assert!(r.report.distance_after_m > 1.0, "it drove on: {r:?}");
+            }
+            assert!(
+                r.final_true_error_m.unwrap() <= REARM_FINAL_ERROR_M,
+                "{r:?}"
+            );
+        }
+    }
 }

@@ -527,6 +527,7 @@ pub fn measure_open_loop(
                     mode: RunMode::HoldWheelSpeeds,
                     hold_speeds: Some(WheelSpeeds::new(sp, sp)),
                     initial_motion: None,
+                    max_armed_steps: None,
                 },
             )
             .map_err(|_| RunError::Argument {

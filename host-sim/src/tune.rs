@@ -109,6 +109,7 @@ pub fn run_tune(scenario: &Scenario, config: TuneConfig) -> Result<TuneRun, RunE
         mode: RunMode::Tune,
         hold_speeds: None,
         initial_motion: None,
+        max_armed_steps: None,
     };
     robot
         .supervisor

@@ -71,6 +71,7 @@ fn main() {
             Request::Arm {
                 mode: ArmMode::HoldWheelSpeeds(WheelSpeeds::new(1.0, 1.0)),
                 initial_motion: Some(Default::default()),
+                run_time_limit_steps: None,
             },
         ),
         ("Heartbeat", Request::Heartbeat),

@@ -110,7 +110,7 @@
 //!
 //! - `Ok(Received::Message(Downlink { seq, request }))`: act, then send
 //!   `Uplink::Reply { seq, result }`. Refuse with [`Refusal::Armed`] what may not happen
-//!   while armed (`SetParams`, `PersistParams`, `PathBegin`, `PathCommit`); validate
+//!   while armed (`SetParams`, `PersistParams`, `PathBegin`, `PathCommit`, `SetPose`); validate
 //!   `SetParams` with the core's `Params::new` and `SupervisorConfig::validate`
 //!   ([`FieldProblem::from_param_error`] needs no float formatting); hand path requests to
 //!   the [`PathAssembler`] and install the path of a [`Commit::New`]; check rates with

@@ -4,7 +4,9 @@
 
 use controller_core::controller::MotorCommand;
 use controller_core::kinematics::{Pose, TrackingError};
-use controller_core::supervisor::{Bridge, DisarmReason, Event, Faults, RunMode, State};
+use controller_core::supervisor::{
+    Bridge, CommandRefusal, DisarmReason, Event, Faults, RunMode, State,
+};
 
 use crate::report::BoardReport;
 use crate::wire::{Assembler, Parse, Reader, Writer};
@@ -367,6 +369,28 @@ const fn disarm_from(code: u8) -> Option<DisarmReason> {
     }
 }
 
+/// A refusal as one byte: 0–3 wrong state (its state's code), then the others.
+const fn refusal_code(refusal: CommandRefusal) -> u8 {
+    match refusal {
+        CommandRefusal::WrongState(state) => state_code(state),
+        CommandRefusal::ButtonHeld => 4,
+        CommandRefusal::WheelsTurning => 5,
+        CommandRefusal::NonFinitePose => 6,
+    }
+}
+
+const fn refusal_from(code: u8) -> Option<CommandRefusal> {
+    match code {
+        4 => Some(CommandRefusal::ButtonHeld),
+        5 => Some(CommandRefusal::WheelsTurning),
+        6 => Some(CommandRefusal::NonFinitePose),
+        _ => match state_from(code) {
+            Some(state) => Some(CommandRefusal::WrongState(state)),
+            None => None,
+        },
+    }
+}
+
 /// An event as (kind, argument); (0, 0) for none.
 const fn event_code(event: Option<Event>) -> [u8; 2] {
     match event {
@@ -379,6 +403,8 @@ const fn event_code(event: Option<Event>) -> [u8; 2] {
         Some(Event::BatteryLow) => [6, 0],
         Some(Event::PersistStarted) => [7, 0],
         Some(Event::PersistEnded) => [8, 0],
+        Some(Event::PoseSet) => [9, 0],
+        Some(Event::ArmRefused(refusal)) => [10, refusal_code(refusal)],
     }
 }
 
@@ -404,6 +430,11 @@ const fn event_from(code: [u8; 2]) -> Option<Option<Event>> {
         6 => Event::BatteryLow,
         7 => Event::PersistStarted,
         8 => Event::PersistEnded,
+        9 => Event::PoseSet,
+        10 => match refusal_from(arg) {
+            Some(refusal) => Event::ArmRefused(refusal),
+            None => return None,
+        },
         _ => return None,
     };
     Some(Some(event))

@@ -5,7 +5,9 @@ use std::vec::Vec;
 
 use controller_core::controller::{MotorCommand, TickDeltas};
 use controller_core::kinematics::{Pose, TrackingError};
-use controller_core::supervisor::{Bridge, DisarmReason, Event, Fault, Faults, RunMode, State};
+use controller_core::supervisor::{
+    Bridge, CommandRefusal, DisarmReason, Event, Fault, Faults, RunMode, State,
+};
 
 use super::*;
 
@@ -138,6 +140,13 @@ fn every_event_and_fault_crosses() {
         Some(Event::BatteryLow),
         Some(Event::PersistStarted),
         Some(Event::PersistEnded),
+        Some(Event::PoseSet),
+        Some(Event::ArmRefused(CommandRefusal::WheelsTurning)),
+        Some(Event::ArmRefused(CommandRefusal::ButtonHeld)),
+        Some(Event::ArmRefused(CommandRefusal::NonFinitePose)),
+        Some(Event::ArmRefused(CommandRefusal::WrongState(
+            State::Faulted,
+        ))),
     ];
     let mut encoder = BoardEncoder::new();
     let mut out = [0u8; BOARD_STEP_MAX_LEN];

@@ -565,17 +565,17 @@ fn install(
                 .set_config(*config, params)
                 .map_err(set_refusal)?;
             // Same path, law and pose; new geometry, gains and limits.
-            let pose = controller.pose();
             controller
-                .rebuild(params, law, pose)
+                .rebuild(params, law)
                 .map_err(|OuterLoopAway| ControlRefusal::Busy)?;
         }
         Staged::Path(path) => {
             supervisor
                 .set_config(path.supervisor, controller.params())
                 .map_err(set_refusal)?;
+            // The robot stays where it is: the pose command puts it at the start.
             controller
-                .follow(&path.reference, path.law, path.supervisor.start_pose)
+                .follow(&path.reference, path.law)
                 .map_err(|OuterLoopAway| ControlRefusal::Busy)?;
         }
         // The link side never publishes an upload being assembled.
@@ -612,6 +612,9 @@ fn command_outcome(
     match result {
         None | Some(Ok(())) => Ok(()),
         Some(Err(CommandRefusal::ButtonHeld)) => Err(ControlRefusal::ButtonHeld),
+        Some(Err(CommandRefusal::WheelsTurning)) => Err(ControlRefusal::WheelsTurning),
+        // The link side refuses a non-finite pose by its field before forwarding it.
+        Some(Err(CommandRefusal::NonFinitePose)) => Err(ControlRefusal::Invalid),
         Some(Err(CommandRefusal::WrongState(State::Disarmed))) => match command {
             Some(Command::ClearFaults | Command::EndPersist) => Ok(()),
             _ => Err(ControlRefusal::Busy),

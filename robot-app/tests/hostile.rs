@@ -73,6 +73,7 @@ fn random_request(rng: &mut Rng) -> Request {
                 _ => ArmMode::Tune,
             },
             initial_motion: Some(BodyVelocity::new(f(rng), f(rng))),
+            run_time_limit_steps: None,
         },
         9 => Request::Disarm,
         10 => Request::EmergencyStop,

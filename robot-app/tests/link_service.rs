@@ -183,6 +183,7 @@ fn set_params_while_armed_is_refused_and_nothing_changes() {
     let arm = Request::Arm {
         mode: ArmMode::HoldWheelSpeeds(controller_core::kinematics::WheelSpeeds::new(3.0, 3.0)),
         initial_motion: None,
+        run_time_limit_steps: None,
     };
     assert_eq!(rig.ask(arm), Ok(Reply::Ack));
     assert_eq!(rig.last.map(|a| a.state), Some(State::Armed));
@@ -328,6 +329,7 @@ fn a_tune_runs_and_reports_how_it_ended() {
     let tune = Request::Arm {
         mode: ArmMode::Tune,
         initial_motion: None,
+        run_time_limit_steps: None,
     };
     assert_eq!(rig.ask(tune), Ok(Reply::Ack));
     rig.run(200);
@@ -371,6 +373,7 @@ fn a_path_run_ends_with_its_report_computed_on_the_robot() {
     let arm = Request::Arm {
         mode: ArmMode::FollowPath,
         initial_motion: None,
+        run_time_limit_steps: None,
     };
     assert_eq!(rig.ask(arm), Ok(Reply::Ack));
     rig.run(1500);
@@ -406,10 +409,13 @@ fn a_path_run_ends_with_its_report_computed_on_the_robot() {
     assert!(report.max_wheel_speed_rad_s > 0.0, "{report:?}");
     // Asked again, the same report.
     assert_eq!(rig.ask(Request::GetRunReport), Ok(Reply::RunReport(report)));
-    // A hold-speed run is not a path run: no new report.
+    // A hold-speed run is not a path run: no new report. Armed once the wheels are at
+    // rest (the run's end left them turning).
+    rig.run(1000);
     let hold = Request::Arm {
         mode: ArmMode::HoldWheelSpeeds(controller_core::kinematics::WheelSpeeds::new(3.0, 3.0)),
         initial_motion: None,
+        run_time_limit_steps: None,
     };
     assert_eq!(rig.ask(hold), Ok(Reply::Ack));
     rig.run(50);
@@ -445,9 +451,10 @@ fn a_run_that_ends_while_the_uplink_is_full_still_wakes_the_link_and_sends_its_r
         }
         events
     };
-    // Nine long presses, each an event (the mode selected): eight fill the uplink, and the
-    // ninth brings the mode round to path following again.
-    let long = config.long_press_steps + 2 * config.debounce_steps;
+    // Nine mode-select holds, each an event (the mode selected): eight fill the uplink,
+    // and the ninth brings the mode round to path following again.
+    let long = controller_core::supervisor::MODE_SELECT_FACTOR * config.long_press_steps
+        + 2 * config.debounce_steps;
     let selected: usize = (0..9).map(|_| press(&mut rig, long)).sum();
     assert_eq!(selected, 9);
     assert_eq!(rig.control.supervisor().run_mode(), RunMode::FollowPath);
@@ -492,4 +499,70 @@ fn a_run_that_ends_while_the_uplink_is_full_still_wakes_the_link_and_sends_its_r
     let events = rig.events();
     assert_eq!(events.len(), 8, "{events:?}");
     assert!(events.iter().all(|e| matches!(e, Event::ModeSelected(_))));
+}
+
+#[test]
+fn the_pose_command_sets_the_pose_while_disarmed_only_and_names_a_bad_field() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    rig.heartbeat_every = Some(100);
+    let set = |x_m, y_m, theta_rad| Request::SetPose {
+        x_m,
+        y_m,
+        theta_rad,
+    };
+    assert_eq!(rig.ask(set(0.5, -0.25, 1.0)), Ok(Reply::Ack));
+    let pose = rig.control.controller().pose();
+    assert_eq!((pose.x_m, pose.y_m), (0.5, -0.25));
+    assert!((pose.theta_rad - 1.0).abs() < 1e-6, "{pose:?}");
+    assert!(rig.events().contains(&Event::PoseSet));
+    for (request, field) in [
+        (set(f32::NAN, 0.0, 0.0), "x_m"),
+        (set(0.0, f32::INFINITY, 0.0), "y_m"),
+        (set(0.0, 0.0, f32::NEG_INFINITY), "theta_rad"),
+    ] {
+        assert_eq!(
+            rig.ask(request),
+            Err(Refusal::InvalidArgument(FieldProblem::new(
+                field,
+                "must be finite"
+            )))
+        );
+    }
+    assert_eq!(
+        rig.control.controller().pose(),
+        pose,
+        "a refused pose changes nothing"
+    );
+    let arm = Request::Arm {
+        mode: ArmMode::FollowPath,
+        initial_motion: None,
+        run_time_limit_steps: None,
+    };
+    assert_eq!(rig.ask(arm), Ok(Reply::Ack));
+    assert_eq!(rig.ask(set(0.0, 0.0, 0.0)), Err(Refusal::Armed));
+}
+
+#[test]
+fn an_arm_request_s_time_limit_holds_for_its_run_only_and_changes_no_setting() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    rig.heartbeat_every = Some(100);
+    let before = rig.ask(Request::GetParams);
+    let arm = |limit| Request::Arm {
+        mode: ArmMode::HoldWheelSpeeds(controller_core::kinematics::WheelSpeeds::new(0.0, 0.0)),
+        initial_motion: None,
+        run_time_limit_steps: limit,
+    };
+    assert_eq!(rig.ask(arm(Some(300))), Ok(Reply::Ack));
+    rig.run(400);
+    assert_eq!(rig.control.supervisor().state(), State::Disarmed);
+    assert!(rig.events().contains(&Event::Disarmed(
+        controller_core::supervisor::DisarmReason::Timeout
+    )));
+    assert_eq!(rig.ask(Request::GetParams), before, "no setting changed");
+    // The next run without a limit of its own has the stored one (none here).
+    assert_eq!(rig.ask(arm(None)), Ok(Reply::Ack));
+    rig.run(400);
+    assert_eq!(rig.control.supervisor().state(), State::Armed);
 }

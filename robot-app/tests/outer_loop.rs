@@ -14,6 +14,7 @@ fn follow_path() -> Request {
     Request::Arm {
         mode: ArmMode::FollowPath,
         initial_motion: None,
+        run_time_limit_steps: None,
     }
 }
 

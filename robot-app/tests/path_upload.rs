@@ -123,7 +123,8 @@ fn a_lost_and_a_repeated_chunk_then_a_commit_the_controller_follows() {
     assert_eq!(
         rig.ask(Request::Arm {
             mode: ArmMode::FollowPath,
-            initial_motion: None
+            initial_motion: None,
+            run_time_limit_steps: None,
         }),
         Ok(Reply::Ack)
     );
@@ -156,6 +157,7 @@ fn an_upload_is_refused_while_armed_and_completes_after_disarming() {
     let hold = Request::Arm {
         mode: ArmMode::HoldWheelSpeeds(controller_core::kinematics::WheelSpeeds::new(2.0, 2.0)),
         initial_motion: None,
+        run_time_limit_steps: None,
     };
     assert_eq!(rig.ask(hold), Ok(Reply::Ack));
     assert_eq!(rig.ask(Request::PathBegin(begin(4))), Err(Refusal::Armed));
@@ -218,6 +220,7 @@ fn a_commit_moves_an_enabled_geofence_to_the_new_path() {
     rig.ask(Request::Arm {
         mode: ArmMode::FollowPath,
         initial_motion: None,
+        run_time_limit_steps: None,
     })
     .expect("armed");
     rig.run(2000);

@@ -17,6 +17,7 @@ fn hold() -> Request {
     Request::Arm {
         mode: ArmMode::HoldWheelSpeeds(WheelSpeeds::new(4.0, 4.0)),
         initial_motion: None,
+        run_time_limit_steps: None,
     }
 }
 

@@ -25,7 +25,7 @@ pub(crate) fn cmd_arm(link: &LinkArgs, hz: u8) -> Result<()> {
     let timeout = ops::get_params(&mut client)?
         .supervisor
         .heartbeat_timeout_steps;
-    ops::arm(&mut client, None)?;
+    ops::arm(&mut client, None, None)?;
     let held = live_view(&mut client, hz, Some(record::HeartbeatPacer::new(timeout)));
     let disarmed = client.command(Request::Disarm);
     held?;

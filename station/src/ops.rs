@@ -186,14 +186,28 @@ pub fn upload_path<T: Transport>(
     }
 }
 
-/// Arms the robot to follow its path, asserting `initial_motion` when it is already moving.
+/// Arms the robot to follow its path, asserting `initial_motion` when it is already
+/// moving, for at most `run_time_limit_steps` control steps (this run only; `None`: the
+/// robot's stored limit).
 pub fn arm<T: Transport>(
     client: &mut Client<T>,
     initial_motion: Option<BodyVelocity>,
+    run_time_limit_steps: Option<u32>,
 ) -> Result<(), StationError> {
     client.command(Request::Arm {
         mode: ArmMode::FollowPath,
         initial_motion,
+        run_time_limit_steps,
+    })
+}
+
+/// Tells the disarmed robot it is at `pose` (world frame, the path's; m, m, rad): its
+/// odometry is set there and its next path-following run starts the path afresh.
+pub fn set_pose<T: Transport>(client: &mut Client<T>, pose: Pose) -> Result<(), StationError> {
+    client.command(Request::SetPose {
+        x_m: pose.x_m,
+        y_m: pose.y_m,
+        theta_rad: pose.theta_rad,
     })
 }
 
@@ -271,6 +285,7 @@ pub fn tune<T: Transport>(
     client.command(Request::Arm {
         mode: ArmMode::Tune,
         initial_motion: None,
+        run_time_limit_steps: None,
     })?;
     let mut run = TuneRun {
         report: None,

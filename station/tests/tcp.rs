@@ -198,6 +198,9 @@ fn a_killed_station_leaves_the_robot_disarmed_within_the_heartbeat_timeout() {
     .stderr(Stdio::null())
     .spawn()
     .expect("the station starts");
+    // The station puts the robot at the start, then arms it.
+    let placed = next_event(&events, 30).expect("the pose is set");
+    assert_eq!(placed.event, Some(Event::PoseSet));
     let armed = next_event(&events, 30).expect("the robot arms");
     assert_eq!(
         armed.event,

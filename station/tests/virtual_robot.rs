@@ -59,7 +59,7 @@ fn a_run_through_the_station_matches_host_sim_run_bit_for_bit() {
         "{} rows",
         recording.trace.len()
     );
-    // The robot's time limit was restored after the run.
+    // The run's time limit came with its arm request: the stored one is untouched.
     assert_eq!(
         station::ops::get_params(&mut client)
             .expect("params")
@@ -76,7 +76,7 @@ fn params_and_path_upload_while_armed_are_refused_with_a_clear_message() {
     let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
     let mut client = Client::new(InProcess::new(&mut robot));
     let params = station::ops::get_params(&mut client).expect("params");
-    station::ops::arm(&mut client, None).expect("arms");
+    station::ops::arm(&mut client, None, None).expect("arms");
 
     let refused = station::ops::set_params(&mut client, params).expect_err("refused");
     assert!(
@@ -391,4 +391,145 @@ fn a_request_that_times_out_says_what_the_station_received() {
     );
     assert!(text.contains("failed their CRC"), "{text}");
     assert!(!text.contains("not powered"), "{text}");
+}
+
+#[test]
+fn a_dropped_run_leaves_the_robot_s_parameters_exactly_as_before() {
+    let scenario = Scenario::load("paper-circle").expect("built in");
+    let mut channels = Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+    let before = *robot.link().active_params();
+    let mut pipe = InProcess::new(&mut robot);
+    // The connection breaks 2 s into the run: the station can restore nothing.
+    pipe.faults.break_after = Some((1, 2000));
+    let mut client = Client::new(pipe);
+    let interrupt = AtomicBool::new(false);
+    let mut progress = |_: u64, _: u64| {};
+    let recording = record::run(
+        &mut client,
+        &mut RunPlan {
+            scenario: &scenario,
+            law: LawKind::Tracking,
+            telemetry_hz: 100,
+            interrupt: &interrupt,
+            progress: &mut progress,
+        },
+    )
+    .expect("armed, so recorded");
+    assert!(
+        matches!(recording.ended_by, record::RunEnd::LinkFailed(_)),
+        "{:?}",
+        recording.ended_by
+    );
+    drop(client);
+    assert_eq!(
+        *robot.link().active_params(),
+        before,
+        "every setting as it was"
+    );
+}
+
+/// Steps the in-process robot for `steps` control periods, heartbeating every 100 and
+/// returning every message it sent meanwhile.
+fn messages_for<T: station::transport::Transport>(
+    client: &mut Client<T>,
+    steps: u32,
+) -> Vec<link::Uplink> {
+    let mut out = Vec::new();
+    for k in 0..steps {
+        if k % 100 == 0 {
+            client.send_only(link::Request::Heartbeat).expect("sent");
+        }
+        if let Some(message) = client
+            .next_message(std::time::Duration::from_millis(1))
+            .expect("the link works")
+        {
+            out.push(message);
+        }
+    }
+    out
+}
+
+#[test]
+fn re_arming_waits_for_rest_and_resumes_from_where_the_robot_really_is() {
+    let mut scenario = Scenario::load("paper-circle").expect("built in");
+    scenario.duration_s = 4.0;
+    let start = station::ops::start_pose(&scenario);
+    let mut channels = Channels::new();
+    let mut robot = VirtualRobot::new(&mut channels, &scenario).expect("valid scenario");
+    let mut client = Client::new(InProcess::new(&mut robot));
+    let interrupt = AtomicBool::new(false);
+    let mut progress = |_: u64, _: u64| {};
+    let first = record::run(
+        &mut client,
+        &mut RunPlan {
+            scenario: &scenario,
+            law: LawKind::Tracking,
+            telemetry_hz: 100,
+            interrupt: &interrupt,
+            progress: &mut progress,
+        },
+    )
+    .expect("the run completes");
+    assert!(first.complete(), "{:?}", first.ended_by);
+    // At once: the wheels still turn, and the refusal says so in words.
+    let refused = station::ops::arm(&mut client, None, None).expect_err("refused");
+    assert!(
+        matches!(
+            &refused,
+            station::StationError::Refused { refusal, .. }
+                if **refusal == link::Refusal::NotPermitted(link::NotPermitted::WheelsTurning)
+        ),
+        "{refused:?}"
+    );
+    assert!(
+        refused.to_string().contains("the wheels are still turning"),
+        "{refused}"
+    );
+    // A second later they stand still: re-armed, from where the robot is.
+    messages_for(&mut client, 1000);
+    station::ops::arm(&mut client, None, None).expect("re-arms at rest");
+    let after = messages_for(&mut client, 3000);
+    let truth: Vec<_> = after
+        .iter()
+        .filter_map(|m| match m {
+            link::Uplink::GroundTruth(g) => Some(*g),
+            _ => None,
+        })
+        .collect();
+    let telemetry: Vec<_> = after
+        .iter()
+        .filter_map(|m| match m {
+            link::Uplink::Telemetry(t) => Some(*t),
+            _ => None,
+        })
+        .collect();
+    let (t0, g0) = (telemetry[0], truth[0]);
+    let apart = |a: controller_core::kinematics::Pose, b: controller_core::kinematics::Pose| {
+        (a.x_m - b.x_m).hypot(a.y_m - b.y_m)
+    };
+    assert!(
+        apart(g0.pose, start) > 0.5,
+        "the robot is away from the start: {g0:?}"
+    );
+    assert!(
+        apart(t0.pose, g0.pose) < 0.02,
+        "its estimate is where it is: {t0:?} {g0:?}"
+    );
+    // It goes on along the circle: its own error and its true distance from the circle
+    // stay small (the reference resumed where it stopped, it did not restart).
+    let last = telemetry.last().expect("telemetry");
+    assert_eq!(last.state, controller_core::supervisor::State::Armed);
+    assert!(
+        telemetry
+            .iter()
+            .all(|t| t.tracking_error.position_m() < 0.05),
+        "{last:?}"
+    );
+    let g = truth.last().expect("truth");
+    let at = controller_core::kinematics::Point::new(g.pose.x_m, g.pose.y_m);
+    let s_m = scenario.path.project(at, 0.0, f32::INFINITY, f32::INFINITY);
+    let on = scenario.path.sample(s_m).point;
+    let off = (g.pose.x_m - on.x_m).hypot(g.pose.y_m - on.y_m);
+    assert!(off < 0.05, "{off} m off the circle: {g:?}");
 }

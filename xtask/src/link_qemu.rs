@@ -360,6 +360,7 @@ impl Session {
         let follow = Request::Arm {
             mode: ArmMode::FollowPath,
             initial_motion: None,
+            run_time_limit_steps: None,
         };
         self.expect(
             follow.clone(),
@@ -378,6 +379,7 @@ impl Session {
             Request::Arm {
                 mode: ArmMode::HoldWheelSpeeds(WheelSpeeds::new(3.0, -3.0)),
                 initial_motion: Some(BodyVelocity::new(0.2, 0.5)),
+                run_time_limit_steps: None,
             },
             Ok(Reply::Ack),
         )?;
@@ -386,6 +388,7 @@ impl Session {
             Request::Arm {
                 mode: ArmMode::Tune,
                 initial_motion: None,
+                run_time_limit_steps: None,
             },
             Err(Refusal::NotPermitted(NotPermitted::Unsupported)),
         )?;

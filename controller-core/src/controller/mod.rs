@@ -36,7 +36,9 @@ use crate::law::{LawKind, LawOutput};
 use crate::limits::LimitFlags;
 use crate::math;
 use crate::odometry::Odometry;
-use crate::outer_loop::{OuterLoop, OuterLoopAway, OuterLoopHolder, OuterLoopJob};
+use crate::outer_loop::{
+    OuterLoop, OuterLoopAway, OuterLoopHolder, OuterLoopJob, ReferenceRestart,
+};
 use crate::params::Params;
 use crate::pid::PidParts;
 use crate::reference::{Reference, ReferenceState};
@@ -227,8 +229,11 @@ pub struct Controller<S = OuterLoop> {
     /// Counts restarts of the loops: an outcome of a job from before the last restart is
     /// stale.
     epoch: u32,
-    /// Path following restarted: the next job restarts the reference.
-    restart_reference: bool,
+    /// Path following (re)started: how the next job meets the reference.
+    reference_restart: ReferenceRestart,
+    /// The next entry into path following starts the reference afresh instead of
+    /// resuming it (a new controller, a new path, a pose command).
+    reference_afresh: bool,
     /// The wheel loops restarted at this body velocity: the next job restarts the
     /// command limiter from it.
     restart_limiter_from: Option<BodyVelocity>,
@@ -265,8 +270,8 @@ impl<S: OuterLoopHolder> Controller<S> {
         let steps_per_s = params.control_rate().get() as f32;
         let window = params.config().speed_window_steps as usize;
         let estimator = SpeedEstimator::new(window, params.rad_per_tick(), steps_per_s);
+        let odometry = Odometry::new(params.geometry(), params.ticks_per_wheel_rev(), start);
         Self {
-            odometry: Odometry::new(params.geometry(), params.ticks_per_wheel_rev(), start),
             speed: [estimator.clone(), estimator],
             drive: WheelDrive::new(&params),
             supply: SupplyFilter::new(params.config().drive.supply_filter_tau_s, params.period_s()),
@@ -280,78 +285,84 @@ impl<S: OuterLoopHolder> Controller<S> {
             outcome_in_telemetry: false,
             outcome_ready: false,
             epoch: 0,
-            restart_reference: false,
+            reference_restart: ReferenceRestart::None,
+            reference_afresh: true,
             restart_limiter_from: None,
             telemetry: Telemetry {
-                pose: start,
+                pose: odometry.pose(),
                 rim_speed_cap_m_s: params.config().limits.max_rim_speed_m_s,
                 ..Telemetry::default()
             },
+            odometry,
             params,
         }
     }
 
-    /// Rebuilds the controller in place as [`Controller::new`] would with `params`, `law`
-    /// and `start` (world frame), keeping its reference as it is. Unlike assigning a new
-    /// controller, it moves no whole controller through the stack: it is meant for small
-    /// stacks (an interrupt installing a new configuration). Refused, with nothing
-    /// changed, while the outer loop is lent.
-    pub fn rebuild(
-        &mut self,
-        params: &Params,
-        law: LawKind,
-        start: Pose,
-    ) -> Result<(), OuterLoopAway> {
+    /// Rebuilds the controller in place as [`Controller::new`] would with `params` and
+    /// `law`, keeping its pose (odometry rebuilt for the new geometry at the pose it
+    /// holds) and its reference as they are: where the robot is and how far along the path
+    /// it was do not change with the parameters. Unlike assigning a new controller, it
+    /// moves no whole controller through the stack: it is meant for small stacks (an
+    /// interrupt installing a new configuration). Refused, with nothing changed, while
+    /// the outer loop is lent.
+    pub fn rebuild(&mut self, params: &Params, law: LawKind) -> Result<(), OuterLoopAway> {
         self.outer_loop_for_a_change()?.restart(params, law);
         self.params = *params;
-        self.restart_from_params(start);
+        let pose = self.odometry.pose();
+        self.odometry = Odometry::new(params.geometry(), params.ticks_per_wheel_rev(), pose);
+        self.restart_from_params();
         Ok(())
     }
 
     /// Rebuilds the controller in place as [`Controller::new`] would with its parameters,
-    /// a copy of `reference`, `law` and `start` (world frame); see [`Controller::rebuild`].
-    pub fn follow(
-        &mut self,
-        reference: &Reference,
-        law: LawKind,
-        start: Pose,
-    ) -> Result<(), OuterLoopAway> {
+    /// a copy of `reference` and `law`, keeping its odometry as it is (a new path does
+    /// not move the robot; the pose command does, [`Controller::set_pose`]): the next
+    /// entry into path following starts the new reference afresh. See
+    /// [`Controller::rebuild`].
+    pub fn follow(&mut self, reference: &Reference, law: LawKind) -> Result<(), OuterLoopAway> {
         self.outer_loop_for_a_change()?.follow(reference);
         if let Some(steering) = self.steering.seated_mut() {
             steering.restart(&self.params, law);
         }
-        self.restart_from_params(start);
+        self.restart_from_params();
+        // A new path owes its reference nothing.
+        self.schedule.since_sample = 0;
+        self.reference_restart = ReferenceRestart::None;
+        self.reference_afresh = true;
         Ok(())
     }
 
-    /// Everything but the parameters and the outer loop as [`Controller::new`] builds it.
-    fn restart_from_params(&mut self, start: Pose) {
+    /// Everything but the parameters, the odometry, the outer loop and where the
+    /// reference is in its run (how the next entry into path following meets it, and
+    /// the periods since it was last sampled) as [`Controller::new`] builds it.
+    fn restart_from_params(&mut self) {
         let params = &self.params;
         let steps_per_s = params.control_rate().get() as f32;
         let window = params.config().speed_window_steps as usize;
         for speed in &mut self.speed {
             speed.reconfigure(window, params.rad_per_tick(), steps_per_s);
         }
-        self.odometry = Odometry::new(params.geometry(), params.ticks_per_wheel_rev(), start);
         self.drive = WheelDrive::new(params);
         self.supply =
             SupplyFilter::new(params.config().drive.supply_filter_tau_s, params.period_s());
         self.telemetry = Telemetry {
-            pose: start,
+            pose: self.odometry.pose(),
             rim_speed_cap_m_s: params.config().limits.max_rim_speed_m_s,
             ..Telemetry::default()
         };
         self.ramp = SetpointRamp::default();
         self.mode = Mode::Idle;
         self.steps = 0;
-        self.schedule = Schedule::default();
+        self.schedule = Schedule {
+            since_sample: self.schedule.since_sample,
+            ..Schedule::default()
+        };
         // No job is out: rebuilding needs the outer loop seated.
         self.job_due = false;
         self.job_elapsed_periods = 0;
         self.outcome_in_telemetry = false;
         self.outcome_ready = false;
         self.epoch = 0;
-        self.restart_reference = false;
         self.restart_limiter_from = None;
     }
 
@@ -428,9 +439,12 @@ impl<S: OuterLoopHolder> Controller<S> {
         self.drive.pid_parts()
     }
 
-    /// Switches mode. Entering [`Mode::FollowPath`] restarts the reference's time index
-    /// and progress; any change restarts the wheel loops and the ramp from the measured
-    /// state, so the command does not jump.
+    /// Switches mode. Entering [`Mode::FollowPath`] resumes the reference where the last
+    /// path following left it (a time-indexed reference's clock paused meanwhile; path
+    /// following projects the robot again), or starts it afresh after a new controller, a
+    /// new path ([`Controller::follow`]) or a pose command ([`Controller::set_pose`]);
+    /// any change restarts the wheel loops and the ramp from the measured state, so the
+    /// command does not jump.
     pub fn set_mode(&mut self, mode: Mode) {
         if mode == self.mode {
             return;
@@ -442,10 +456,22 @@ impl<S: OuterLoopHolder> Controller<S> {
         }
         // A due job runs with the restarts it was due with, not this one's.
         self.run_due_job_aside();
-        // The schedule and the reference only move in path following.
+        // The schedule and the reference only move in path following. A resumed
+        // reference is owed the periods it was followed for after its last sample: the
+        // first job hands them over, so its clock resumes where it stopped.
         if mode == Mode::FollowPath {
-            self.schedule = Schedule::default();
-            self.restart_reference = true;
+            let (restart, owed) = if self.reference_afresh {
+                (ReferenceRestart::Afresh, 0)
+            } else {
+                (ReferenceRestart::Resume, self.schedule.since_sample)
+            };
+            self.schedule = Schedule {
+                since_sample: owed,
+                ..Schedule::default()
+            };
+            // Two entries before a job meet the reference as the larger restart.
+            self.reference_restart = self.reference_restart.max(restart);
+            self.reference_afresh = false;
         }
         let was_driving = self.mode != Mode::Idle;
         self.mode = mode;
@@ -459,12 +485,25 @@ impl<S: OuterLoopHolder> Controller<S> {
         Ok(())
     }
 
-    /// Overwrites the odometry pose (world frame), e.g. from an external fix. A due
-    /// steering job keeps the pose it was due with.
+    /// The pose command: the robot is at `pose` (world frame, the path's). Everything
+    /// that estimates the pose is set to it: the odometry's position and its fixed-point
+    /// heading (a heading fused from a gyro would be set here too, but not the gyro's
+    /// bias, which belongs to the sensor and not to where the robot stands). The next
+    /// entry into path following starts the reference afresh: a robot put down somewhere
+    /// starts its path over. A due steering job keeps the pose it was due with.
     pub fn set_pose(&mut self, pose: Pose) {
         self.run_due_job_aside();
         self.odometry.set_pose(pose);
         self.telemetry.pose = self.odometry.pose();
+        self.reference_afresh = true;
+    }
+
+    /// Starts the odometry's heading recomputation afresh ([`Odometry::resync_heading`]),
+    /// the pose unchanged: a run's estimate then does not depend on how long the robot
+    /// stood before it was armed. A due steering job keeps the pose it was due with.
+    pub fn resync_heading(&mut self) {
+        self.run_due_job_aside();
+        self.odometry.resync_heading();
     }
 
     /// Asserts that the robot is moving at `body` (v m/s, ω rad/s, robot frame) although
@@ -664,7 +703,7 @@ impl<S: OuterLoopHolder> Controller<S> {
             heading_sin_cos: self.odometry.heading_sin_cos(),
             elapsed_periods: self.job_elapsed_periods,
             rim_speed_cap_m_s: self.rim_speed_cap_m_s(),
-            restart_reference: self.restart_reference,
+            reference_restart: self.reference_restart,
             restart_limiter_from: self.restart_limiter_from,
             epoch: self.epoch,
         }
@@ -681,7 +720,7 @@ impl<S: OuterLoopHolder> Controller<S> {
     /// The due job went to the outer loop, with the restarts it carried.
     fn job_taken(&mut self) {
         self.job_due = false;
-        self.restart_reference = false;
+        self.reference_restart = ReferenceRestart::None;
         self.restart_limiter_from = None;
     }
 

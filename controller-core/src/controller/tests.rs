@@ -49,7 +49,8 @@ fn ticks(left: i32, right: i32) -> TickDeltas {
 }
 
 /// A controller that has driven for a while, then is rebuilt in place, is the one
-/// `Controller::new` builds (every field, as `Debug` shows them).
+/// `Controller::new` builds (every field, as `Debug` shows them), but for what is kept:
+/// its pose (and, with new parameters, where its reference is in its run).
 #[test]
 fn rebuilding_in_place_equals_building_anew() {
     let mut params_config = RobotConfig::REFERENCE_ROBOT;
@@ -76,22 +77,32 @@ fn rebuilding_in_place_equals_building_anew() {
 
     let mut rebuilt = driven();
     let reference = rebuilt.reference().clone();
+    let pose = rebuilt.pose();
+    let owed = rebuilt.schedule.since_sample;
     rebuilt
-        .rebuild(&other_params, LawKind::Kanayama, start)
+        .rebuild(&other_params, LawKind::Kanayama)
         .expect("owned outer loop");
-    let fresh = Controller::new(other_params, reference, LawKind::Kanayama, start);
+    let mut fresh = Controller::new(other_params, reference, LawKind::Kanayama, pose);
+    // The reference goes on where it was: resumed, owed the periods since its sample.
+    fresh.reference_afresh = false;
+    fresh.schedule.since_sample = owed;
+    assert!(owed > 0, "the test drives past a steering update");
     assert_eq!(format!("{rebuilt:?}"), format!("{fresh:?}"));
 
     let mut followed = driven();
+    let odometry = followed.odometry;
     followed
-        .follow(&other_reference, LawKind::Kanayama, start)
+        .follow(&other_reference, LawKind::Kanayama)
         .expect("owned outer loop");
-    let fresh = Controller::new(
+    let mut fresh = Controller::new(
         *controller().params(),
         other_reference.clone(),
         LawKind::Kanayama,
         start,
     );
+    // A new path does not move the robot: its odometry is the driven one's, whole.
+    fresh.odometry = odometry;
+    fresh.telemetry.pose = fresh.odometry.pose();
     assert_eq!(format!("{followed:?}"), format!("{fresh:?}"));
     assert_ne!(format!("{followed:?}"), format!("{:?}", driven()));
 }
@@ -146,7 +157,7 @@ fn the_steering_outcome_of_a_step_is_applied_at_the_next() {
         elapsed_periods: 0,
         // 0.85 · 6 V → 30.4 rad/s → 0.987 m/s (see the weak-supply test).
         rim_speed_cap_m_s: 0.987_420_4,
-        restart_reference: true,
+        reference_restart: ReferenceRestart::Afresh,
         restart_limiter_from: Some(BodyVelocity::new(0.0, 0.0)),
         epoch: c.epoch,
     };
@@ -261,10 +272,7 @@ fn a_lent_outer_loop_does_what_an_owned_one_does() {
             assert!(!lent.collect_steering());
             assert!(lent.steering().is_none());
             assert_eq!(lent.set_law(LawKind::Paper), Err(OuterLoopAway));
-            assert_eq!(
-                lent.rebuild(&params, LawKind::Paper, Pose::default()),
-                Err(OuterLoopAway)
-            );
+            assert_eq!(lent.rebuild(&params, LawKind::Paper), Err(OuterLoopAway));
             lent.holder_mut().run_away();
         }
         assert!(!lent.lend_steering(), "one job per due step");
@@ -355,21 +363,76 @@ fn entering_follow_path_restarts_the_reference_and_the_steering_phase() {
         late.telemetry().reference.progress_m,
         fresh.telemetry().reference.progress_m
     );
-    // Following for 0.5 s, a pause, and following again starts the path over.
-    for _ in 0..500 {
-        step(&mut late, ticks(0, 0));
+}
+
+#[test]
+fn following_again_after_a_pause_resumes_the_reference_and_a_pose_command_restarts_it() {
+    // 502 steps of following (the first adds no time: 501 periods), a pause of 300
+    // steps, and following again: the time-indexed reference's clock paused and goes on
+    // from 501 periods, 0.2 m/s × 0.501 s along the line, not from its start.
+    let mut c = controller();
+    c.set_mode(Mode::FollowPath);
+    for _ in 0..502 {
+        step(&mut c, ticks(0, 0));
     }
-    assert!(late.telemetry().reference.progress_m > 0.09);
-    late.set_mode(Mode::Idle);
-    step(&mut late, ticks(0, 0));
-    late.set_mode(Mode::FollowPath);
-    step(&mut late, ticks(0, 0));
-    step(&mut late, ticks(0, 0));
-    assert!(late.telemetry().steering_updated);
-    assert_eq!(
-        late.telemetry().reference.progress_m,
-        fresh.telemetry().reference.progress_m
-    );
+    c.set_mode(Mode::Idle);
+    for _ in 0..300 {
+        step(&mut c, ticks(0, 0));
+    }
+    c.set_mode(Mode::FollowPath);
+    assert_eq!(c.steering_job().reference_restart, ReferenceRestart::Resume);
+    step(&mut c, ticks(0, 0));
+    step(&mut c, ticks(0, 0));
+    assert!(c.telemetry().steering_updated);
+    let resumed = c.telemetry().reference.progress_m;
+    assert!((resumed - 0.2 * 0.501).abs() < 1e-6, "{resumed}");
+    // Disarmed again and told where it is: the next run starts the reference afresh.
+    c.set_mode(Mode::Idle);
+    c.set_pose(Pose::new(0.0, 0.0, 0.0));
+    c.set_mode(Mode::FollowPath);
+    step(&mut c, ticks(0, 0));
+    step(&mut c, ticks(0, 0));
+    assert!(c.telemetry().steering_updated);
+    assert_eq!(c.telemetry().reference.progress_m, 0.0);
+}
+
+#[test]
+fn entering_twice_before_a_job_keeps_the_stronger_restart() {
+    // A pose command, following entered and left before any step, then entered again:
+    // the job still starts the reference afresh.
+    let mut c = controller();
+    c.set_mode(Mode::FollowPath);
+    for _ in 0..300 {
+        step(&mut c, ticks(0, 0));
+    }
+    c.set_mode(Mode::Idle);
+    c.set_pose(Pose::new(0.0, 0.0, 0.0));
+    c.set_mode(Mode::FollowPath);
+    c.set_mode(Mode::Idle);
+    c.set_mode(Mode::FollowPath);
+    assert_eq!(c.steering_job().reference_restart, ReferenceRestart::Afresh);
+    step(&mut c, ticks(0, 0));
+    step(&mut c, ticks(0, 0));
+    assert_eq!(c.telemetry().reference.progress_m, 0.0);
+}
+
+#[test]
+fn a_new_path_or_new_parameters_keep_the_pose() {
+    // Odometry counts while idle; neither an installed path nor new parameters move it.
+    let mut c = controller();
+    for _ in 0..50 {
+        step(&mut c, ticks(3, 4));
+    }
+    let pose = c.pose();
+    assert!(pose.x_m > 0.0 && pose.theta_rad != 0.0);
+    let reference = c.reference().clone();
+    c.follow(&reference, LawKind::Tracking).expect("owned");
+    assert_eq!(c.pose(), pose);
+    let params = *c.params();
+    c.rebuild(&params, LawKind::Tracking).expect("owned");
+    let kept = c.pose();
+    assert_eq!((kept.x_m, kept.y_m), (pose.x_m, pose.y_m));
+    assert!((kept.theta_rad - pose.theta_rad).abs() < 1e-6);
 }
 
 #[test]

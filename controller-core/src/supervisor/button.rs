@@ -1,17 +1,34 @@
 //! The arm button: debouncing and press classification, one raw sample per control step.
+//!
+//! A press is short (released before `long_press_steps`), long (released after it), or
+//! held on to [`MODE_SELECT_FACTOR`] × `long_press_steps`, which the debouncer reports
+//! while the button is still down.
+
+/// A press held this many times `long_press_steps` selects the run mode (3 s with the
+/// default 1 s long press).
+pub const MODE_SELECT_FACTOR: u32 = 3;
+
+/// How long a released press lasted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Length {
+    /// Released before `long_press_steps`.
+    Short,
+    /// Released after `long_press_steps`, before the mode-select hold.
+    Long,
+    /// Held to [`MODE_SELECT_FACTOR`] × `long_press_steps` or beyond.
+    ModeSelect,
+}
 
 /// What the debounced button did in one step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Press {
     /// A press began (debounced).
     Down,
-    /// The press has lasted `long_press_steps`.
-    Long,
-    /// The press ended (debounced); `long` if it reached `long_press_steps`.
-    Up {
-        /// The press lasted at least `long_press_steps`.
-        long: bool,
-    },
+    /// The press has lasted [`MODE_SELECT_FACTOR`] × `long_press_steps` (reported once,
+    /// while the button is still down).
+    ModeSelectHeld,
+    /// The press ended (debounced), after lasting this long.
+    Up(Length),
 }
 
 /// Debounces a raw button level sampled once per step.
@@ -40,13 +57,15 @@ impl Debouncer {
     }
 
     /// One raw sample `raw` (true while pressed). A change counts once the raw level has
-    /// differed from the debounced one for `debounce_steps` consecutive samples.
+    /// differed from the debounced one for `debounce_steps` consecutive samples; a press
+    /// is long from `long_press_steps` on.
     pub(super) fn update(
         &mut self,
         raw: bool,
         debounce_steps: u32,
         long_press_steps: u32,
     ) -> Option<Press> {
+        let mode_select_steps = long_press_steps.saturating_mul(MODE_SELECT_FACTOR);
         if raw == self.pressed {
             self.changing_steps = 0;
         } else {
@@ -59,16 +78,21 @@ impl Debouncer {
                     self.held_steps = debounce_steps;
                     return Some(Press::Down);
                 }
-                return Some(Press::Up {
-                    long: self.held_steps >= long_press_steps,
-                });
+                let length = if self.held_steps >= mode_select_steps {
+                    Length::ModeSelect
+                } else if self.held_steps >= long_press_steps {
+                    Length::Long
+                } else {
+                    Length::Short
+                };
+                return Some(Press::Up(length));
             }
         }
         if self.pressed {
             let before = self.held_steps;
             self.held_steps = self.held_steps.saturating_add(1);
-            if before < long_press_steps && self.held_steps >= long_press_steps {
-                return Some(Press::Long);
+            if before < mode_select_steps && self.held_steps >= mode_select_steps {
+                return Some(Press::ModeSelectHeld);
             }
         }
         None
@@ -103,24 +127,32 @@ mod tests {
         let levels = (0..200).map(|k| k < 100);
         assert_eq!(
             events(levels),
-            vec![(19, Press::Down), (119, Press::Up { long: false })]
+            vec![(19, Press::Down), (119, Press::Up(Length::Short))]
         );
         // 19 steps is one too few.
         assert_eq!(events((0..100).map(|k| k < 19)), vec![]);
     }
 
     #[test]
-    fn a_held_press_becomes_long_once() {
-        let levels = (0..2000).map(|k| k < 1500);
-        let got = events(levels);
-        // Down at 19 (held counted from the press's start), long when 1000 steps held
-        // (index 999), up when released.
+    fn a_press_is_long_from_the_long_press_time_and_selects_at_three_times_it() {
+        // Down at 19 (held counted from the press's start); released after 1.5 s: long.
         assert_eq!(
-            got,
+            events((0..2000).map(|k| k < 1500)),
+            vec![(19, Press::Down), (1519, Press::Up(Length::Long))]
+        );
+        // Released at 0.9 s (0.92 s with the release's debounce): short.
+        assert_eq!(
+            events((0..2000).map(|k| k < 900)),
+            vec![(19, Press::Down), (919, Press::Up(Length::Short))]
+        );
+        // Held on: the mode-select hold is reported once when 3000 steps are held (index
+        // 2999), while still down, and the release says so again.
+        assert_eq!(
+            events((0..5000).map(|k| k < 4000)),
             vec![
                 (19, Press::Down),
-                (999, Press::Long),
-                (1519, Press::Up { long: true })
+                (2999, Press::ModeSelectHeld),
+                (4019, Press::Up(Length::ModeSelect))
             ]
         );
     }
@@ -131,7 +163,7 @@ mod tests {
         let levels = (0..300).map(|k| k < 100 || (115..200).contains(&k));
         assert_eq!(
             events(levels),
-            vec![(19, Press::Down), (219, Press::Up { long: false })]
+            vec![(19, Press::Down), (219, Press::Up(Length::Short))]
         );
     }
 }

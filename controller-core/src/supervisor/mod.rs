@@ -28,10 +28,12 @@
 //! ```
 //!
 //! - **Disarmed** (the state after every reset): duties 0, the controller in
-//!   [`Mode::Idle`] (odometry keeps running).
+//!   [`Mode::Idle`] (odometry keeps running). The pose command (the link's
+//!   [`Command::SetPose`], a long press) is taken here only.
 //! - **Armed**: the controller runs the selected [`RunMode`]; its duties go to the motors.
-//!   Arming into [`RunMode::FollowPath`] resets the odometry to the configured start pose
-//!   and restarts the reference.
+//!   Arming keeps the pose: path following resumes where it stopped (the time-indexed
+//!   reference's clock paused while disarmed; path following projects the robot again),
+//!   or starts afresh after a new path or a pose command.
 //! - **Faulted**: duties 0, the faults latched in [`Faults`] until a short press or the
 //!   link's `ClearFaults` acknowledges them (the robot is then Disarmed, not Armed).
 //! - **Persisting**: motors off while the firmware erases and writes flash, which stalls
@@ -40,15 +42,34 @@
 //! Armed, the robot runs one of three [`RunMode`]s: follow the path, hold wheel speeds,
 //! or tune the wheel loops ([`crate::tune`]: open-loop voltage experiments, every fault
 //! check in force; the tune disarms by itself when done, and a fault, the button or the
-//! link stops it like any run). A long press while disarmed selects the next mode.
+//! link stops it like any run).
+//!
+//! ## The button
+//!
+//! | gesture | Disarmed | Armed | Faulted |
+//! |---|---|---|---|
+//! | press | — | disarm at once (on press-down) | — |
+//! | short press (released before [`SupervisorConfig::long_press_steps`]) | arm (on release), if the wheels are at rest | — | clear the faults |
+//! | long press (released after it) | set the pose to [`SupervisorConfig::start_pose`]: "I put it at the start" | — | — |
+//! | held [`MODE_SELECT_FACTOR`] × as long | select the next [`RunMode`] (while held) | — | — |
+//!
+//! A press that disarmed does nothing more when it ends.
 //!
 //! ## Arming
 //!
 //! The step that arms (a short press, the link's `Arm`, auto-arm) is the run's first
-//! driving step: it starts the controller in the new mode (the start pose, a tune's
-//! start, the speed estimates of a run that starts in motion, the loops restarted),
-//! steps it, and drives the motors. [`Supervisor::arm_locally`], called between two
-//! steps, starts the controller at once, so the next [`Supervisor::step`] drives.
+//! driving step: it starts the controller in the new mode (a tune's start, the speed
+//! estimates of a run that starts in motion, the loops restarted), steps it, and drives
+//! the motors. Arming from rest needs the wheels at rest: both measured speeds below
+//! [`REST_SPEED_RAD_S`] for [`REST_STEPS`] steps ([`CommandRefusal::WheelsTurning`]
+//! otherwise; a short press reports [`Event::ArmRefused`], auto-arm waits); a request
+//! that asserts the motion ([`ArmRequest::initial_motion`], the paper's runs) arms in
+//! motion. A request may carry the run's own time limit ([`ArmRequest::max_armed_steps`]),
+//! which holds for that run only. [`Supervisor::arm_locally`], called between two steps,
+//! starts the controller at once, so the next [`Supervisor::step`] drives.
+//!
+//! One state change is reported per step ([`SupervisorOutput::event`]): when the button
+//! and the link both change the state in one step, the link's, which is the later.
 //!
 //! ## The bridge: brake, then coast
 //!
@@ -128,13 +149,16 @@ mod button;
 mod checks;
 mod config;
 mod faults;
+mod rest;
 mod vocabulary;
 
+pub use button::MODE_SELECT_FACTOR;
 pub use config::{
     geofence_radius_m, ms_to_steps, BatteryCheck, DivergenceCheck, MissedTickCheck,
     SaturationCheck, StallCheck, SupervisorConfig, SupervisorConfigError,
 };
 pub use faults::{Fault, Faults};
+pub use rest::{REST_SPEED_RAD_S, REST_STEPS};
 pub use vocabulary::{
     ArmRequest, Bridge, Command, CommandRefusal, DisarmReason, Event, Inputs, ResetCause, RunMode,
     State, SupervisorOutput, SupervisorSetError,
@@ -144,13 +168,15 @@ use core::num::NonZeroU32;
 
 use crate::controller::{Controller, Mode, MotorCommand, StepInput};
 use crate::drive::WheelVolts;
+use crate::kinematics::Pose;
 use crate::math;
 use crate::outer_loop::OuterLoopHolder;
 use crate::params::Params;
 use crate::tune::{TuneAbort, TuneConfig, TuneResult, TuneStep, Tuner};
 
-use button::{Debouncer, Press};
+use button::{Debouncer, Length, Press};
 use checks::{outside_geofence, Divergence, MissedTicks, Saturation, Stall, Supply};
+use rest::AtRest;
 
 /// The firmware's safety state machine (see the module doc).
 #[derive(Clone, Debug)]
@@ -171,6 +197,10 @@ pub struct Supervisor {
     steps_since_boot: u32,
     /// Steps in the current Armed period.
     armed_steps: u32,
+    /// The current run's time limit, steps armed (its request's, else the setting's).
+    run_limit_steps: Option<u32>,
+    /// Whether the wheels have been at rest long enough to arm from rest.
+    rest: AtRest,
     /// The link armed the robot: heartbeats are due.
     armed_by_link: bool,
     steps_since_link_heartbeat: u32,
@@ -213,6 +243,8 @@ impl Supervisor {
             auto_arm_pending: config.auto_arm_after_steps.is_some() && reset.allows_auto_arm(),
             steps_since_boot: 0,
             armed_steps: 0,
+            run_limit_steps: None,
+            rest: AtRest::new(),
             armed_by_link: false,
             steps_since_link_heartbeat: 0,
             brake_steps_left: 0,
@@ -325,7 +357,10 @@ impl Supervisor {
         if let Some(command) = input.command {
             let (result, command_event) = self.handle_command(command, controller);
             command_result = Some(result);
-            event = event.or(command_event);
+            // The later change is the one the step ends in (a button that cleared the
+            // faults and a link that armed in the same step: the robot is armed, and a
+            // run's start must be seen).
+            event = command_event.or(event);
         }
         if event.is_none() {
             event = self.handle_timers(controller);
@@ -338,6 +373,7 @@ impl Supervisor {
             periods: input.periods,
             supply_v: input.supply_v,
         });
+        self.rest.update(controller.telemetry().wheel_speed);
 
         // 3. Faults, whatever the state. Flags latch: OR, never overwrite.
         self.check_faults(controller, controller_duty, input.periods);
@@ -410,9 +446,9 @@ impl Supervisor {
 
     /// Arms at once, at the request of the operator at the robot rather than over the
     /// link (a bench script, the simulator's timeline): like the button, it needs no
-    /// heartbeat. Only from Disarmed, and not while the button is held. Call it between
-    /// two steps: the controller starts at once, and the next [`Supervisor::step`]
-    /// drives.
+    /// heartbeat. Only from Disarmed, not while the button is held, and from rest unless
+    /// the request asserts a motion. Call it between two steps: the controller starts at
+    /// once, and the next [`Supervisor::step`] drives.
     pub fn arm_locally<S: OuterLoopHolder>(
         &mut self,
         controller: &mut Controller<S>,
@@ -424,7 +460,29 @@ impl Supervisor {
         if self.button.pressed() {
             return Err(CommandRefusal::ButtonHeld);
         }
-        Ok(self.arm(controller, request, false))
+        self.arm_if_at_rest(controller, request, false)
+    }
+
+    /// The pose command: the robot is at `pose` (world frame, the path's), from the link
+    /// ([`Command::SetPose`]), a long press (the start pose) or the operator at the robot
+    /// (called between two steps). Only while Disarmed ([`CommandRefusal::WrongState`])
+    /// and only a finite pose ([`CommandRefusal::NonFinitePose`]). It sets whatever
+    /// estimates the pose ([`Controller::set_pose`]: the odometry, and a fused heading
+    /// once there is one, never a sensor's bias), and the next path-following run starts
+    /// its reference afresh. The pose is set by this command only: arming keeps it.
+    pub fn set_pose<S: OuterLoopHolder>(
+        &mut self,
+        controller: &mut Controller<S>,
+        pose: Pose,
+    ) -> Result<Event, CommandRefusal> {
+        if self.state != State::Disarmed {
+            return Err(CommandRefusal::WrongState(self.state));
+        }
+        if !pose.is_finite() {
+            return Err(CommandRefusal::NonFinitePose);
+        }
+        controller.set_pose(pose);
+        Ok(Event::PoseSet)
     }
 
     /// The watchdog-feeding rule (module doc): the loop is not late and the background runs.
@@ -543,21 +601,29 @@ impl Supervisor {
                 self.press_consumed = false;
                 None
             }
-            (Press::Long, State::Disarmed) if !self.press_consumed => {
+            (Press::ModeSelectHeld, State::Disarmed) if !self.press_consumed => {
                 self.press_consumed = true;
                 self.run_mode = self.run_mode.next();
                 Some(Event::ModeSelected(self.run_mode))
             }
-            (Press::Long, _) => None,
-            (Press::Up { .. }, _) if self.press_consumed => {
+            (Press::ModeSelectHeld, _) => None,
+            (Press::Up(_), _) if self.press_consumed => {
                 self.press_consumed = false;
                 None
             }
-            (Press::Up { long: false }, State::Disarmed) => {
-                Some(self.arm(controller, self.arm_request_for(self.run_mode), false))
+            (Press::Up(Length::Short), State::Disarmed) => {
+                let request = self.arm_request_for(self.run_mode);
+                Some(
+                    self.arm_if_at_rest(controller, request, false)
+                        .unwrap_or_else(Event::ArmRefused),
+                )
             }
-            (Press::Up { long: false }, State::Faulted) => Some(self.clear_faults(controller)),
-            (Press::Up { .. }, _) => None,
+            (Press::Up(Length::Short), State::Faulted) => Some(self.clear_faults(controller)),
+            // The deliberate gesture that says "I put it at the start".
+            (Press::Up(Length::Long), State::Disarmed) => {
+                self.set_pose(controller, self.config.start_pose).ok()
+            }
+            (Press::Up(_), _) => None,
         }
     }
 
@@ -580,9 +646,15 @@ impl Supervisor {
                 (Err(CommandRefusal::ButtonHeld), None)
             }
             (Command::Arm(request), State::Disarmed) => {
-                self.auto_arm_pending = false;
-                (Ok(()), Some(self.arm(controller, request, true)))
+                match self.arm_if_at_rest(controller, request, true) {
+                    Ok(event) => (Ok(()), Some(event)),
+                    Err(refusal) => (Err(refusal), None),
+                }
             }
+            (Command::SetPose(pose), _) => match self.set_pose(controller, pose) {
+                Ok(event) => (Ok(()), Some(event)),
+                Err(refusal) => (Err(refusal), None),
+            },
             (Command::Disarm, State::Armed) => {
                 self.disarm(controller);
                 (Ok(()), Some(Event::Disarmed(DisarmReason::Link)))
@@ -612,8 +684,10 @@ impl Supervisor {
         match self.state {
             State::Disarmed if self.auto_arm_pending => {
                 let due = self.config.auto_arm_after_steps.unwrap_or(u32::MAX);
+                // Tried again at every step until it arms (the wheels may still turn).
                 if self.steps_since_boot >= due && !self.button.pressed() {
-                    Some(self.arm(controller, self.arm_request_for(self.run_mode), false))
+                    let request = self.arm_request_for(self.run_mode);
+                    self.arm_if_at_rest(controller, request, false).ok()
                 } else {
                     None
                 }
@@ -626,7 +700,7 @@ impl Supervisor {
                     self.disarm(controller);
                     return Some(Event::Disarmed(DisarmReason::LinkLost));
                 }
-                match self.config.max_armed_steps {
+                match self.run_limit_steps {
                     Some(max) if self.armed_steps >= max => {
                         self.disarm(controller);
                         Some(Event::Disarmed(DisarmReason::Timeout))
@@ -644,12 +718,30 @@ impl Supervisor {
             mode,
             hold_speeds: None,
             initial_motion: None,
+            max_armed_steps: None,
         }
     }
 
+    /// [`Supervisor::arm`], if the wheels are at rest or the request asserts the motion
+    /// they have; otherwise refused with [`CommandRefusal::WheelsTurning`] and nothing
+    /// changed.
+    fn arm_if_at_rest<S: OuterLoopHolder>(
+        &mut self,
+        controller: &mut Controller<S>,
+        request: ArmRequest,
+        by_link: bool,
+    ) -> Result<Event, CommandRefusal> {
+        if request.initial_motion.is_none() && !self.rest.at_rest() {
+            return Err(CommandRefusal::WheelsTurning);
+        }
+        Ok(self.arm(controller, request, by_link))
+    }
+
     /// Arms with `request` (the link's when `by_link`) and prepares `controller` for the
-    /// run: the start pose, a tune's start or the motion a run starts with. The step
-    /// then switches it to the run's mode, which restarts its loops.
+    /// run: a tune's start or the motion a run starts with. The pose is kept (odometry
+    /// counted while disarmed); path following resumes its reference, or starts it
+    /// afresh after a new path or a pose command. The step then switches the controller
+    /// to the run's mode, which restarts its loops.
     fn arm<S: OuterLoopHolder>(
         &mut self,
         controller: &mut Controller<S>,
@@ -659,6 +751,7 @@ impl Supervisor {
         self.auto_arm_pending = false;
         self.state = State::Armed;
         self.run_mode = request.mode;
+        self.run_limit_steps = request.max_armed_steps.or(self.config.max_armed_steps);
         if let Some(speeds) = request.hold_speeds {
             if speeds.left_rad_s.is_finite() && speeds.right_rad_s.is_finite() {
                 self.config.hold_speeds = speeds;
@@ -670,11 +763,9 @@ impl Supervisor {
         self.brake_steps_left = 0;
         self.stall.reset();
         self.divergence.reset();
-        if self.run_mode == RunMode::FollowPath {
-            // The robot has been put down at the start; forget where odometry drifted to
-            // while it was carried. Leaving Idle for FollowPath restarts the reference.
-            controller.set_pose(self.config.start_pose);
-        }
+        // The estimate of the run does not depend on how long the robot stood before it
+        // (the odometry's periodic heading recomputation counts from the arming step).
+        controller.resync_heading();
         if self.run_mode == RunMode::Tune {
             // From where the robot stands; the tune checks that it stands still.
             self.tune_volts = WheelVolts::default();

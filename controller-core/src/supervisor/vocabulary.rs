@@ -6,11 +6,11 @@ use core::num::NonZeroU32;
 
 use super::{Faults, SupervisorConfigError};
 use crate::controller::{MotorCommand, TickDeltas};
-use crate::kinematics::{BodyVelocity, WheelSpeeds};
+use crate::kinematics::{BodyVelocity, Pose, WheelSpeeds};
 use crate::tune::TuneConfigError;
 
 #[cfg(doc)]
-use super::{Supervisor, SupervisorConfig};
+use super::{Supervisor, SupervisorConfig, REST_SPEED_RAD_S, REST_STEPS};
 #[cfg(doc)]
 use crate::controller::Controller;
 
@@ -22,7 +22,9 @@ use crate::controller::Controller;
     derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
 )]
 pub enum RunMode {
-    /// Follow the controller's reference path from [`SupervisorConfig::start_pose`].
+    /// Follow the controller's reference path from where the robot is: resumed where the
+    /// last run stopped, or afresh after a new path or a pose command
+    /// ([`Command::SetPose`]).
     FollowPath,
     /// Hold [`SupervisorConfig::hold_speeds`] with the wheel loops only (bring-up).
     HoldWheelSpeeds,
@@ -33,8 +35,9 @@ pub enum RunMode {
 }
 
 impl RunMode {
-    /// The mode a long press selects after this one: follow the path, hold wheel speeds,
-    /// tune, and round again.
+    /// The mode a press held for the mode-select time selects after this one (see
+    /// [`SupervisorConfig::long_press_steps`]): follow the path, hold wheel speeds, tune,
+    /// and round again.
     pub const fn next(self) -> RunMode {
         match self {
             RunMode::FollowPath => RunMode::HoldWheelSpeeds,
@@ -130,7 +133,8 @@ pub enum DisarmReason {
     Button,
     /// The link asked.
     Link,
-    /// [`SupervisorConfig::max_armed_steps`] ran out.
+    /// The run's time limit ran out: [`ArmRequest::max_armed_steps`], or
+    /// [`SupervisorConfig::max_armed_steps`] when the request had none.
     Timeout,
     /// The link armed the robot and then fell silent for
     /// [`SupervisorConfig::heartbeat_timeout_steps`].
@@ -164,6 +168,12 @@ pub enum Event {
     PersistStarted,
     /// Left [`State::Persisting`].
     PersistEnded,
+    /// The pose was set: by the link's [`Command::SetPose`], or by a long press while
+    /// disarmed (to [`SupervisorConfig::start_pose`]).
+    PoseSet,
+    /// A short press did not arm, for this reason (the link's refusals come in its
+    /// reply).
+    ArmRefused(CommandRefusal),
 }
 
 /// How to arm.
@@ -180,8 +190,13 @@ pub struct ArmRequest {
     /// [`RunMode::HoldWheelSpeeds`].
     pub hold_speeds: Option<WheelSpeeds>,
     /// The motion (v m/s, ω rad/s, robot frame) the operator asserts the robot already
-    /// has, for a run that starts in motion ([`Controller::seed_motion`]).
+    /// has, for a run that starts in motion ([`Controller::seed_motion`]). Without it the
+    /// wheels must be at rest ([`CommandRefusal::WheelsTurning`]).
     pub initial_motion: Option<BodyVelocity>,
+    /// This run's time limit: disarm after this many steps armed, the step that arms
+    /// among them, instead of [`SupervisorConfig::max_armed_steps`], for this run only
+    /// (`None`: the stored setting).
+    pub max_armed_steps: Option<u32>,
 }
 
 impl ArmRequest {
@@ -191,6 +206,7 @@ impl ArmRequest {
             mode: RunMode::FollowPath,
             hold_speeds: None,
             initial_motion: None,
+            max_armed_steps: None,
         }
     }
 }
@@ -217,6 +233,9 @@ pub enum Command {
     BeginPersist,
     /// Leave [`State::Persisting`].
     EndPersist,
+    /// The robot is at this pose (world frame, the path's; from Disarmed only): see
+    /// [`Supervisor::set_pose`].
+    SetPose(Pose),
 }
 
 /// Why a [`Command`] was refused.
@@ -231,6 +250,12 @@ pub enum CommandRefusal {
     WrongState(State),
     /// The button is held: the local kill wins over the link.
     ButtonHeld,
+    /// Arming from rest while a wheel still turns: both measured wheel speeds must have
+    /// stayed below [`REST_SPEED_RAD_S`] for [`REST_STEPS`] steps, unless the request
+    /// asserts the motion ([`ArmRequest::initial_motion`]).
+    WheelsTurning,
+    /// A pose with a NaN or infinite field.
+    NonFinitePose,
 }
 
 impl core::fmt::Display for CommandRefusal {
@@ -238,6 +263,10 @@ impl core::fmt::Display for CommandRefusal {
         match self {
             CommandRefusal::WrongState(state) => write!(f, "not possible while {state:?}"),
             CommandRefusal::ButtonHeld => f.write_str("the robot's button is held (local stop)"),
+            CommandRefusal::WheelsTurning => f.write_str(
+                "the wheels are still turning: arming waits until both have stood still",
+            ),
+            CommandRefusal::NonFinitePose => f.write_str("the pose must be finite"),
         }
     }
 }
@@ -301,7 +330,8 @@ pub struct SupervisorOutput {
     pub overruns_total: u32,
     /// Missed control ticks since boot (saturating).
     pub missed_ticks_total: u32,
-    /// The state change of this step, if any.
+    /// The state change of this step, if any. When two happen in one step (the button's,
+    /// then the link's command), the later one: the change that led to [`Self::state`].
     pub event: Option<Event>,
     /// The outcome of this step's [`Inputs::command`], if there was one.
     pub command_result: Option<Result<(), CommandRefusal>>,

@@ -122,6 +122,23 @@ impl TestRobot {
             // This test robot never runs the controller, so it has no run to report.
             Request::GetRunReport => Ok(Reply::RunReport(RunReport::default())),
             Request::GetTuneReport => Ok(Reply::TuneReport(link::TuneReport::NONE)),
+            // No odometry here: the pose command is only checked as the robot checks it.
+            Request::SetPose {
+                x_m,
+                y_m,
+                theta_rad,
+            } => {
+                self.disarmed()?;
+                for (field, value) in [("x_m", x_m), ("y_m", y_m), ("theta_rad", theta_rad)] {
+                    if !value.is_finite() {
+                        return Err(Refusal::InvalidArgument(FieldProblem::new(
+                            field,
+                            "must be finite",
+                        )));
+                    }
+                }
+                Ok(Reply::Ack)
+            }
         }
     }
 

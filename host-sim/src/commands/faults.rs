@@ -138,6 +138,8 @@ mod tests {
                 wheels_stopped_s: None,
                 distance_after_m: 0.0,
             },
+            final_state: "Faulted".into(),
+            final_true_error_m: None,
         }
     }
 

@@ -16,6 +16,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use controller_core::controller::MotorCommand;
+use controller_core::kinematics::Pose;
 use controller_core::supervisor::{ArmRequest, Bridge, Event, State, SupervisorOutput};
 use lockstep::{
     BoardDecoder, BoardReport, BoardStep, FromBoard, PlantStep, FINISH, PLANT_STEP_MAX_LEN,
@@ -184,6 +185,11 @@ impl Firmware {
 impl RobotLogic for Firmware {
     /// The station arms the firmware over the link; nothing arms it locally.
     fn arm_locally(&mut self, _request: ArmRequest) -> bool {
+        false
+    }
+
+    /// The station sends the pose command over the link (`SetPose`), before it arms.
+    fn set_pose_locally(&mut self, _pose: Pose) -> bool {
         false
     }
 

@@ -187,9 +187,20 @@ impl Session {
             Ok(Reply::Ack) => {}
             other => bail!("SetTelemetryRate: {}", describe(&other)),
         }
+        // The pose command, as `station run` sends it: the robot starts from the start pose.
+        let pose = script.start_pose;
+        match self.request(Request::SetPose {
+            x_m: pose.x_m,
+            y_m: pose.y_m,
+            theta_rad: pose.theta_rad,
+        })? {
+            Ok(Reply::Ack) => {}
+            other => bail!("SetPose: {}", describe(&other)),
+        }
         match self.request(Request::Arm {
             mode: ArmMode::FollowPath,
             initial_motion: script.initial_motion,
+            run_time_limit_steps: None,
         })? {
             Ok(Reply::Ack) => Ok(()),
             other => bail!("Arm: {}", describe(&other)),

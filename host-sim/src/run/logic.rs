@@ -45,6 +45,10 @@ pub trait RobotLogic {
     /// Arms before the first step, as the operator at the robot would (`false` if this
     /// logic cannot, or refused): the scenario's `arm = "follow"` start.
     fn arm_locally(&mut self, request: ArmRequest) -> bool;
+    /// Tells the robot it is at `pose` (world frame, m and rad) before the first step, as
+    /// the operator at the robot would (the pose command; `false` if this logic takes it
+    /// over the link instead, or refused).
+    fn set_pose_locally(&mut self, pose: Pose) -> bool;
     /// One control step on what the firmware reads, `sensors`.
     fn step(&mut self, sensors: &Sensors) -> Result<Decision<'_>, RunError>;
 }
@@ -87,6 +91,10 @@ impl RobotLogic for LocalRobot {
         self.supervisor
             .arm_locally(&mut self.controller, request)
             .is_ok()
+    }
+
+    fn set_pose_locally(&mut self, pose: Pose) -> bool {
+        self.supervisor.set_pose(&mut self.controller, pose).is_ok()
     }
 
     fn step(&mut self, sensors: &Sensors) -> Result<Decision<'_>, RunError> {

@@ -19,10 +19,14 @@
 //! Everything else — the plant, the faults, the metrics, the digest — is the same code,
 //! so the two summaries can be compared field for field.
 //!
-//! ## Arming and a start in motion
+//! ## The start pose, arming and a start in motion
 //!
-//! Unless the scenario's `[start]` says `arm = "none"`, the run arms at step 0 through the
-//! supervisor, as an operator at the robot would (no link, so no heartbeat is needed).
+//! The robot is told it is at the scenario's start with the pose command
+//! (`Supervisor::set_pose`, through [`RobotLogic::set_pose_locally`]), the one way a
+//! pose is ever set: `station run` and the processor-in-the-loop station send the same
+//! command on the link (`SetPose`), and arming keeps the pose. Unless the scenario's
+//! `[start]` says `arm = "none"`, the run then arms at step 0 through the supervisor, as
+//! an operator at the robot would (no link, so no heartbeat is needed).
 //! The paper's experiments start in motion (v = 0.4 m/s, ω = 0.3 rad/s at t = 0): the
 //! plant's wheels are spun up to that motion and the arm request asserts it
 //! ([`ArmRequest::initial_motion`]), so the controller's speed estimate and ramp start
@@ -246,8 +250,10 @@ pub fn run_with_logic<L: RobotLogic>(
     let mut digest = Fnv1a64::new();
     let mut last_estimate_pose = Pose::default();
 
-    // Arm at step 0 (in motion if the scenario starts moving), unless told not to.
+    // The robot is put at the start and told so (the pose command), then armed at step
+    // 0 (in motion if the scenario starts moving), unless told not to.
     let s = scenario.start;
+    logic.set_pose_locally(Pose::new(s.x_m as f32, s.y_m as f32, s.theta_rad as f32));
     if s.v_m_s != 0.0 || s.omega_rad_s != 0.0 {
         hardware
             .start_moving(s.v_m_s, s.omega_rad_s)
@@ -265,6 +271,7 @@ pub fn run_with_logic<L: RobotLogic>(
             mode: RunMode::FollowPath,
             hold_speeds: None,
             initial_motion: motion,
+            max_armed_steps: None,
         };
         if logic.arm_locally(request) {
             armed_at = Some(0);

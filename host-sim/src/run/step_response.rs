@@ -66,6 +66,7 @@ pub fn wheel_step_response(
         mode: RunMode::HoldWheelSpeeds,
         hold_speeds: Some(WheelSpeeds::new(sp, sp)),
         initial_motion: None,
+        max_armed_steps: None,
     };
     if !robot.arm_locally(request) {
         return Err(RunError::Argument {

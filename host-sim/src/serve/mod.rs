@@ -23,7 +23,10 @@
 //!
 //! - **A committed path** puts the robot at the path's start pose, at rest (a new
 //!   hardware: encoders, noise and injected faults start again, as in a fresh
-//!   `host-sim run`).
+//!   `host-sim run`). It moves the plant only: the robot's own estimate is set by the
+//!   pose command (`SetPose`, which `station run` sends after the upload, or a long
+//!   press), as on the robot; re-armed without one, the robot goes on from where its
+//!   odometry says it is.
 //! - **The plant holds still until the robot is armed**: while it waits, each control
 //!   step reads the sensors of a copy of the hardware, so the noise the run will see
 //!   starts at the arming step, the run's first, exactly as in `host-sim run`, and the

@@ -15,6 +15,8 @@
 //! | [`Request::GetStats`] | [`Reply::Stats`] |
 //! | [`Request::GetRunReport`] | [`Reply::RunReport`] |
 //! | [`Request::GetTuneReport`] | [`Reply::TuneReport`] |
+//! | [`Request::Arm`] | [`Reply::Ack`]; refused while a wheel still turns unless it asserts the motion ([`NotPermitted::WheelsTurning`]) |
+//! | [`Request::SetPose`] | [`Reply::Ack`]; only while disarmed, every field finite |
 //! | every other request | [`Reply::Ack`] |
 //!
 //! The other [`Uplink`] messages are sent by the robot on its own: [`Uplink::Telemetry`]
@@ -112,8 +114,13 @@ pub enum Request {
         /// "Arm in motion": the operator asserts the robot is already moving at this body
         /// velocity (robot frame, m/s and rad/s), so the controller and its limiter start
         /// from it instead of from rest (simulations that start in motion). `None`: at
-        /// rest.
+        /// rest, and the wheels must be at rest (refused with
+        /// [`NotPermitted::WheelsTurning`] while either still turns).
         initial_motion: Option<BodyVelocity>,
+        /// This run's time limit, control steps armed (the step that arms among them):
+        /// it overrides the supervisor's stored `max_armed_steps` for this run only, so
+        /// a host that sets a run's length changes no setting. `None`: the stored one.
+        run_time_limit_steps: Option<u32>,
     },
     /// Disarm (motors off, driver disabled).
     Disarm,
@@ -138,6 +145,21 @@ pub enum Request {
     /// The outcome of the last wheel-loop tune ([`Reply::TuneReport`]); the robot also
     /// sends it unasked when a tune ends ([`Uplink::TuneReport`]).
     GetTuneReport,
+    /// The pose command: the robot is at this pose now (world frame, the path's; m, m,
+    /// rad). Only while disarmed ([`Refusal::Armed`], [`Refusal::Faulted`]); a field that
+    /// is not finite is refused by name ([`Refusal::InvalidArgument`]). It sets the
+    /// odometry's pose, its fixed-point heading with it; a heading fused from a gyro is
+    /// set by this same command (the gyro's bias is not: it belongs to the sensor). The
+    /// pose is never set otherwise: arming keeps it, and the next path-following run
+    /// starts its reference afresh from it.
+    SetPose {
+        /// x, m.
+        x_m: f32,
+        /// y, m.
+        y_m: f32,
+        /// Heading θ, rad, counter-clockwise from +x.
+        theta_rad: f32,
+    },
 }
 
 impl Request {
@@ -161,6 +183,7 @@ impl Request {
             Request::GetStats => "GetStats",
             Request::GetRunReport => "GetRunReport",
             Request::GetTuneReport => "GetTuneReport",
+            Request::SetPose { .. } => "SetPose",
         }
     }
 }
@@ -168,7 +191,9 @@ impl Request {
 /// What the robot does once armed.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
 pub enum ArmMode {
-    /// Follow the committed path from its start pose.
+    /// Follow the committed path from where the robot is: resumed where the last run
+    /// stopped (a time-indexed reference's clock paused while disarmed), or afresh after
+    /// a new path or a [`Request::SetPose`].
     FollowPath,
     /// Hold these wheel speeds (rad/s) with the wheel PIDs only (bring-up).
     HoldWheelSpeeds(WheelSpeeds),
@@ -329,6 +354,12 @@ mod tests {
             Request::GetStats.name(),
             Request::GetRunReport.name(),
             Request::GetTuneReport.name(),
+            Request::SetPose {
+                x_m: 0.0,
+                y_m: 0.0,
+                theta_rad: 0.0,
+            }
+            .name(),
         ];
         for (i, a) in names.iter().enumerate() {
             for b in &names[i + 1..] {

@@ -251,6 +251,10 @@ pub enum NotPermitted {
     /// Another host commands this robot; this connection only observes (the virtual
     /// robot's rule: its newest connection commands, see `docs/protocol.md`).
     AnotherHostCommands,
+    /// Arming from rest while a wheel still turns: both measured wheel speeds must have
+    /// stayed below the core's `REST_SPEED_RAD_S` for `REST_STEPS` control steps (wait,
+    /// or assert the motion with the arm request's `initial_motion`).
+    WheelsTurning,
 }
 
 impl fmt::Display for NotPermitted {
@@ -263,6 +267,9 @@ impl fmt::Display for NotPermitted {
             NotPermitted::StorageFailed => "writing the robot's persistent storage failed",
             NotPermitted::AnotherHostCommands => {
                 "another connection commands this robot; this one only observes"
+            }
+            NotPermitted::WheelsTurning => {
+                "the wheels are still turning: arming waits until both stand still"
             }
         })
     }

@@ -125,6 +125,9 @@ pub enum ControlRefusal {
     /// The staged supervisor settings were rejected (the link side validates them first,
     /// so this means the two disagree).
     Invalid,
+    /// Arming from rest while a wheel still turns (the supervisor's
+    /// [`CommandRefusal::WheelsTurning`](controller_core::supervisor::CommandRefusal)).
+    WheelsTurning,
 }
 
 impl core::fmt::Display for ControlRefusal {
@@ -135,6 +138,7 @@ impl core::fmt::Display for ControlRefusal {
             ControlRefusal::Busy => "not now (persisting, or nothing staged): retry",
             ControlRefusal::ButtonHeld => "the robot's button is held (local stop)",
             ControlRefusal::Invalid => "the staged settings were rejected",
+            ControlRefusal::WheelsTurning => "the wheels are still turning",
         })
     }
 }
@@ -485,6 +489,7 @@ mod tests {
             ControlRefusal::Busy,
             ControlRefusal::ButtonHeld,
             ControlRefusal::Invalid,
+            ControlRefusal::WheelsTurning,
         ];
         let texts: std::vec::Vec<std::string::String> =
             all.iter().map(std::string::ToString::to_string).collect();

@@ -29,6 +29,7 @@ mod config;
 mod persisting;
 mod tx;
 
+use controller_core::kinematics::Pose;
 use controller_core::path::{Segment, MAX_SEGMENTS};
 use controller_core::supervisor::{ArmRequest, Command, RunMode, State};
 use link::{
@@ -383,8 +384,9 @@ impl<'a> LinkService<'a> {
             &Request::Arm {
                 mode,
                 initial_motion,
+                run_time_limit_steps,
             } => {
-                let arm = arm_request(mode, initial_motion);
+                let arm = arm_request(mode, initial_motion, run_time_limit_steps);
                 self.forward(seq, Op::Command(Command::Arm(arm)))
             }
             Request::Disarm => self.forward(seq, Op::Command(Command::Disarm)),
@@ -395,6 +397,14 @@ impl<'a> LinkService<'a> {
             Request::GetStats => Some(Ok(Reply::Stats(self.stats(board)))),
             Request::GetRunReport => Some(Ok(Reply::RunReport(self.last_report))),
             Request::GetTuneReport => Some(Ok(Reply::TuneReport(self.last_tune))),
+            &Request::SetPose {
+                x_m,
+                y_m,
+                theta_rad,
+            } => match finite_pose(x_m, y_m, theta_rad) {
+                Ok(pose) => self.forward(seq, Op::Command(Command::SetPose(pose))),
+                Err(refused) => Some(Err(refused)),
+            },
         };
         if let Some(result) = now {
             self.reply(seq, result);
@@ -639,10 +649,26 @@ impl<'a> LinkService<'a> {
     }
 }
 
+/// The pose of a `SetPose`, or the refusal that names its first field that is not
+/// finite. Not inlined: see [`LinkService::handle`].
+#[inline(never)]
+fn finite_pose(x_m: f32, y_m: f32, theta_rad: f32) -> Result<Pose, Refusal> {
+    for (field, value) in [("x_m", x_m), ("y_m", y_m), ("theta_rad", theta_rad)] {
+        if !value.is_finite() {
+            return Err(Refusal::InvalidArgument(FieldProblem::new(
+                field,
+                "must be finite",
+            )));
+        }
+    }
+    Ok(Pose::new(x_m, y_m, theta_rad))
+}
+
 /// The supervisor's arm request for the link's `Arm`.
 fn arm_request(
     mode: ArmMode,
     initial_motion: Option<controller_core::kinematics::BodyVelocity>,
+    run_time_limit_steps: Option<u32>,
 ) -> ArmRequest {
     let (mode, hold_speeds) = match mode {
         ArmMode::FollowPath => (RunMode::FollowPath, None),
@@ -653,6 +679,7 @@ fn arm_request(
         mode,
         hold_speeds,
         initial_motion,
+        max_armed_steps: run_time_limit_steps,
     }
 }
 
@@ -663,6 +690,7 @@ fn refusal(refused: ControlRefusal) -> Refusal {
         ControlRefusal::Faulted => Refusal::Faulted,
         ControlRefusal::Busy => Refusal::Busy,
         ControlRefusal::ButtonHeld => Refusal::NotPermitted(NotPermitted::ButtonHeld),
+        ControlRefusal::WheelsTurning => Refusal::NotPermitted(NotPermitted::WheelsTurning),
         ControlRefusal::Invalid => Refusal::InvalidParams(FieldProblem {
             field: link::bounded("supervisor"),
             problem: link::bounded("is not valid"),
@@ -780,6 +808,7 @@ mod tests {
             ControlRefusal::Busy,
             ControlRefusal::ButtonHeld,
             ControlRefusal::Invalid,
+            ControlRefusal::WheelsTurning,
         ] {
             results.push(Err(refusal(refused)));
         }
@@ -824,14 +853,14 @@ mod tests {
     #[test]
     fn arm_modes_map_to_the_supervisors() {
         let speeds = controller_core::kinematics::WheelSpeeds::new(2.0, -1.0);
-        let hold = arm_request(ArmMode::HoldWheelSpeeds(speeds), None);
+        let hold = arm_request(ArmMode::HoldWheelSpeeds(speeds), None, None);
         assert_eq!(
             (hold.mode, hold.hold_speeds),
             (RunMode::HoldWheelSpeeds, Some(speeds))
         );
-        let follow = arm_request(ArmMode::FollowPath, None);
+        let follow = arm_request(ArmMode::FollowPath, None, None);
         assert_eq!(follow.mode, RunMode::FollowPath);
-        let tune = arm_request(ArmMode::Tune, None);
+        let tune = arm_request(ArmMode::Tune, None, None);
         assert_eq!((tune.mode, tune.hold_speeds), (RunMode::Tune, None));
     }
 }

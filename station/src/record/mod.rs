@@ -6,7 +6,7 @@
 //!
 //! | module | what it holds |
 //! |---|---|
-//! | this one | the run itself: upload, arm, record until the robot ends the run, disarm |
+//! | this one | the run itself: upload, set the start pose, arm, record until the robot ends the run, disarm |
 //! | `recording` | a recorded run ([`Recording`]), how it ended ([`RunEnd`]) and its files |
 //! | `telemetry` | the frames expected and received ([`TelemetryCount`], [`GapCounter`]) |
 //! | `recorder` | telemetry and ground truth joined into trace rows |
@@ -100,39 +100,31 @@ pub fn set_telemetry_rate<T: Transport>(
     }
 }
 
-/// Uploads `plan.scenario`'s path, arms (in motion when the scenario starts moving), and
-/// records until the robot ends the run — at the scenario's duration, which the robot
-/// counts itself (`max_armed_steps`, restored afterwards), or earlier (a fault, its
-/// heartbeat timeout) — or until the link fails, or Ctrl-C, which disarms first.
-/// Returns the recording, however the run ended once the robot was armed
-/// ([`Recording::ended_by`]); an error only when it was not armed.
+/// Uploads `plan.scenario`'s path, puts the robot at the scenario's start pose (the pose
+/// command, so every run starts from the same estimate), arms (in motion when the
+/// scenario starts moving) with the scenario's duration as the run's own time limit
+/// (which the robot counts itself; no stored setting changes), and records until the
+/// robot ends the run — at that limit, or earlier (a fault, its heartbeat timeout) — or
+/// until the link fails, or Ctrl-C, which disarms first. Returns the recording, however
+/// the run ended once the robot was armed ([`Recording::ended_by`]); an error only when
+/// it was not armed.
 pub fn run<T: Transport>(
     client: &mut Client<T>,
     plan: &mut RunPlan<'_>,
 ) -> Result<Recording, StationError> {
     let scenario = plan.scenario;
-    let original = ops::get_params(client)?;
-    let rate_hz = original.robot.control_rate_hz;
+    let params = ops::get_params(client)?;
+    let rate_hz = params.robot.control_rate_hz;
     let total = (scenario.duration_s * f64::from(rate_hz)).round() as u64;
-    let mut timed = original;
-    timed.supervisor.max_armed_steps = Some(u32::try_from(total).unwrap_or(u32::MAX));
-    if timed != original {
-        ops::set_params(client, timed)?;
-    }
-    let outcome = upload_arm_record(client, plan, &original, total);
-    // Whatever happened: disarmed, and the robot's own time limit back.
+    let outcome = upload_arm_record(client, plan, &params, total);
+    // Whatever happened: disarmed.
     let disarmed = client.command(Request::Disarm);
-    let restored = if timed != original {
-        ops::set_params(client, original).map(|_| ())
-    } else {
-        Ok(())
-    };
     let mut recording = outcome?;
-    if let (Err(e), None) = (disarmed.and(restored), &recording.after_run_error) {
+    if let (Err(e), None) = (disarmed, &recording.after_run_error) {
         // After a link failure the run's end already says so.
         if !matches!(recording.ended_by, RunEnd::LinkFailed(_)) {
             recording.after_run_error = Some(format!(
-                "{}; the robot may still hold the run's time limit ({total} steps)",
+                "{}; the robot disarms itself at the run's time limit ({total} steps)",
                 crate::error_text(&e)
             ));
         }
@@ -160,8 +152,10 @@ fn upload_arm_record<T: Transport>(
         _ => 0,
     };
     let stats_before = stats(client)?;
+    ops::set_pose(client, ops::start_pose(scenario))?;
+    let limit = u32::try_from(total).unwrap_or(u32::MAX);
+    arm_once_at_rest(client, ops::initial_motion(scenario), limit)?;
     let wall = Instant::now();
-    ops::arm(client, ops::initial_motion(scenario))?;
     let mut recorder = Recorder::new(scenario, plan.law, params, before, total, hz);
     let recorded = record_until_end(client, plan, &mut recorder, total);
     let (stats_after, error) = match recorded.and_then(|()| stats(client)) {
@@ -179,6 +173,33 @@ fn upload_arm_record<T: Transport>(
         dropped,
         error,
     ))
+}
+
+/// How long `run` waits for the wheels to stand still before it gives up arming (a run
+/// just ended leaves them turning for a few hundred milliseconds), s of the host's clock.
+const REST_WAIT: Duration = Duration::from_secs(5);
+
+/// Arms for the run, asking again while the robot refuses because its wheels still turn
+/// (the robot's messages meanwhile are not part of the run), for at most [`REST_WAIT`].
+fn arm_once_at_rest<T: Transport>(
+    client: &mut Client<T>,
+    initial_motion: Option<controller_core::kinematics::BodyVelocity>,
+    limit_steps: u32,
+) -> Result<(), StationError> {
+    let give_up = Instant::now() + REST_WAIT;
+    loop {
+        match ops::arm(client, initial_motion, Some(limit_steps)) {
+            Err(StationError::Refused { refusal, .. })
+                if *refusal == link::Refusal::NotPermitted(link::NotPermitted::WheelsTurning)
+                    && Instant::now() < give_up =>
+            {
+                for _ in 0..10 {
+                    client.next_message(Duration::from_millis(10))?;
+                }
+            }
+            other => return other,
+        }
+    }
 }
 
 /// The robot's statistics (`None` if it answers with something else).

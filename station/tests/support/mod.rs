@@ -10,7 +10,8 @@ use link::{Decoder, Downlink, Received, Request, Uplink};
 use station::transport::Transport;
 
 /// What the line between the station and the robot does wrong (nothing by default).
-/// Armings are counted from 1, in the order the station sends `Arm`.
+/// Armings are counted from 1, in the order the robot arms (an `Arm` it refuses is no
+/// arming); an arming's steps count from the step its `Arm` was sent.
 #[derive(Clone, Debug, Default)]
 pub struct LineFaults {
     /// (arming, steps): during these armings, heartbeats sent more than `steps` control
@@ -39,6 +40,8 @@ pub struct InProcess<'r, 'a> {
     partial: Vec<u8>,
     armings: u32,
     armed_at_step: u32,
+    /// The step the last `Arm` was sent at.
+    arm_sent_at_step: u32,
     telemetry_frames: u32,
     broken: bool,
 }
@@ -53,6 +56,7 @@ impl<'r, 'a> InProcess<'r, 'a> {
             partial: Vec::new(),
             armings: 0,
             armed_at_step: 0,
+            arm_sent_at_step: 0,
             telemetry_frames: 0,
             broken: false,
         }
@@ -84,9 +88,19 @@ impl<'r, 'a> InProcess<'r, 'a> {
     /// Whether the frame `bytes` (one whole frame, delimiter included) reaches the
     /// station, and flipped if the line corrupts it.
     fn pass_uplink(&mut self, mut frame: Vec<u8>) -> Option<Vec<u8>> {
-        let is_telemetry = Decoder::new()
-            .feed::<Uplink>(&frame)
-            .any(|o| matches!(o, Ok(Received::Message(Uplink::Telemetry(_)))));
+        let message = Decoder::new().feed::<Uplink>(&frame).find_map(|o| match o {
+            Ok(Received::Message(m)) => Some(m),
+            _ => None,
+        });
+        if let Some(Uplink::Event {
+            event: controller_core::supervisor::Event::Armed(_),
+            ..
+        }) = message
+        {
+            self.armings += 1;
+            self.armed_at_step = self.arm_sent_at_step;
+        }
+        let is_telemetry = matches!(message, Some(Uplink::Telemetry(_)));
         if is_telemetry {
             self.telemetry_frames += 1;
             let every = self.faults.lose_telemetry_every;
@@ -115,10 +129,7 @@ impl Transport for InProcess<'_, '_> {
                 _ => None,
             });
         match request {
-            Some(Request::Arm { .. }) => {
-                self.armings += 1;
-                self.armed_at_step = self.robot.control().steps();
-            }
+            Some(Request::Arm { .. }) => self.arm_sent_at_step = self.robot.control().steps(),
             Some(Request::Heartbeat) => {
                 let since = self.since_arming();
                 let muted = self

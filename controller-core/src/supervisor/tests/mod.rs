@@ -53,10 +53,14 @@ struct Rig {
 }
 
 impl Rig {
+    /// The robot put down at [`START`], 0.2 m beside the line, and told so.
     fn new(config: SupervisorConfig, reset: ResetCause) -> Self {
+        let mut sup = Supervisor::new(config, &params(), reset).unwrap();
+        let mut ctl = controller();
+        assert_eq!(sup.set_pose(&mut ctl, START), Ok(Event::PoseSet));
         Self {
-            sup: Supervisor::new(config, &params(), reset).unwrap(),
-            ctl: controller(),
+            sup,
+            ctl,
             heartbeat: 0,
             button: false,
             overrun: false,
@@ -108,6 +112,7 @@ impl Rig {
     }
 
     /// Presses for `held` steps then releases for 50 steps; returns all outputs.
+    /// [`SHORT`], [`LONG`] and [`MODE_SELECT`] are the three kinds of press.
     fn press(&mut self, held: u32) -> Vec<SupervisorOutput> {
         self.button = true;
         let mut out = self.run(held);
@@ -116,6 +121,13 @@ impl Rig {
         out
     }
 }
+
+/// A short press (released before the 1 s long press, with its debounce).
+const SHORT: u32 = 30;
+/// A long press: released after 1 s, before the 3 s mode-select hold.
+const LONG: u32 = 1200;
+/// Held to the 3 s mode-select hold.
+const MODE_SELECT: u32 = 3100;
 
 fn events(outs: &[SupervisorOutput]) -> Vec<Event> {
     outs.iter().filter_map(|o| o.event).collect()
@@ -189,17 +201,31 @@ fn short_press_arms_on_release_in_the_initial_mode() {
 }
 
 #[test]
-fn arming_into_path_following_resets_odometry_to_the_start_pose() {
+fn arming_keeps_the_pose_and_a_long_press_sets_it_to_the_start() {
     let mut r = rig();
-    // Odometry drifts while the robot is carried to the start.
+    // Odometry counts while the robot is pushed away, then stands still.
     for _ in 0..100 {
         r.step_with(TickDeltas { left: 3, right: 1 });
     }
-    assert!(r.ctl.pose().x_m > 0.01);
-    r.press(30);
+    r.run(200);
+    let pushed = r.ctl.pose();
+    assert!(pushed.x_m > 0.01);
+    // A short press arms from where it is.
+    let outs = r.press(SHORT);
+    assert_eq!(events(&outs), vec![Event::Armed(RunMode::FollowPath)]);
+    assert!(
+        (r.ctl.pose().x_m - pushed.x_m).abs() < 0.05,
+        "{:?}",
+        r.ctl.pose()
+    );
+    // Disarmed and put back at the start: a long press tells it so, and does not arm.
+    r.press(SHORT);
+    r.run(200);
+    let outs = r.press(LONG);
+    assert_eq!(events(&outs), vec![Event::PoseSet]);
+    assert_eq!(r.sup.state(), State::Disarmed);
     let pose = r.ctl.pose();
-    assert!((pose.y_m - START.y_m).abs() < 0.01, "{pose:?}");
-    assert!(pose.x_m.abs() < 0.05, "{pose:?}");
+    assert!((pose.x_m - START.x_m).abs() < 1e-6 && (pose.y_m - START.y_m).abs() < 1e-6);
 }
 
 #[test]
@@ -236,9 +262,9 @@ fn press_disarms_at_once_and_its_release_does_not_rearm() {
 }
 
 #[test]
-fn long_press_while_disarmed_switches_mode_without_arming() {
+fn a_mode_select_hold_while_disarmed_switches_mode_without_arming() {
     let mut r = rig();
-    let outs = r.press(1200);
+    let outs = r.press(MODE_SELECT);
     assert_eq!(
         events(&outs),
         vec![Event::ModeSelected(RunMode::HoldWheelSpeeds)]
@@ -249,21 +275,21 @@ fn long_press_while_disarmed_switches_mode_without_arming() {
     assert_eq!(events(&outs), vec![Event::Armed(RunMode::HoldWheelSpeeds)]);
     assert_eq!(r.ctl.mode(), Mode::HoldWheelSpeeds(HOLD));
     assert!(outs.last().unwrap().duty.left > 0.0);
-    // Disarm; a second long press selects the tune, a third path following again.
+    // Disarm; a second hold selects the tune, a third path following again.
     r.press(30);
-    let outs = r.press(1200);
+    let outs = r.press(MODE_SELECT);
     assert_eq!(events(&outs), vec![Event::ModeSelected(RunMode::Tune)]);
-    let outs = r.press(1200);
+    let outs = r.press(MODE_SELECT);
     assert_eq!(
         events(&outs),
         vec![Event::ModeSelected(RunMode::FollowPath)]
     );
 }
 
-/// Long presses until the tune is selected, then a short press: armed in tune mode.
+/// Mode-select holds until the tune is selected, then a short press: armed in tune mode.
 fn arm_tune_by_button(r: &mut Rig) -> Vec<SupervisorOutput> {
-    r.press(1200);
-    r.press(1200);
+    r.press(MODE_SELECT);
+    r.press(MODE_SELECT);
     assert_eq!(r.sup.run_mode(), RunMode::Tune);
     let outs = r.press(30);
     assert!(events(&outs).contains(&Event::Armed(RunMode::Tune)));
@@ -320,6 +346,7 @@ fn a_tune_that_finds_nothing_disarms_with_its_reason() {
         mode: RunMode::Tune,
         hold_speeds: None,
         initial_motion: None,
+        max_armed_steps: None,
     }));
     assert_eq!(out.event, Some(Event::Armed(RunMode::Tune)));
     let mut outs = Vec::new();
@@ -349,12 +376,14 @@ fn a_tune_that_finds_nothing_disarms_with_its_reason() {
 }
 
 #[test]
-fn long_press_while_armed_only_disarms() {
-    let mut r = rig();
-    r.press(30);
-    let outs = r.press(1500);
-    assert_eq!(events(&outs), vec![Event::Disarmed(DisarmReason::Button)]);
-    assert_eq!(r.sup.run_mode(), RunMode::FollowPath);
+fn a_long_press_or_a_hold_while_armed_only_disarms() {
+    for held in [LONG, MODE_SELECT] {
+        let mut r = rig();
+        r.press(SHORT);
+        let outs = r.press(held);
+        assert_eq!(events(&outs), vec![Event::Disarmed(DisarmReason::Button)]);
+        assert_eq!(r.sup.run_mode(), RunMode::FollowPath);
+    }
 }
 
 #[test]
@@ -495,8 +524,8 @@ fn a_wheel_that_turns_is_not_a_stall() {
     c.stall.min_volts = 1.0;
     let mut r = Rig::new(c, ResetCause::PowerOn);
     r.long_press_to_hold();
-    r.moving = true;
     r.press(30);
+    r.moving = true;
     let outs = r.run(3000);
     assert!(outs.iter().all(|o| o.state == State::Armed));
     assert!(outs.last().unwrap().duty.left > 0.0);
@@ -504,7 +533,7 @@ fn a_wheel_that_turns_is_not_a_stall() {
 
 impl Rig {
     fn long_press_to_hold(&mut self) {
-        self.press(1200);
+        self.press(MODE_SELECT);
         assert_eq!(self.sup.run_mode(), RunMode::HoldWheelSpeeds);
     }
 }
@@ -671,7 +700,9 @@ fn the_link_arms_and_must_keep_sending_heartbeats() {
 #[test]
 fn the_button_needs_no_heartbeat() {
     let mut r = moving_rig();
+    r.moving = false;
     r.press(30);
+    r.moving = true;
     assert!(r.run(5000).iter().all(|o| o.state == State::Armed));
 }
 
@@ -746,6 +777,7 @@ fn hold_speeds_can_come_with_the_arm_request() {
         mode: RunMode::HoldWheelSpeeds,
         hold_speeds: Some(speeds),
         initial_motion: None,
+        max_armed_steps: None,
     }));
     assert_eq!(r.ctl.mode(), Mode::HoldWheelSpeeds(speeds));
 }
@@ -790,6 +822,7 @@ fn arming_in_motion_seeds_the_speed_estimate() {
         mode: RunMode::FollowPath,
         hold_speeds: None,
         initial_motion: Some(BodyVelocity::new(0.1625, 0.0)),
+        max_armed_steps: None,
     }));
     assert_eq!(out.state, State::Armed);
     // 0.1625 m/s on 32.5 mm wheels is 5 rad/s: the estimate starts there, not at 0.
@@ -1042,6 +1075,7 @@ fn hold_speeds_with_the_request_are_taken_only_when_both_are_numbers() {
         mode: RunMode::HoldWheelSpeeds,
         hold_speeds: Some(WheelSpeeds::new(left, right)),
         initial_motion: None,
+        max_armed_steps: None,
     };
     for (left, right) in [(f32::NAN, 3.0), (3.0, f32::INFINITY)] {
         let mut r = rig();
@@ -1085,3 +1119,5 @@ fn a_refused_setting_says_why_and_keeps_its_cause() {
     );
     assert_ne!(invalid.to_string(), armed.to_string());
 }
+
+mod rearm;

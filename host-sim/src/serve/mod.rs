@@ -425,7 +425,7 @@ pub struct ServeOptions {
 
 /// Runs the virtual robot on `listener`, paced at `options.speed` × real time. Every
 /// connection receives what the robot sends; the newest one commands it, the older ones
-/// observe ([`Hosts`]). `log` gets every step that changed the supervisor's state. Returns
+/// observe (the client rule in `docs/protocol.md`). `log` gets every step that changed the supervisor's state. Returns
 /// after `options.max_steps`, or on an I/O error of the listener.
 pub fn serve(
     robot: &mut VirtualRobot<'_>,

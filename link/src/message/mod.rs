@@ -31,6 +31,7 @@
 //! [`SCHEMA_HASH`](crate::SCHEMA_HASH), and peers with different hashes refuse each
 //! other's frames (see [`protocol`](crate::protocol)).
 
+mod board;
 mod path;
 mod refusal;
 mod run;
@@ -44,6 +45,9 @@ use postcard_schema::Schema;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
+pub use self::board::{
+    BrownOutReset, ClockSource, FailureKind, PanicReport, PANIC_FILE_CAP, PANIC_MESSAGE_CAP,
+};
 pub use self::path::{CommitSummary, PathBegin, PathChunk, PathCommit, SEGMENTS_PER_CHUNK};
 pub use self::refusal::{FieldProblem, NotPermitted, PathProblem, Refusal, FIELD_CAP, PROBLEM_CAP};
 pub use self::run::{ErrorSummary, RunReport, TrueRunReport, TuneReport};

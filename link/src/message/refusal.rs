@@ -248,6 +248,10 @@ pub enum NotPermitted {
     /// Writing persistent storage failed (erase, program or read-back check); the
     /// configuration in use is unchanged. Retry, or power-cycle if it keeps failing.
     StorageFailed,
+    /// Persisting parameters while the chip's brown-out reset is off: the chip would keep
+    /// running, and writing its flash, with its supply below the 2.7 V that needs. The
+    /// firmware sets the level when it starts; it reports in `Info` which level is in force.
+    BrownOutResetOff,
 }
 
 impl fmt::Display for NotPermitted {
@@ -258,6 +262,11 @@ impl fmt::Display for NotPermitted {
             NotPermitted::Unsupported => "this robot does not support that request",
             NotPermitted::ButtonHeld => "the robot's button is held (local stop)",
             NotPermitted::StorageFailed => "writing the robot's persistent storage failed",
+            NotPermitted::BrownOutResetOff => {
+                "the robot's brown-out reset is not at level 3, so its supply could sag \
+                 below the 2.7 V a flash write needs (the firmware sets the level at boot: \
+                 see its log)"
+            }
         })
     }
 }

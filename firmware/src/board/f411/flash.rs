@@ -60,7 +60,7 @@ pub enum FlashError {
 }
 
 /// FLASH_SR error flags: OPERR, WRPERR, PGAERR, PGPERR, PGSERR (bits 1, 4–7).
-const SR_ERRORS: u32 = 0b1111_0010;
+pub(super) const SR_ERRORS: u32 = 0b1111_0010;
 
 /// The flash interface, owned for the storage's erase and program operations.
 pub struct Storage {

@@ -21,6 +21,7 @@
 //! | Control tick                | —    | TIM5 CC1 IRQ, 1 kHz   | —          | —               |
 //! | Parameter storage           | —    | flash sectors 6 and 7 (0x0804_0000, 0x0806_0000, 128 KiB each) | — | — |
 //! | SWD (probe)                 | PA13 / PA14 | SWDIO / SWCLK  | SWD header | ST-LINK         |
+//! | System clock ([`HSE`])      | PH0 / PH1 | OSC_IN / OSC_OUT | 25 MHz crystal | 8 MHz ST-LINK MCO on OSC_IN (SB50) |
 //!
 //! The link runs at [`LINK_BAUD`] 8N1 (3.3 V logic: a USB-serial adapter's RX to PA2,
 //! TX to PA3, GND to GND; on the Nucleo the ST-LINK's virtual COM port is already wired
@@ -31,9 +32,11 @@
 //! The supply divider is 39 kΩ (supply to PA1) over 10 kΩ (PA1 to GND) with 100 nF from
 //! PA1 to GND ([`supply`]).
 //!
-//! Everything chip-specific the firmware writes is derived here from [`CHIP`] and
-//! [`SYSCLK_HZ`] through `robot_app::stm32f4`, whose host tests check it against the
-//! reference manuals.
+//! Everything chip-specific the firmware writes is derived here from [`CHIP`], [`HSE`]
+//! and [`SYSCLK_HZ`] through `robot_app::stm32f4`, whose host tests check it against the
+//! reference manuals. `init` sets the brown-out reset to level 3 the first time it runs
+//! on a chip ([`brown_out`]) and runs the clock from the [`HSE`], or the HSI when it does
+//! not start ([`clock`]).
 
 mod brown_out;
 mod clock;

@@ -13,14 +13,14 @@
 
 use link::MAX_FRAME_LEN;
 use robot_app::channel::ring::{Consumer, Producer};
-use robot_app::LinkService;
+use robot_app::panic_record::{PanicRecord, PanicRecordStore};
+use robot_app::{BoardStats, LinkService};
 use rtic::Mutex;
 use stm32f4xx_hal::pac;
 
 use crate::board::{Storage, Watchdog};
 use crate::link_uart::{RX_RING, TX_RING};
-use crate::persistence;
-use crate::stats::FirmwareStats;
+use crate::{panic_record, persistence, stats};
 
 /// Rounds of the loop in one run before it yields (each round moves at least one byte
 /// or frame, so this only bounds a run while bytes keep arriving).
@@ -79,7 +79,7 @@ fn receive(service: &mut LinkService<'static>, rx: &mut Consumer<'static, u8, RX
         let Some(byte) = rx.pop() else {
             break;
         };
-        service.receive_byte(byte, &FirmwareStats);
+        service.receive_byte(byte, &FirmwareBoard);
         moved = true;
     }
     moved
@@ -121,4 +121,29 @@ fn persist(
     };
     service.persist_finished(ok);
     true
+}
+
+/// What the link service asks of the board: the control task's longest step and the
+/// stack's high-water mark for `GetStats` ([`crate::stats`]), and the panic record kept
+/// across resets for `GetPanicRecord` and `ClearPanicRecord` ([`crate::panic_record`]).
+struct FirmwareBoard;
+
+impl BoardStats for FirmwareBoard {
+    fn max_step_cycles(&self) -> u32 {
+        stats::CONTROL.max_units()
+    }
+
+    fn stack_high_water_bytes(&self) -> u32 {
+        stats::stack_high_water_bytes()
+    }
+}
+
+impl PanicRecordStore for FirmwareBoard {
+    fn panic_record(&self) -> Option<PanicRecord> {
+        panic_record::read()
+    }
+
+    fn clear_panic_record(&self) {
+        panic_record::clear();
+    }
 }

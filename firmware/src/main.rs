@@ -10,9 +10,9 @@
 //! Everything that differs between the two is in [`board`]; this file is the same for
 //! both. The story, top to bottom:
 //!
-//! 1. [`app::init`] reads the previous run's panic record ([`panic_record`]), brings the
-//!    board up ([`board`]: on the F411 the watchdog with a long timeout first, the clock,
-//!    pins, PWM with the driver in standby, encoders, supply ADC, the link USART),
+//! 1. [`app::init`] reads a previous run's panic record ([`panic_record`]), brings the
+//!    board up ([`board`]: on the F411 the watchdog with a long timeout first, the
+//!    brown-out reset level, the clock from the board's oscillator, pins, PWM with the driver in standby, encoders, supply ADC, the link USART),
 //!    loads the parameters from flash or falls back to the built-in ones
 //!    ([`persistence`], [`robot`]), builds the two sides of the application
 //!    (`robot_app::start`: the control side and the link service, joined by lock-free
@@ -122,20 +122,19 @@ mod app {
         tx_ring: Ring<u8, TX_RING> = Ring::new(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
-        // Did the previous run leave a record? Read (and clear) before anything else.
-        let previous_failure = panic_record::take();
+        // Did a previous run leave a record? It stays until a host clears it over the
+        // link (`GetPanicRecord`, `ClearPanicRecord`), across resets too.
+        let previous_failure = panic_record::read();
         let mut board = board::init(cx.device, cx.core);
         if let Some(failure) = &previous_failure {
             log_failure(failure);
         }
 
         let params = persistence::load(board.storage.as_ref(), robot::default_params());
-        let storage = board.storage.is_some();
-        let config =
-            match robot::app_config(params, board.reset, board::NAME, board::LINK_BAUD, storage) {
-                Ok(config) => config,
-                Err(e) => defmt::panic!("built-in path {}: {}", robot::PATH, e),
-            };
+        let config = match robot::app_config(params, &board) {
+            Ok(config) => config,
+            Err(e) => defmt::panic!("built-in path {}: {}", robot::PATH, e),
+        };
         let (mut control, service) = match start(cx.local.channels, config) {
             Ok(sides) => sides,
             Err(_) => defmt::panic!("the configuration in force is invalid"),

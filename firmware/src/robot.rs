@@ -28,10 +28,12 @@ use controller_core::params::RobotConfig;
 use controller_core::path::{Path, PathError};
 use controller_core::reference::ReferenceMode;
 use controller_core::reference::{Reference, ReferenceError};
-use controller_core::supervisor::{ResetCause, RunMode, SupervisorConfig};
+use controller_core::supervisor::{RunMode, SupervisorConfig};
 use link::ParamSet;
 use robot_app::stm32f4::bridge::BridgeChip;
 use robot_app::{AppConfig, Identity, LinkOptions};
+
+use crate::board::{self, Board};
 
 /// The board's motor bridge, chosen by the `drv8833` feature.
 pub const BRIDGE: BridgeChip = if cfg!(feature = "drv8833") {
@@ -161,15 +163,10 @@ pub enum SetupError {
 /// Everything `robot_app::start` needs: the configuration in force `params`, its supply
 /// limit held to the [`BRIDGE`]'s rating (a record persisted by a build for another
 /// bridge may be above it), the built-in path at [`REFERENCE_SPEED_M_S`] with [`LAW`],
-/// who the robot is (on the board `chip`), and the link at `baud` with [`TELEMETRY_HZ`],
-/// and `storage` when the board can persist parameters.
-pub fn app_config(
-    mut params: ParamSet,
-    reset: ResetCause,
-    chip: &'static str,
-    baud: u32,
-    storage: bool,
-) -> Result<AppConfig, SetupError> {
+/// who the robot is and what `board` found at start (reset cause, clock source,
+/// brown-out level, storage), and the link at the board's baud rate with
+/// [`TELEMETRY_HZ`].
+pub fn app_config(mut params: ParamSet, board: &Board) -> Result<AppConfig, SetupError> {
     let rating = BRIDGE.max_supply_v();
     if params.robot.drive.max_supply_v > rating {
         params.robot.drive.max_supply_v = rating;
@@ -181,17 +178,19 @@ pub fn app_config(
         params,
         reference,
         law: LAW,
-        reset,
+        reset: board.reset,
         identity: Identity {
             firmware_version: env!("CARGO_PKG_VERSION"),
             git_hash: env!("FIRMWARE_GIT_HASH"),
-            chip,
+            chip: board::NAME,
             robot_name: ROBOT_NAME,
+            clock: board.clock,
+            brown_out_reset: board.brown_out_reset,
         },
         link: LinkOptions {
-            baud,
+            baud: board::LINK_BAUD,
             telemetry_hz: TELEMETRY_HZ,
-            storage,
+            storage: board.storage.is_some(),
         },
         bridge: BRIDGE,
     })

@@ -1,7 +1,7 @@
 //! What the firmware measures about itself: each task's runs, longest run and total, in
 //! the board's work unit (CPU cycles on the F411, instructions on the emulated board),
-//! and the stack's high-water mark; and the [`BoardStats`] the link service reports in
-//! `GetStats`.
+//! and the stack's high-water mark, which the link service reports in `GetStats`
+//! (`crate::link_task`).
 //!
 //! A task's run is its **own** time: from its first instruction to its last, less what
 //! the higher-priority tasks that preempted it spent meanwhile. Every task charges its
@@ -13,7 +13,6 @@ use core::ptr::addr_of;
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use robot_app::stm32f4::stack::{high_water_bytes, PAINT};
-use robot_app::BoardStats;
 
 use crate::board;
 
@@ -183,17 +182,4 @@ pub fn repaint_after_start() {
             unsafe { word.write_volatile(PAINT) };
         }
     });
-}
-
-/// The board's figures for the link's `GetStats`.
-pub struct FirmwareStats;
-
-impl BoardStats for FirmwareStats {
-    fn max_step_cycles(&self) -> u32 {
-        CONTROL.max_units()
-    }
-
-    fn stack_high_water_bytes(&self) -> u32 {
-        stack_high_water_bytes()
-    }
 }

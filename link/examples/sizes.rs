@@ -88,6 +88,17 @@ fn main() {
         chip: bounded(&text(NAME_CAP)),
         robot_name: bounded(&text(NAME_CAP)),
         params_hash: u32::MAX,
+        clock: ClockSource::InternalFallback {
+            expected_hz: u32::MAX,
+        },
+        brown_out_reset: BrownOutReset::Level3,
+    };
+    let panic_record = PanicReport {
+        kind: FailureKind::Panic,
+        file: bounded(&text(PANIC_FILE_CAP)),
+        line: u32::MAX,
+        pc: u32::MAX,
+        message: bounded(&text(PANIC_MESSAGE_CAP)),
     };
     let stats = Stats {
         max_step_cycles: u32::MAX,
@@ -120,6 +131,13 @@ fn main() {
             Uplink::Reply {
                 seq,
                 result: Ok(Reply::Info(info)),
+            },
+        ),
+        (
+            "Reply PanicRecord (full strings)",
+            Uplink::Reply {
+                seq,
+                result: Ok(Reply::PanicRecord(Some(panic_record))),
             },
         ),
         (

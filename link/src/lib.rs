@@ -63,7 +63,8 @@
 //! | `PathChunk`, 4 arcs ([`SEGMENTS_PER_CHUNK`]) | 93 B | 104 B |
 //! | `PathChunk`, 1 arc | 30 B | 41 B |
 //! | `PathBegin` | 30 B | 41 B |
-//! | reply `Info` (every string full) | 105 B | 116 B |
+//! | reply `Info` (every string full, the clock a fallback) | 112 B | 123 B |
+//! | reply `PanicRecord` (every string full) | 128 B | 139 B |
 //! | `Stats` | 61 B | 72 B |
 //! | `TuneReport` (a result) | 101 B | 112 B |
 //! | `Ping` / `Heartbeat` / reply `Ack` | 9 / 4 / 6 B | 20 / 15 / 17 B |
@@ -119,7 +120,9 @@
 //! - `Err(_)`: nothing (already counted; report [`Decoder::counters`] in [`Stats`]).
 //!
 //! **The station** numbers its requests, matches replies by `seq`, re-sends on a timeout
-//! (every request is safe to repeat: path chunks, begins and commits are idempotent),
+//! (every request is safe to repeat: path chunks, begins and commits are idempotent, and
+//! a repeated `PersistParams` is answered with the reply the robot kept; it is sent once
+//! and awaited [`PERSIST_REPLY_TIMEOUT_MS`], as its erase stalls the robot),
 //! prints a [`Mismatch`] with [`Mismatch::describe`], uploads a path with
 //! [`upload::chunks`] and [`path_checksum`], and compares configurations by
 //! [`params_hash`].

@@ -22,8 +22,8 @@ use controller_core::path::MAX_SEGMENTS;
 
 use crate::frame::MAX_BODY_LEN;
 use crate::message::{
-    Downlink, Uplink, FIELD_CAP, GIT_HASH_CAP, NAME_CAP, PROBLEM_CAP, SEGMENTS_PER_CHUNK,
-    VERSION_CAP,
+    Downlink, Uplink, FIELD_CAP, GIT_HASH_CAP, NAME_CAP, PANIC_FILE_CAP, PANIC_MESSAGE_CAP,
+    PROBLEM_CAP, SEGMENTS_PER_CHUNK, VERSION_CAP,
 };
 
 /// Version of the protocol's rules (framing, request/reply semantics). Bump it when the
@@ -51,6 +51,8 @@ pub const SCHEMA_HASH: u32 = {
         PROBLEM_CAP,
         SEGMENTS_PER_CHUNK,
         MAX_SEGMENTS,
+        PANIC_FILE_CAP,
+        PANIC_MESSAGE_CAP,
     ];
     let mut i = 0;
     while i < capacities.len() {

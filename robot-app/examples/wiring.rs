@@ -45,6 +45,8 @@ fn main() {
             git_hash: "unknown",
             chip: "host",
             robot_name: "example",
+            clock: link::ClockSource::Simulated,
+            brown_out_reset: link::BrownOutReset::NotApplicable,
         },
         link: LinkOptions {
             baud: 115_200,

@@ -53,7 +53,9 @@
 //!   [`LinkService::persist_finished`]. A transmit-complete interrupt only pends the link
 //!   task, which calls `consume`.
 //! - **Board statistics** for `GetStats` come through [`BoardStats`]: the control
-//!   interrupt keeps its longest step in an `AtomicU32`, the link task reads it.
+//!   interrupt keeps its longest step in an `AtomicU32`, the link task reads it. The
+//!   panic record for `GetPanicRecord` comes through [`PanicRecordStore`] (RAM that
+//!   survives a reset); [`Board`] is both.
 //!
 //! **Locks: none between the control interrupt and the link task.** Every queue has one
 //! producer and one consumer ([`Channels::split`] hands out the ends; move each into its
@@ -84,7 +86,14 @@
 //!         .unwrap(),
 //!     law: LawKind::Tracking,
 //!     reset: ResetCause::PowerOn,
-//!     identity: Identity { firmware_version: "0.1.0", git_hash: "", chip: "host", robot_name: "doc" },
+//!     identity: Identity {
+//!         firmware_version: "0.1.0",
+//!         git_hash: "",
+//!         chip: "host",
+//!         robot_name: "doc",
+//!         clock: link::ClockSource::Simulated,
+//!         brown_out_reset: link::BrownOutReset::Level3,
+//!     },
 //!     link: LinkOptions { baud: 115_200, telemetry_hz: 0, storage: false },
 //!     bridge: BridgeChip::Tb6612fng,
 //! };
@@ -137,7 +146,8 @@ pub mod stm32f4;
 
 pub use crate::channel::{Channels, ControlEnd, LinkEnd};
 pub use crate::control::{Actuation, ControlSide, Sensors};
-pub use crate::service::{BoardStats, Identity, LinkOptions, LinkService, NoBoardStats};
+pub use crate::panic_record::PanicRecordStore;
+pub use crate::service::{Board, BoardStats, Identity, LinkOptions, LinkService, NoBoardStats};
 pub use crate::start::{start, AppConfig, StartError};
 
 /// RAM budgets, checked wherever the crate is compiled (the target's sizes are a little

@@ -6,10 +6,15 @@
 //! nor zeroes (`.uninit`), writes them with [`PanicRecord::to_words`] from its panic and
 //! hard-fault handlers, and at the next boot reads them back with
 //! [`PanicRecord::from_words`], which accepts them only if the magic, the layout version,
-//! the lengths and the CRC-32 all check out (after a power-on the RAM holds noise), then
-//! clears them. This module is the board-free half: layout, bounded copies, CRC.
+//! the lengths and the CRC-32 all check out (after a power-on the RAM holds noise). The
+//! words stay, across further resets, until a host has read them over the link and
+//! cleared them
+//! ([`PanicRecordStore`], `GetPanicRecord` and `ClearPanicRecord`). This module is the
+//! board-free half: layout, bounded copies, CRC, the report on the link.
 
 use core::fmt;
+
+use link::{PanicReport, PANIC_FILE_CAP, PANIC_MESSAGE_CAP};
 
 /// Words of RAM the record occupies (128 bytes).
 pub const WORDS: usize = 32;
@@ -24,6 +29,18 @@ const HEADER_WORDS: usize = 5;
 const FILE_WORDS: usize = FILE_BYTES / 4;
 const _: () = assert!(HEADER_WORDS + FILE_WORDS + MESSAGE_BYTES / 4 == WORDS);
 const _: () = assert!(FILE_BYTES % 4 == 0 && MESSAGE_BYTES % 4 == 0);
+// The link carries the record whole.
+const _: () = assert!(FILE_BYTES == PANIC_FILE_CAP && MESSAGE_BYTES == PANIC_MESSAGE_CAP);
+
+/// Where a board keeps the record of the failure that ended a previous run: on the
+/// firmware, RAM that survives a reset; the virtual robot keeps none. The link service
+/// answers `GetPanicRecord` and `ClearPanicRecord` through it.
+pub trait PanicRecordStore {
+    /// The record, if the store holds an intact one. Reading does not clear it.
+    fn panic_record(&self) -> Option<PanicRecord>;
+    /// Forgets the record (a host has shown it).
+    fn clear_panic_record(&self);
+}
 
 /// What ended the previous run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -205,6 +222,20 @@ impl PanicRecord {
         self.message.as_str()
     }
 
+    /// The record as the link carries it.
+    pub fn report(&self) -> PanicReport {
+        PanicReport {
+            kind: match self.kind {
+                FailureKind::Panic => link::FailureKind::Panic,
+                FailureKind::HardFault => link::FailureKind::HardFault,
+            },
+            file: link::bounded(self.file()),
+            line: self.line,
+            pc: self.pc,
+            message: link::bounded(self.message()),
+        }
+    }
+
     /// The record as it is stored: magic, CRC-32 of the rest, then the fields.
     pub fn to_words(&self) -> [u32; WORDS] {
         let mut words = [0u32; WORDS];
@@ -358,6 +389,24 @@ mod tests {
         assert_eq!(
             (back.kind(), back.pc(), back.file()),
             (FailureKind::HardFault, 0x0800_1234, "")
+        );
+    }
+
+    #[test]
+    fn the_link_report_carries_the_whole_record() {
+        let long_path = "/home/someone/projects/robot/firmware/src/some/deep/module/motor.rs";
+        let mut r = PanicRecord::panic(long_path, 123);
+        r.message_mut().push_str(&"m".repeat(MESSAGE_BYTES + 10));
+        let report = r.report();
+        assert_eq!(report.kind, link::FailureKind::Panic);
+        assert_eq!(report.file.as_str(), r.file());
+        assert_eq!(report.file.len(), FILE_BYTES);
+        assert_eq!(report.message.len(), MESSAGE_BYTES);
+        assert_eq!(report.line, 123);
+        let fault = PanicRecord::hard_fault(0x0800_1234).report();
+        assert_eq!(
+            (fault.kind, fault.pc, fault.file.as_str()),
+            (link::FailureKind::HardFault, 0x0800_1234, "")
         );
     }
 

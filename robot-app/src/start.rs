@@ -153,6 +153,8 @@ mod tests {
                 git_hash: "",
                 chip: "",
                 robot_name: "",
+                clock: link::ClockSource::Simulated,
+                brown_out_reset: link::BrownOutReset::Level3,
             },
             link: LinkOptions {
                 baud: 115_200,

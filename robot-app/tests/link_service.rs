@@ -4,12 +4,15 @@
 
 mod support;
 
+use std::cell::Cell;
+
 use controller_core::supervisor::{Event, RunMode, State};
 use link::{
     encode_raw, params_hash, ArmMode, FieldProblem, ProtocolId, Refusal, Reply, Request, Uplink,
     PROTOCOL_VERSION,
 };
-use robot_app::{service::TX_CAPACITY, Channels};
+use robot_app::panic_record::{PanicRecord, PanicRecordStore};
+use robot_app::{service::TX_CAPACITY, BoardStats, Channels};
 use support::{default_params, Rig, IDENTITY};
 
 const BAUD: u32 = 921_600;
@@ -47,10 +50,64 @@ fn info_names_the_robot_and_its_parameters() {
     assert_eq!(info.chip.as_str(), IDENTITY.chip);
     assert_eq!(info.robot_name.as_str(), IDENTITY.robot_name);
     assert_eq!(info.params_hash, params_hash(&default_params()));
+    assert_eq!(info.clock, IDENTITY.clock);
+    assert_eq!(info.brown_out_reset, IDENTITY.brown_out_reset);
     assert_eq!(
         rig.ask(Request::GetParams),
         Ok(Reply::Params(default_params()))
     );
+}
+
+/// A board whose RAM holds a panic record, as the firmware's does after a panic.
+struct RetainedRecord(Cell<Option<PanicRecord>>);
+
+impl BoardStats for RetainedRecord {
+    fn max_step_cycles(&self) -> u32 {
+        0
+    }
+    fn stack_high_water_bytes(&self) -> u32 {
+        0
+    }
+}
+
+impl PanicRecordStore for RetainedRecord {
+    fn panic_record(&self) -> Option<PanicRecord> {
+        self.0.get()
+    }
+    fn clear_panic_record(&self) {
+        self.0.set(None);
+    }
+}
+
+#[test]
+fn the_panic_record_stays_until_the_host_clears_it() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    let mut record = PanicRecord::panic("firmware/src/board/f411/motor.rs", 42);
+    record.message_mut().push_str("index out of bounds");
+    let board = RetainedRecord(Cell::new(Some(record)));
+    let ask = |rig: &mut Rig<'_>, request: Request| {
+        let seq = rig.send(request);
+        let bytes = std::mem::take(&mut rig.to_robot);
+        assert_eq!(rig.link.receive(&bytes, &board), bytes.len());
+        rig.drain_tx();
+        rig.reply(seq).expect("answered at once")
+    };
+    // Reading twice (a lost reply asked again) gives the record both times.
+    for _ in 0..2 {
+        assert_eq!(
+            ask(&mut rig, Request::GetPanicRecord),
+            Ok(Reply::PanicRecord(Some(record.report())))
+        );
+    }
+    assert_eq!(ask(&mut rig, Request::ClearPanicRecord), Ok(Reply::Ack));
+    assert_eq!(board.0.get(), None, "cleared where the board keeps it");
+    assert_eq!(
+        ask(&mut rig, Request::GetPanicRecord),
+        Ok(Reply::PanicRecord(None))
+    );
+    // Clearing again is no error.
+    assert_eq!(ask(&mut rig, Request::ClearPanicRecord), Ok(Reply::Ack));
 }
 
 #[test]

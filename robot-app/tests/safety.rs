@@ -6,10 +6,10 @@ mod support;
 
 use controller_core::kinematics::WheelSpeeds;
 use controller_core::supervisor::{Bridge, DisarmReason, Event, RunMode, State};
-use link::{ArmMode, NotPermitted, Refusal, Reply, Request};
+use link::{ArmMode, BrownOutReset, NotPermitted, Refusal, Reply, Request};
 use robot_app::persist::{self, Slot, Slots};
 use robot_app::Channels;
-use support::{default_params, Rig, RATE_HZ};
+use support::{app_config, default_params, Rig, RATE_HZ};
 
 const BAUD: u32 = 921_600;
 
@@ -121,6 +121,16 @@ impl Flash {
 /// The board's side of a persist: steps until the link side asks for a write, does it
 /// with the erase stalling the loop for 30 periods, reports `ok`.
 fn serve_persist(rig: &mut Rig<'_>, flash: &mut Flash, ok: bool) {
+    serve_persist_and(rig, flash, ok, |_| {});
+}
+
+/// [`serve_persist`], with `during` done to the rig while the flash is being written.
+fn serve_persist_and(
+    rig: &mut Rig<'_>,
+    flash: &mut Flash,
+    ok: bool,
+    mut during: impl FnMut(&mut Rig<'_>),
+) {
     let mut job = None;
     for _ in 0..20 {
         rig.step();
@@ -130,6 +140,7 @@ fn serve_persist(rig: &mut Rig<'_>, flash: &mut Flash, ok: bool) {
         }
     }
     let job = job.expect("a persist job");
+    during(rig);
     assert_eq!(rig.last.map(|a| a.state), Some(State::Persisting));
     assert!(rig.last.is_some_and(|a| a.bridge == Bridge::Coast));
     let plan = flash.scan().next_write();
@@ -232,4 +243,101 @@ fn persisting_is_refused_while_armed_busy_or_without_storage() {
     rig.link.persist_finished(true);
     rig.run(5);
     assert_eq!(rig.reply(first), Some(Ok(Reply::Ack)));
+}
+
+/// Steps `steps` control periods; true if the link side asked for a flash write in any.
+fn asks_for_a_write(rig: &mut Rig<'_>, steps: u32) -> bool {
+    let mut asked = false;
+    for _ in 0..steps {
+        rig.step();
+        asked |= rig.link.persist_job().is_some();
+    }
+    asked
+}
+
+#[test]
+fn a_repeated_persist_writes_once_and_every_repeat_gets_the_same_reply() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, true);
+    let mut flash = Flash::new();
+    let seq = rig.fresh_seq();
+    // A repeat right behind the request, while the robot is still entering Persisting.
+    rig.send_with_seq(seq, Request::PersistParams);
+    rig.send_with_seq(seq, Request::PersistParams);
+    // And one while the flash is written (the host gave up waiting too early).
+    serve_persist_and(&mut rig, &mut flash, true, |rig| {
+        rig.send_with_seq(seq, Request::PersistParams);
+        rig.step();
+    });
+    // And one while the robot leaves Persisting.
+    rig.send_with_seq(seq, Request::PersistParams);
+    rig.run(5);
+    assert_eq!(rig.reply(seq), Some(Ok(Reply::Ack)));
+    assert_eq!(rig.replies_to(seq), 1, "one reply, when the write ended");
+    assert_eq!(flash.writes, 1);
+
+    // A repeat after the reply (the reply was lost): the same reply, no second erase.
+    rig.send_with_seq(seq, Request::PersistParams);
+    assert!(!asks_for_a_write(&mut rig, 10), "no second write");
+    assert_eq!(rig.replies_to(seq), 2);
+    assert!(rig
+        .received
+        .iter()
+        .filter_map(|m| match m {
+            link::Uplink::Reply { seq: s, result } if *s == seq => Some(result),
+            _ => None,
+        })
+        .all(|result| *result == Ok(Reply::Ack)));
+    let started = |rig: &Rig<'_>| {
+        rig.events()
+            .iter()
+            .filter(|e| **e == Event::PersistStarted)
+            .count()
+    };
+    assert_eq!(started(&rig), 1, "Persisting entered once");
+
+    // Once another request has come, the same seq is a new request (another session's
+    // numbering): it writes.
+    assert!(matches!(rig.ask(Request::Info), Ok(Reply::Info(_))));
+    rig.send_with_seq(seq, Request::PersistParams);
+    assert!(asks_for_a_write(&mut rig, 10));
+}
+
+#[test]
+fn a_repeat_of_a_failed_persist_gets_the_failure_again_without_writing() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, true);
+    let mut flash = Flash::new();
+    let seq = rig.fresh_seq();
+    rig.send_with_seq(seq, Request::PersistParams);
+    serve_persist(&mut rig, &mut flash, false);
+    rig.run(5);
+    rig.send_with_seq(seq, Request::PersistParams);
+    assert!(!asks_for_a_write(&mut rig, 10));
+    let failed = Err(Refusal::NotPermitted(NotPermitted::StorageFailed));
+    assert_eq!(rig.replies_to(seq), 2);
+    assert_eq!(rig.reply(seq), Some(failed));
+}
+
+#[test]
+fn persisting_is_refused_in_words_while_the_brown_out_reset_is_off() {
+    for level in [
+        BrownOutReset::Off,
+        BrownOutReset::Level2,
+        BrownOutReset::NotApplicable,
+    ] {
+        let mut channels = Channels::new();
+        let mut config = app_config(BAUD, true);
+        config.identity.brown_out_reset = level;
+        let mut rig = Rig::with_config(&mut channels, config);
+        let refused = Refusal::NotPermitted(NotPermitted::BrownOutResetOff);
+        assert_eq!(rig.ask(Request::PersistParams), Err(refused.clone()));
+        assert!(!asks_for_a_write(&mut rig, 10), "{level:?}");
+        assert!(
+            refused
+                .to_string()
+                .contains("brown-out reset is not at level 3"),
+            "{refused}"
+        );
+    }
 }

@@ -39,7 +39,7 @@ use controller_core::kinematics::{Point, Pose};
 use controller_core::law::LawKind;
 use controller_core::path::{Path, Segment};
 use controller_core::reference::ReferenceMode;
-use link::{ParamSet, Request};
+use link::ParamSet;
 use robot_files::rng::Rng;
 use robot_files::scenario::Scenario;
 use robot_files::truth::wrap_angle;
@@ -579,7 +579,7 @@ fn procedure<T: Transport>(
     let after = corrected(before, &estimate, scale);
     crate::ops::set_params(client, after)?;
     if !args.no_persist {
-        client.command(Request::PersistParams)?;
+        crate::ops::persist_params(client)?;
     }
     Ok(Outcome {
         estimate,

@@ -133,8 +133,21 @@ impl<T: Transport> Client<T> {
     }
 
     /// Sends `request` and waits for its reply, re-sending on a timeout (every request
-    /// is safe to repeat). A refusal is an error naming it.
+    /// is safe to repeat), [`Client::reply_timeout`] each time, [`Client::tries`] times. A
+    /// refusal is an error naming it.
     pub fn request(&mut self, request: Request) -> Result<Reply, StationError> {
+        let (timeout, tries) = (self.reply_timeout, self.tries);
+        self.request_waiting(request, timeout, tries)
+    }
+
+    /// [`Client::request`] with its own patience: `reply_timeout` for each of `tries` sends
+    /// (at least one).
+    pub fn request_waiting(
+        &mut self,
+        request: Request,
+        reply_timeout: Duration,
+        tries: u32,
+    ) -> Result<Reply, StationError> {
         let name = request.name();
         self.next_seq = self.next_seq.wrapping_add(1);
         let seq = self.next_seq;
@@ -147,9 +160,9 @@ impl<T: Transport> Client<T> {
         })?;
         let bytes = frame.get(..len).unwrap_or_default();
         let before = self.decoder.counters();
-        for _ in 0..self.tries.max(1) {
+        for _ in 0..tries.max(1) {
             self.transport.send(bytes)?;
-            let deadline = Instant::now() + self.reply_timeout;
+            let deadline = Instant::now() + reply_timeout;
             while Instant::now() < deadline {
                 let messages = self.read(deadline.saturating_duration_since(Instant::now()))?;
                 let mut answer = None;
@@ -175,7 +188,7 @@ impl<T: Transport> Client<T> {
         }
         Err(StationError::Timeout {
             request: name,
-            tries: self.tries.max(1),
+            tries: tries.max(1),
             link: self.transport.describe(),
             received: since(self.decoder.counters(), before),
         })

@@ -59,20 +59,17 @@ fn interrupt_flag() -> Arc<AtomicBool> {
 fn cmd_info(link: &LinkArgs) -> Result<()> {
     let mut client = open(link)?;
     let info = ops::info(&mut client)?;
-    say!("robot       {}", info.robot_name);
-    say!("chip        {}", info.chip);
-    say!(
-        "firmware    {} ({})",
-        info.firmware_version,
-        if info.git_hash.is_empty() {
-            "no git hash"
-        } else {
-            info.git_hash.as_str()
-        }
-    );
-    say!("protocol    {}", info.protocol);
-    say!("parameters  hash 0x{:08x}", info.params_hash);
-    say!("link        {}", client.transport().describe());
+    let failure = ops::panic_record(&mut client)?;
+    let link = client.transport().describe();
+    write!(
+        std::io::stdout(),
+        "{}",
+        ops::describe_robot(&info, failure.as_ref(), &link)
+    )?;
+    // Shown: the robot may forget it.
+    if failure.is_some() {
+        ops::clear_panic_record(&mut client)?;
+    }
     Ok(())
 }
 
@@ -91,12 +88,12 @@ fn cmd_params(link: &LinkArgs, command: ParamsCommand) -> Result<()> {
             let hash = ops::set_params(&mut client, set)?;
             say!("parameters applied (hash 0x{hash:08x})");
             if persist {
-                client.command(Request::PersistParams)?;
+                ops::persist_params(&mut client)?;
                 say!("parameters saved in the robot's flash");
             }
         }
         ParamsCommand::Persist => {
-            client.command(Request::PersistParams)?;
+            ops::persist_params(&mut client)?;
             say!("parameters saved in the robot's flash");
         }
     }

@@ -5,10 +5,13 @@ use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::law::LawKind;
 use controller_core::params::Params;
 use controller_core::supervisor::{DisarmReason, Event};
+use std::time::Duration;
+
 use link::{
-    path_checksum, upload, ArmMode, CommitSummary, ParamSet, PathBegin, PathCommit, Reply, Request,
-    RobotInfo, TuneReport, Uplink,
+    path_checksum, upload, ArmMode, BrownOutReset, CommitSummary, PanicReport, ParamSet, PathBegin,
+    PathCommit, Reply, Request, RobotInfo, TuneReport, Uplink, PERSIST_REPLY_TIMEOUT_MS,
 };
+use robot_app::stm32f4::option_bytes::BorLevel;
 use robot_files::robot_file::{
     tuned_wheel_sections, DivergenceSetting, Keyword, NumberOr, RobotFile, SectionError,
 };
@@ -133,6 +136,82 @@ pub fn set_params<T: Transport>(
     match client.request(Request::SetParams(set))? {
         Reply::ParamsApplied { params_hash } => Ok(params_hash),
         other => Err(unexpected("SetParams", other)),
+    }
+}
+
+/// Saves the robot's configuration in its flash. Sent once, and the reply awaited
+/// [`PERSIST_REPLY_TIMEOUT_MS`]: the erase stalls the robot for up to 2 s, and a request
+/// sent again meanwhile would only be lost in the stall (the robot answers a repeat with
+/// the reply it kept, never with a second erase).
+pub fn persist_params<T: Transport>(client: &mut Client<T>) -> Result<(), StationError> {
+    let wait = Duration::from_millis(u64::from(PERSIST_REPLY_TIMEOUT_MS));
+    match client.request_waiting(Request::PersistParams, wait, 1)? {
+        Reply::Ack => Ok(()),
+        other => Err(unexpected("PersistParams", other)),
+    }
+}
+
+/// The record of the failure that ended a previous run, if the robot keeps one.
+pub fn panic_record<T: Transport>(
+    client: &mut Client<T>,
+) -> Result<Option<PanicReport>, StationError> {
+    match client.request(Request::GetPanicRecord)? {
+        Reply::PanicRecord(record) => Ok(record),
+        other => Err(unexpected("GetPanicRecord", other)),
+    }
+}
+
+/// Tells the robot to forget its panic record (once it has been shown).
+pub fn clear_panic_record<T: Transport>(client: &mut Client<T>) -> Result<(), StationError> {
+    client.command(Request::ClearPanicRecord)
+}
+
+/// What `station info` prints: one `label  value` line per fact, the robot's `info`, the
+/// previous run's `failure` and the `link`.
+pub fn describe_robot(info: &RobotInfo, failure: Option<&PanicReport>, link: &str) -> String {
+    let git = if info.git_hash.is_empty() {
+        "no git hash"
+    } else {
+        info.git_hash.as_str()
+    };
+    let failure = match failure {
+        Some(record) => format!("{record} (the robot's record, now cleared)"),
+        None => "none recorded".to_string(),
+    };
+    [
+        ("robot", info.robot_name.to_string()),
+        ("chip", info.chip.to_string()),
+        ("firmware", format!("{} ({git})", info.firmware_version)),
+        ("protocol", info.protocol.to_string()),
+        ("parameters", format!("hash 0x{:08x}", info.params_hash)),
+        ("clock", info.clock.to_string()),
+        ("brown-out", brown_out_text(info.brown_out_reset)),
+        ("last failure", failure),
+        ("link", link.to_string()),
+    ]
+    .iter()
+    .map(|(label, value)| format!("{label:<13}{value}\n"))
+    .collect()
+}
+
+/// The brown-out reset level with its thresholds, and what it means for persisting.
+fn brown_out_text(level: BrownOutReset) -> String {
+    let bor = match level {
+        BrownOutReset::NotApplicable => return level.to_string(),
+        BrownOutReset::Off => BorLevel::Off,
+        BrownOutReset::Level1 => BorLevel::Level1,
+        BrownOutReset::Level2 => BorLevel::Level2,
+        BrownOutReset::Level3 => BorLevel::Level3,
+    };
+    let mv = |v: u16| f64::from(v) / 1000.0;
+    let reset = match bor.falling_threshold_mv() {
+        Some(t) => format!("resets below {:.2}–{:.2} V", mv(t.min), mv(t.max)),
+        None => "only the power-on reset (about 1.7 V) stops the chip".to_string(),
+    };
+    if level.guards_flash_writes() {
+        format!("{level}: {reset}")
+    } else {
+        format!("{level}: {reset}; parameters cannot be persisted")
     }
 }
 
@@ -371,6 +450,141 @@ pub fn describe_tune(report: &TuneReport) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use link::{
+        bounded, encode, ClockSource, Decoder, Downlink, FailureKind, ProtocolId, Received,
+    };
+
+    fn info(clock: ClockSource, brown_out_reset: BrownOutReset) -> RobotInfo {
+        RobotInfo {
+            protocol: ProtocolId::OURS,
+            firmware_version: bounded("0.1.0"),
+            git_hash: bounded("0123456789ab"),
+            chip: bounded("STM32F411"),
+            robot_name: bounded("diff-drive"),
+            params_hash: 0x1234_5678,
+            clock,
+            brown_out_reset,
+        }
+    }
+
+    fn line<'a>(text: &'a str, label: &str) -> &'a str {
+        text.lines()
+            .find_map(|l| l.strip_prefix(label))
+            .unwrap_or_else(|| panic!("no {label} in\n{text}"))
+            .trim()
+    }
+
+    #[test]
+    fn info_shows_the_clock_the_brown_out_level_and_the_last_failure() {
+        let crystal = info(
+            ClockSource::Crystal { hz: 25_000_000 },
+            BrownOutReset::Level3,
+        );
+        let text = describe_robot(&crystal, None, "/dev/ttyACM0 at 230400 baud");
+        assert_eq!(line(&text, "clock"), "25 MHz crystal");
+        assert_eq!(
+            line(&text, "brown-out"),
+            "level 3: resets below 2.75–2.88 V"
+        );
+        assert_eq!(line(&text, "last failure"), "none recorded");
+        assert_eq!(line(&text, "parameters"), "hash 0x12345678");
+
+        let fallen_back = info(
+            ClockSource::InternalFallback {
+                expected_hz: 8_000_000,
+            },
+            BrownOutReset::Off,
+        );
+        let record = PanicReport {
+            kind: FailureKind::Panic,
+            file: bounded("src/board/f411/motor.rs"),
+            line: 42,
+            pc: 0,
+            message: bounded("index out of bounds"),
+        };
+        let text = describe_robot(&fallen_back, Some(&record), "tcp");
+        assert!(
+            line(&text, "clock").starts_with("internal RC oscillator: the 8 MHz external"),
+            "{text}"
+        );
+        assert_eq!(
+            line(&text, "brown-out"),
+            "off: only the power-on reset (about 1.7 V) stops the chip; parameters cannot be \
+             persisted"
+        );
+        assert!(
+            line(&text, "last failure")
+                .starts_with("panic at src/board/f411/motor.rs:42: index out of bounds"),
+            "{text}"
+        );
+    }
+
+    /// A robot busy erasing its flash: it answers `PersistParams` only after the station
+    /// has waited `answer_after` in `receive`, as a stalled robot would. Counts what the
+    /// station sent.
+    struct ErasingRobot {
+        sends: Vec<u16>,
+        waited: Duration,
+        answer_after: Duration,
+        reply: Vec<u8>,
+    }
+
+    impl Transport for ErasingRobot {
+        fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+            for outcome in Decoder::new().feed::<Downlink>(bytes) {
+                if let Ok(Received::Message(Downlink { seq, request })) = outcome {
+                    assert_eq!(request, Request::PersistParams);
+                    self.sends.push(seq);
+                    let mut frame = [0u8; link::MAX_FRAME_LEN];
+                    let reply = Uplink::Reply {
+                        seq,
+                        result: Ok(Reply::Ack),
+                    };
+                    let len = encode(&reply, &mut frame).expect("encodable");
+                    self.reply = frame[..len].to_vec();
+                }
+            }
+            Ok(())
+        }
+
+        fn receive(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
+            // The station's patience, not the wall clock: what it asks to wait for.
+            self.waited += timeout;
+            if self.waited < self.answer_after {
+                // Block for the time asked, as a quiet line does.
+                std::thread::sleep(timeout);
+                return Ok(0);
+            }
+            let n = self.reply.len().min(buf.len());
+            buf[..n].copy_from_slice(&self.reply[..n]);
+            self.reply.drain(..n);
+            Ok(n)
+        }
+
+        fn describe(&self) -> String {
+            "erasing robot".to_string()
+        }
+    }
+
+    #[test]
+    fn a_persist_is_sent_once_and_waits_out_the_erase() {
+        // The longest erase is 2 s: the robot answers after that.
+        let robot = ErasingRobot {
+            sends: Vec::new(),
+            waited: Duration::ZERO,
+            answer_after: Duration::from_secs(2),
+            reply: Vec::new(),
+        };
+        let mut client = Client::new(robot);
+        persist_params(&mut client).expect("the reply after the erase");
+        let robot = client.transport();
+        assert_eq!(robot.sends.len(), 1, "sent once: {:?}", robot.sends);
+        assert!(
+            robot.waited >= Duration::from_millis(2_500),
+            "{:?}",
+            robot.waited
+        );
+    }
 
     #[test]
     fn empty_sections_are_left_out() {

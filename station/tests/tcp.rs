@@ -649,6 +649,19 @@ fn an_error_names_each_cause_once() {
 fn counts_and_sections_print_as_they_are() {
     let _one = one_at_a_time();
     let (address, _events) = virtual_robot("paper-line", 120.0);
+    // What the robot's board found, one line each; the virtual robot keeps no failure.
+    let output = station(&["--connect", &address, "info"])
+        .output()
+        .expect("the station runs");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}");
+    for line in [
+        "clock        simulated",
+        "brown-out    level 3: resets below 2.75–2.88 V",
+        "last failure none recorded",
+    ] {
+        assert!(stdout.lines().any(|l| l == line), "{line:?} in\n{stdout}");
+    }
     // One segment is a segment.
     let output = station(&["--connect", &address, "path", "upload", "paper-line"])
         .output()

@@ -16,10 +16,10 @@ use anyhow::{bail, ensure, Context as _, Result};
 
 use crate::steps::{build_target_executables, Context};
 
-/// The firmware's flash budget, bytes: sectors 0–4 of the STM32F411's flash (16 + 16 +
-/// 16 + 16 + 64 KiB), well below sectors 6–7, which hold the persisted parameters
-/// (`robot_app::stm32f4::flash`).
-pub const FLASH_BUDGET: u64 = 128 * 1024;
+/// The firmware's flash budget, bytes: sectors 0–4 of the STM32F411's flash, well below
+/// sectors 6–7, which hold the persisted parameters
+/// (`robot_app::stm32f4::flash::FIRMWARE_FLASH_BUDGET`).
+pub const FLASH_BUDGET: u64 = robot_app::stm32f4::flash::FIRMWARE_FLASH_BUDGET as u64;
 /// The firmware's static RAM budget, bytes (no heap; the rest of the 128 KiB is stack).
 pub const RAM_BUDGET: u64 = 12 * 1024;
 

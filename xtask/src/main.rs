@@ -22,6 +22,8 @@
 //!
 //! Every step runs even if an earlier one failed, so one CI log shows every problem.
 
+#[cfg(test)]
+mod build_figures;
 mod elf_size;
 mod figures;
 #[cfg(test)]

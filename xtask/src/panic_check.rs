@@ -148,11 +148,15 @@ impl fmt::Display for Root {
 /// The F411 firmware's tasks with their priorities, as `firmware/src/main.rs` (under
 /// `root`, the workspace) binds them, after checking their order
 /// ([`crate::task_priorities::check`]): one source of truth for the order the stack bound
-/// nests them in. The qemu board's plant port (USART1) is not
-/// in the F411 build.
+/// nests them in. The qemu board's plant port (USART1) is not in the F411 build, whose
+/// board masks its interrupt again (checked too: [`crate::task_priorities::check_f411_masks`]).
 pub fn firmware_tasks(root: &Path) -> Result<Vec<(Root, u8)>> {
     let source = crate::task_priorities::firmware_source(root)?;
     crate::task_priorities::check(&source)?;
+    crate::task_priorities::check_f411_masks(
+        &source,
+        &crate::task_priorities::f411_board_source(root)?,
+    )?;
     let tasks = crate::task_priorities::tasks(&source)?;
     let priority = |binds: &str| {
         tasks

@@ -5,9 +5,9 @@ use controller_core::kinematics::{Pose, WheelSpeeds};
 use controller_core::params::{Params, RobotConfig};
 use controller_core::supervisor::SupervisorConfig;
 use link::{
-    bounded, check_telemetry_rate, params_hash, ArmMode, Commit, CommitSummary, FieldProblem,
-    LinkStats, NotPermitted, ParamSet, PathAssembler, ProtocolId, Refusal, Reply, Request,
-    RobotInfo, RunReport, RxCounters, Stats,
+    bounded, check_telemetry_rate, params_hash, ArmMode, BrownOutReset, ClockSource, Commit,
+    CommitSummary, FieldProblem, LinkStats, NotPermitted, ParamSet, PathAssembler, ProtocolId,
+    Refusal, Reply, Request, RobotInfo, RunReport, RxCounters, Stats,
 };
 
 /// Name the robot gives in its [`RobotInfo`].
@@ -60,6 +60,8 @@ impl TestRobot {
                 chip: bounded(CHIP),
                 robot_name: bounded(ROBOT_NAME),
                 params_hash: params_hash(&self.params),
+                clock: ClockSource::Simulated,
+                brown_out_reset: BrownOutReset::NotApplicable,
             })),
             Request::Ping { nonce } => Ok(Reply::Pong { nonce: *nonce }),
             Request::GetParams => Ok(Reply::Params(self.params)),
@@ -139,6 +141,9 @@ impl TestRobot {
                 }
                 Ok(Reply::Ack)
             }
+            // Nothing survives a reset of this test program.
+            Request::GetPanicRecord => Ok(Reply::PanicRecord(None)),
+            Request::ClearPanicRecord => Ok(Reply::Ack),
         }
     }
 

@@ -8,7 +8,8 @@
 //!
 //! Each board provides, under the same names:
 //!
-//! - `Board` and `init(device, core)`: what the application needs, configured;
+//! - `Board` and `init(device, core)`: what the application needs, configured, and what
+//!   the board found (`reset`, `clock`, `brown_out_reset`), which `Info` reports;
 //! - `ControlIo`: the control task's `sense` (sensors, or `None` when the entry is not a
 //!   step), `actuate` (the step's outputs) and `end_step` (overrun check), plus `start`
 //!   (the tick: a timer on the F411, the plant's first message on QEMU);

@@ -52,8 +52,8 @@ use controller_core::law::LawKind;
 use controller_core::reference::Reference;
 use controller_core::supervisor::{Event, ResetCause, RunMode, State};
 use link::{
-    encode, Decoder, Downlink, GroundTruth, ParamSet, Received, Reply, Request, Uplink,
-    MAX_FRAME_LEN,
+    encode, BrownOutReset, ClockSource, Decoder, Downlink, GroundTruth, ParamSet, Received, Reply,
+    Request, Uplink, MAX_FRAME_LEN,
 };
 use robot_app::stm32f4::bridge::BridgeChip;
 use robot_app::{
@@ -148,6 +148,10 @@ impl<'a> VirtualRobot<'a> {
                 git_hash: "",
                 chip: "host-sim virtual robot",
                 robot_name: leak(&scenario.name),
+                clock: ClockSource::Simulated,
+                // Its flash is memory, but it answers as a robot whose supply is guarded,
+                // so that what a host does before persisting runs as on a set-up robot.
+                brown_out_reset: BrownOutReset::Level3,
             },
             link: LinkOptions {
                 baud: VIRTUAL_BAUD,

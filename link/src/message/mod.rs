@@ -17,6 +17,7 @@
 //! | [`Request::GetTuneReport`] | [`Reply::TuneReport`] |
 //! | [`Request::Arm`] | [`Reply::Ack`]; refused while a wheel still turns unless it asserts the motion ([`NotPermitted::WheelsTurning`]) |
 //! | [`Request::SetPose`] | [`Reply::Ack`]; only while disarmed, every field finite |
+//! | [`Request::GetPanicRecord`] | [`Reply::PanicRecord`] |
 //! | every other request | [`Reply::Ack`] |
 //!
 //! The other [`Uplink`] messages are sent by the robot on its own: [`Uplink::Telemetry`]
@@ -33,6 +34,7 @@
 //! [`SCHEMA_HASH`](crate::SCHEMA_HASH), and peers with different hashes refuse each
 //! other's frames (see [`protocol`](crate::protocol)).
 
+mod board;
 mod path;
 mod refusal;
 mod run;
@@ -46,6 +48,9 @@ use postcard_schema::Schema;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
+pub use self::board::{
+    BrownOutReset, ClockSource, FailureKind, PanicReport, PANIC_FILE_CAP, PANIC_MESSAGE_CAP,
+};
 pub use self::path::{CommitSummary, PathBegin, PathChunk, PathCommit, SEGMENTS_PER_CHUNK};
 pub use self::refusal::{FieldProblem, NotPermitted, PathProblem, Refusal, FIELD_CAP, PROBLEM_CAP};
 pub use self::run::{ErrorSummary, RunReport, TrueRunReport, TuneReport};
@@ -58,6 +63,12 @@ pub const VERSION_CAP: usize = 16;
 pub const GIT_HASH_CAP: usize = 20;
 /// Capacity of [`RobotInfo::chip`] and [`RobotInfo::robot_name`], bytes of UTF-8.
 pub const NAME_CAP: usize = 24;
+
+/// How long a host waits for the reply to [`Request::PersistParams`], ms. The robot
+/// replies once the sector is erased and the record programmed and read back: 2 s at most
+/// for the erase of a 128 KiB STM32F4 sector, a few ms for the rest (robot-app's tests
+/// check this against its flash figures).
+pub const PERSIST_REPLY_TIMEOUT_MS: u32 = 3_000;
 
 /// A top-level message type of the link: [`Downlink`] or [`Uplink`]. Sealed: the schema
 /// hash covers exactly these two.
@@ -98,7 +109,12 @@ pub enum Request {
     /// and `SupervisorConfig::validate` ([`Refusal::InvalidParams`]) and refuses while
     /// armed ([`Refusal::Armed`]). Not persisted until [`Request::PersistParams`].
     SetParams(ParamSet),
-    /// Save the active configuration to flash; only while disarmed.
+    /// Save the active configuration to flash; only while disarmed, and only on a robot
+    /// whose brown-out reset guards its flash writes ([`RobotInfo::brown_out_reset`];
+    /// otherwise [`NotPermitted::BrownOutResetOff`]). The reply comes once the flash is
+    /// written and read back, within [`PERSIST_REPLY_TIMEOUT_MS`] (the erase stalls the
+    /// robot's CPU, so bytes sent meanwhile may be lost): send it once and wait that long. A repeat of the same `seq` is answered with the reply the robot
+    /// kept, never with a second write.
     PersistParams,
     /// Start a path upload (see [`PathAssembler`](crate::PathAssembler)); only while
     /// disarmed.
@@ -160,6 +176,12 @@ pub enum Request {
         /// Heading θ, rad, counter-clockwise from +x.
         theta_rad: f32,
     },
+    /// The record of the panic or hard fault that ended a previous run
+    /// ([`Reply::PanicRecord`]; `None` when there is none). Reading does not clear it: the
+    /// robot keeps it, across resets too, until [`Request::ClearPanicRecord`].
+    GetPanicRecord,
+    /// Forget the panic record (once a host has shown it). Always accepted.
+    ClearPanicRecord,
 }
 
 impl Request {
@@ -184,6 +206,8 @@ impl Request {
             Request::GetRunReport => "GetRunReport",
             Request::GetTuneReport => "GetTuneReport",
             Request::SetPose { .. } => "SetPose",
+            Request::GetPanicRecord => "GetPanicRecord",
+            Request::ClearPanicRecord => "ClearPanicRecord",
         }
     }
 }
@@ -289,6 +313,9 @@ pub enum Reply {
     RunReport(RunReport),
     /// Answer to [`Request::GetTuneReport`]: the last tune's outcome.
     TuneReport(TuneReport),
+    /// Answer to [`Request::GetPanicRecord`]: the failure that ended a previous run, if
+    /// the robot has a record of one.
+    PanicRecord(Option<PanicReport>),
 }
 
 /// Who the robot is: answer to [`Request::Info`].
@@ -306,6 +333,11 @@ pub struct RobotInfo {
     pub robot_name: String<NAME_CAP>,
     /// [`params_hash`](crate::params_hash) of the active configuration.
     pub params_hash: u32,
+    /// What the robot's clock runs from (an internal fallback when the external
+    /// oscillator did not start).
+    pub clock: ClockSource,
+    /// The robot's brown-out reset level.
+    pub brown_out_reset: BrownOutReset,
 }
 
 /// `text` as a bounded string, cut at a character boundary when longer than `N` bytes.
@@ -360,6 +392,8 @@ mod tests {
                 theta_rad: 0.0,
             }
             .name(),
+            Request::GetPanicRecord.name(),
+            Request::ClearPanicRecord.name(),
         ];
         for (i, a) in names.iter().enumerate() {
             for b in &names[i + 1..] {

@@ -255,6 +255,10 @@ pub enum NotPermitted {
     /// stayed below the core's `REST_SPEED_RAD_S` for `REST_STEPS` control steps (wait,
     /// or assert the motion with the arm request's `initial_motion`).
     WheelsTurning,
+    /// Persisting parameters while the chip's brown-out reset is off: the chip would keep
+    /// running, and writing its flash, with its supply below the 2.7 V that needs. The
+    /// firmware sets the level when it starts; it reports in `Info` which level is in force.
+    BrownOutResetOff,
 }
 
 impl fmt::Display for NotPermitted {
@@ -270,6 +274,11 @@ impl fmt::Display for NotPermitted {
             }
             NotPermitted::WheelsTurning => {
                 "the wheels are still turning: arming waits until both stand still"
+            }
+            NotPermitted::BrownOutResetOff => {
+                "the robot's brown-out reset is not at level 3, so its supply could sag \
+                 below the 2.7 V a flash write needs (the firmware sets the level at boot: \
+                 see its log)"
             }
         })
     }

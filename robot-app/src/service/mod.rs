@@ -3,7 +3,8 @@
 //!
 //! [`LinkService`] decodes the host's requests from received bytes, answers what it can
 //! answer itself (`Info`, `Ping`, `GetParams`, path chunks, `SetTelemetryRate`,
-//! `GetStats`, `GetRunReport`), validates configurations and paths and stages them for the control side,
+//! `GetStats`, `GetRunReport`, `GetTuneReport`, `GetPanicRecord`, `ClearPanicRecord`),
+//! validates configurations and paths and stages them for the control side,
 //! forwards the rest (arming, heartbeats, persistence) as [`ToControl`] requests, and
 //! turns the control side's replies, events and telemetry into frames in a bounded
 //! transmit buffer ([`TX_CAPACITY`] bytes).
@@ -33,10 +34,10 @@ use controller_core::kinematics::Pose;
 use controller_core::path::{Segment, MAX_SEGMENTS};
 use controller_core::supervisor::{ArmRequest, Command, RunMode, State};
 use link::{
-    bounded, check_telemetry_rate, params_hash, ArmMode, Commit, CommitSummary, CommittedPath,
-    Decoder, Downlink, FieldProblem, LinkStats, NotPermitted, ParamSet, ProtocolId, Received,
-    Refusal, Reply, Request, RobotInfo, RunReport, Stats, TuneReport, Uplink, UploadSegments,
-    UploadState, MAX_FRAME_LEN,
+    bounded, check_telemetry_rate, params_hash, ArmMode, BrownOutReset, ClockSource, Commit,
+    CommitSummary, CommittedPath, Decoder, Downlink, FieldProblem, LinkStats, NotPermitted,
+    ParamSet, ProtocolId, Received, Refusal, Reply, Request, RobotInfo, RunReport, Stats,
+    TuneReport, Uplink, UploadSegments, UploadState, MAX_FRAME_LEN,
 };
 
 use crate::channel::mailbox::Sender;
@@ -44,11 +45,12 @@ use crate::channel::{
     ControlRefusal, ControlStatus, LinkEnd, Op, OpKind, Report, Staged, ToControl, ToLink,
     COMMAND_CAPACITY,
 };
+use crate::panic_record::{PanicRecord, PanicRecordStore};
 use crate::stm32f4::bridge::BridgeChip;
 
 pub use self::config::{bridge_rating_problem, supervisor_problem, within_bridge_rating};
 pub use self::persisting::PersistJob;
-use self::persisting::PersistPhase;
+use self::persisting::{PersistPhase, Persisted};
 use self::tx::TxBuffer;
 pub use self::tx::TX_CAPACITY;
 
@@ -67,8 +69,8 @@ const _: () = assert!(REPLY_RESERVE + COMMAND_CAPACITY * CONTROL_REPLY_MAX <= TX
 /// checked by a test; a constant here so the target needs no size-counting serializer).
 pub const TELEMETRY_WIRE_LEN: usize = 128;
 
-/// Who the robot is, as [`Request::Info`] reports it. Strings longer than the link's
-/// capacities are cut.
+/// Who the robot is and what its board found when it started, as [`Request::Info`]
+/// reports it. Strings longer than the link's capacities are cut.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Identity {
     /// Firmware version, e.g. `0.1.0`.
@@ -79,6 +81,12 @@ pub struct Identity {
     pub chip: &'static str,
     /// The robot's name.
     pub robot_name: &'static str,
+    /// What the system clock runs from (the fallback when the external oscillator did not
+    /// start).
+    pub clock: ClockSource,
+    /// The brown-out reset level in force: `PersistParams` is refused unless it guards
+    /// flash writes ([`BrownOutReset::guards_flash_writes`]).
+    pub brown_out_reset: BrownOutReset,
 }
 
 /// How the board's link is set up.
@@ -101,7 +109,7 @@ pub trait BoardStats {
     fn stack_high_water_bytes(&self) -> u32;
 }
 
-/// A board that measures neither (e.g. the simulator).
+/// A board that measures neither and keeps no panic record (e.g. the simulator).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct NoBoardStats;
 
@@ -113,6 +121,19 @@ impl BoardStats for NoBoardStats {
         0
     }
 }
+
+impl PanicRecordStore for NoBoardStats {
+    fn panic_record(&self) -> Option<PanicRecord> {
+        None
+    }
+    fn clear_panic_record(&self) {}
+}
+
+/// What the board knows that the link service reports: its figures for `GetStats` and
+/// its panic record for `GetPanicRecord`.
+pub trait Board: BoardStats + PanicRecordStore {}
+
+impl<B: BoardStats + PanicRecordStore + ?Sized> Board for B {}
 
 /// What the link side counted (its decoder's counters are in [`LinkService::stats`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -147,6 +168,8 @@ pub struct LinkService<'a> {
     /// Requests forwarded to the control side and not answered yet.
     in_flight: usize,
     persist: PersistPhase,
+    /// The outcome of the last `PersistParams` that wrote flash, for a repeat of it.
+    persisted: Option<Persisted>,
     counters: ServiceCounters,
     /// The last run's report from the control side, and whether it still has to be sent.
     last_report: RunReport,
@@ -183,6 +206,7 @@ impl<'a> LinkService<'a> {
             bridge,
             in_flight: 0,
             persist: PersistPhase::Idle,
+            persisted: None,
             counters: ServiceCounters::default(),
             last_report: RunReport::default(),
             last_tune: TuneReport::NONE,
@@ -215,7 +239,7 @@ impl<'a> LinkService<'a> {
     /// inlined, like the other replies' payloads, so that the link task's request
     /// handling does not hold their room on its stack.
     #[inline(never)]
-    pub fn stats<B: BoardStats + ?Sized>(&self, board: &B) -> Stats {
+    pub fn stats<B: Board + ?Sized>(&self, board: &B) -> Stats {
         let control = self.end.control_status();
         Stats {
             max_step_cycles: board.max_step_cycles(),
@@ -243,7 +267,7 @@ impl<'a> LinkService<'a> {
     /// Call only while [`LinkService::ready_for_input`] (a byte taken anyway is decoded,
     /// and a reply that then finds no room is counted in
     /// [`ServiceCounters::replies_dropped`]).
-    pub fn receive_byte<B: BoardStats + ?Sized>(&mut self, byte: u8, board: &B) {
+    pub fn receive_byte<B: Board + ?Sized>(&mut self, byte: u8, board: &B) {
         // The request is borrowed where the decoder left it, not moved: it can be a few
         // hundred bytes, and each copy is stack.
         match self.decoder.push::<Downlink>(byte) {
@@ -259,7 +283,7 @@ impl<'a> LinkService<'a> {
     /// Takes received bytes from the front of `bytes` while
     /// [`LinkService::ready_for_input`]; returns how many it took (keep the rest for
     /// later).
-    pub fn receive<B: BoardStats + ?Sized>(&mut self, bytes: &[u8], board: &B) -> usize {
+    pub fn receive<B: Board + ?Sized>(&mut self, bytes: &[u8], board: &B) -> usize {
         let mut taken = 0;
         for &byte in bytes {
             if !self.ready_for_input() {
@@ -371,7 +395,13 @@ impl<'a> LinkService<'a> {
     /// inlined one room of its own in this frame, which a path commit's staging then sat
     /// on.
     #[inline(never)]
-    fn handle<B: BoardStats + ?Sized>(&mut self, seq: u16, request: &Request, board: &B) {
+    fn handle<B: Board + ?Sized>(&mut self, seq: u16, request: &Request, board: &B) {
+        // The kept outcome answers only a repeat that comes next: any other request
+        // (another station's first `Info`, a new `SetParams`) means the next
+        // `PersistParams` is a new one, even if its `seq` happens to be the same.
+        if !matches!(request, Request::PersistParams) {
+            self.persisted = None;
+        }
         let now = match request {
             Request::Info => Some(Ok(Reply::Info(self.info()))),
             &Request::Ping { nonce } => Some(Ok(Reply::Pong { nonce })),
@@ -405,6 +435,11 @@ impl<'a> LinkService<'a> {
                 Ok(pose) => self.forward(seq, Op::Command(Command::SetPose(pose))),
                 Err(refused) => Some(Err(refused)),
             },
+            Request::GetPanicRecord => Some(Ok(panic_record_reply(board))),
+            Request::ClearPanicRecord => {
+                board.clear_panic_record();
+                Some(Ok(Reply::Ack))
+            }
         };
         if let Some(result) = now {
             self.reply(seq, result);
@@ -422,6 +457,8 @@ impl<'a> LinkService<'a> {
             chip: bounded(id.chip),
             robot_name: bounded(id.robot_name),
             params_hash: self.active_hash,
+            clock: id.clock,
+            brown_out_reset: id.brown_out_reset,
         }
     }
 
@@ -592,7 +629,7 @@ impl<'a> LinkService<'a> {
             OpKind::Command => Some(result.map(|()| Reply::Ack).map_err(refusal)),
             OpKind::Install => Some(self.installed(result)),
             OpKind::BeginPersist => self.persist_started(seq, result),
-            OpKind::EndPersist => self.persist_ended(),
+            OpKind::EndPersist => self.persist_ended(seq),
         };
         if let Some(result) = reply {
             self.reply(seq, result);
@@ -662,6 +699,13 @@ fn finite_pose(x_m: f32, y_m: f32, theta_rad: f32) -> Result<Pose, Refusal> {
         }
     }
     Ok(Pose::new(x_m, y_m, theta_rad))
+}
+
+/// The reply to `GetPanicRecord`: what `board` keeps. Not inlined: see
+/// [`LinkService::handle`].
+#[inline(never)]
+fn panic_record_reply<B: Board + ?Sized>(board: &B) -> Reply {
+    Reply::PanicRecord(board.panic_record().map(|record| record.report()))
 }
 
 /// The supervisor's arm request for the link's `Arm`.

@@ -8,10 +8,22 @@
 //! ```
 //!
 //! The board does the flash work in a low-priority context (on the STM32F411 an erase
-//! stalls the CPU, so the firmware lengthens the watchdog first), using the pure
-//! functions of [`crate::persist`]. The host re-sends the request if its bytes or the
-//! reply were lost during the erase (a repeat after the end writes again, which is
-//! harmless).
+//! stalls the CPU for up to 2 s, so the firmware lengthens the watchdog first), using the
+//! pure functions of [`crate::persist`]. A host waits
+//! [`PERSIST_REPLY_TIMEOUT_MS`](link::PERSIST_REPLY_TIMEOUT_MS) for the reply; bytes
+//! sent meanwhile may be lost in the stall. One request writes flash once, however often
+//! its `seq` comes again:
+//!
+//! - a repeat while the write is under way (starting, writing, ending) gets no reply of
+//!   its own: the one reply, when the write ends, answers it;
+//! - a repeat after the reply gets the same reply again ([`Persisted`]), until any other
+//!   request arrives (a repeat is what comes next, or never);
+//! - a `PersistParams` with another `seq` while one is under way is refused `Busy`.
+//!
+//! Flash is written only while the chip's brown-out reset guards the supply the write
+//! needs ([`BrownOutReset::guards_flash_writes`](link::BrownOutReset::guards_flash_writes));
+//! otherwise the request is refused with
+//! [`NotPermitted::BrownOutResetOff`](link::NotPermitted::BrownOutResetOff).
 
 use controller_core::supervisor::State;
 use link::{NotPermitted, ParamSet, Refusal, Reply};
@@ -30,6 +42,39 @@ pub(crate) enum PersistPhase {
     Writing { seq: u16 },
     /// The board is done; `EndPersist` is to be sent (`forwarded` once it is queued).
     Ending { seq: u16, ok: bool, forwarded: bool },
+}
+
+impl PersistPhase {
+    /// The `seq` of the request under way, if any.
+    const fn seq(self) -> Option<u16> {
+        match self {
+            PersistPhase::Idle => None,
+            PersistPhase::Starting { seq }
+            | PersistPhase::Writing { seq }
+            | PersistPhase::Ending { seq, .. } => Some(seq),
+        }
+    }
+}
+
+/// How the last `PersistParams` that reached the flash ended: what a repeat of its `seq`
+/// is answered with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Persisted {
+    /// The request's `seq`.
+    seq: u16,
+    /// The record was written and read back intact.
+    ok: bool,
+}
+
+impl Persisted {
+    /// The reply to the request, and to every repeat of it.
+    fn reply(self) -> Result<Reply, Refusal> {
+        if self.ok {
+            Ok(Reply::Ack)
+        } else {
+            Err(Refusal::NotPermitted(NotPermitted::StorageFailed))
+        }
+    }
 }
 
 /// What the board is to write: the configuration in force, borrowed (a copy would be
@@ -66,13 +111,22 @@ impl LinkService<'_> {
         }
     }
 
-    /// `PersistParams`: starts the sequence, or refuses.
+    /// `PersistParams`: starts the sequence, answers a repeat (module doc), or refuses.
     pub(super) fn persist_params(&mut self, seq: u16) -> Option<Result<Reply, Refusal>> {
         if !self.storage {
             return Some(Err(Refusal::NotPermitted(NotPermitted::NoStorage)));
         }
-        if self.persist != PersistPhase::Idle {
-            return Some(Err(self.busy()));
+        match self.persist.seq() {
+            // The reply when the write ends answers this repeat too.
+            Some(under_way) if under_way == seq => return None,
+            Some(_) => return Some(Err(self.busy())),
+            None => {}
+        }
+        if let Some(done) = self.persisted.filter(|done| done.seq == seq) {
+            return Some(done.reply());
+        }
+        if !self.identity.brown_out_reset.guards_flash_writes() {
+            return Some(Err(Refusal::NotPermitted(NotPermitted::BrownOutResetOff)));
         }
         if self.state() == Some(State::Armed) {
             return Some(Err(Refusal::Armed));
@@ -105,17 +159,15 @@ impl LinkService<'_> {
 
     /// The control side left Persisting: the reply to `PersistParams` says how the write
     /// went.
-    pub(super) fn persist_ended(&mut self) -> Option<Result<Reply, Refusal>> {
+    pub(super) fn persist_ended(&mut self, seq: u16) -> Option<Result<Reply, Refusal>> {
         let ok = match self.persist {
             PersistPhase::Ending { ok, .. } => ok,
             _ => false,
         };
         self.persist = PersistPhase::Idle;
-        Some(if ok {
-            Ok(Reply::Ack)
-        } else {
-            Err(Refusal::NotPermitted(NotPermitted::StorageFailed))
-        })
+        let done = Persisted { seq, ok };
+        self.persisted = Some(done);
+        Some(done.reply())
     }
 
     /// Sends the pending `EndPersist` if the command queue has room (it always leaves

@@ -3,7 +3,8 @@
 //!
 //! Sources: STM32F401 — RM0368 and DS9716; STM32F411 — RM0383 and DS10314; STM32F446 —
 //! RM0390 and DS10693. Every figure below is for V_DD = V_DDA in 2.7–3.6 V (both boards run
-//! at 3.3 V), no over-drive, and the PLL fed from the 16 MHz HSI.
+//! at 3.3 V, and the brown-out reset keeps them above 2.7 V: [`super::option_bytes`]), no
+//! over-drive.
 
 /// One of the STM32F4 parts the firmware builds for (one cargo feature each).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -151,42 +151,75 @@ impl PllConfig {
     }
 }
 
-/// The PLL setting that gives exactly `sysclk_hz` from `source_hz` on `chip`.
+/// The PLL setting stm32f4xx-hal 0.23 writes for `sysclk_hz` from `source_hz` (no
+/// 48 MHz clock requested), if it gives exactly `sysclk_hz` within the limits of `chip`.
 ///
-/// Among the exact settings it prefers a 2 MHz VCO input (RM0383 §6.3.2 recommends it to
-/// limit PLL jitter; so it takes the smallest M), then the highest VCO frequency (the
-/// largest P); Q is the smallest that keeps PLL48CLK ≤ 48 MHz. From the 16 MHz HSI this
-/// is M = 8, N = 200, P = 4, Q = 9 for 100 MHz and M = 8, N = 168, P = 4, Q = 7 for
-/// 84 MHz, which is also what stm32f4xx-hal 0.23 writes for these requests.
+/// The HAL's search (`rcc::pll::MainPll::fast_setup`), which the firmware cannot
+/// override: P is the largest even divider up to 8 that keeps P × SYSCLK ≤ 432 MHz; M
+/// runs from ⌈source / 2 MHz⌉ to ⌊source / 1 MHz⌋ and the first one whose whole-Hz VCO
+/// input reaches P × SYSCLK with the smallest shortfall wins, so the VCO input is as
+/// close to RM0383's recommended 2 MHz as an exact setting allows; N = P × SYSCLK / VCO
+/// input; Q is the smallest that keeps PLL48CLK ≤ 48 MHz. For 100 MHz this gives:
+///
+/// | source | M / N / P / Q | VCO in / out |
+/// |---|---|---|
+/// | HSI, 16 MHz | 8 / 200 / 4 / 9 | 2 / 400 MHz |
+/// | HSE, 25 MHz (Black Pill crystal) | 16 / 256 / 4 / 9 | 1.5625 / 400 MHz |
+/// | HSE, 8 MHz (Nucleo, ST-LINK MCO) | 4 / 200 / 4 / 9 | 2 / 400 MHz |
+///
+/// From 25 MHz no whole M gives 2 MHz (M = 13 gives 1.92 MHz, exact only as a fraction,
+/// which the HAL's whole-Hz arithmetic does not find); 1.5625 MHz is inside RM0383's
+/// 1–2 MHz range, and the jitter 2 MHz would save matters for USB and I2S, which the robot
+/// does not use.
 pub const fn pll_for(chip: Chip, source_hz: u32, sysclk_hz: u32) -> Result<PllConfig, ClockError> {
-    let mut m: u32 = 2;
-    while m <= 63 {
-        let vco_in = source_hz / m;
-        if source_hz % m == 0 && vco_in >= 1_000_000 && vco_in <= 2_000_000 {
-            let mut p: u32 = 8;
-            while p >= 2 {
-                let vco_out = sysclk_hz as u64 * p as u64;
-                if vco_out % vco_in as u64 == 0 && vco_out <= u32::MAX as u64 {
-                    let n = (vco_out / vco_in as u64) as u32;
-                    let q = (vco_out as u32).div_ceil(48_000_000);
-                    let candidate = PllConfig {
-                        m: m as u8,
-                        n: if n > u16::MAX as u32 { 0 } else { n as u16 },
-                        p: p as u8,
-                        q: if q < 2 { 2 } else { q as u8 },
-                    };
-                    if let Ok(out) = candidate.check(chip, source_hz) {
-                        if out.sysclk_hz == sysclk_hz {
-                            return Ok(candidate);
-                        }
-                    }
-                }
-                p -= 2;
-            }
+    if sysclk_hz == 0 {
+        return Err(ClockError::NoExactPll(sysclk_hz));
+    }
+    let p = {
+        let even = (432_000_000 / sysclk_hz) & !1;
+        if even > 8 {
+            8
+        } else {
+            even
+        }
+    };
+    if p < 2 {
+        return Err(ClockError::NoExactPll(sysclk_hz));
+    }
+    let target = sysclk_hz as u64 * p as u64;
+    let m_min = source_hz.div_ceil(2_000_000);
+    let m_max = source_hz / 1_000_000;
+    let mut best: Option<(u32, u64)> = None;
+    let mut m = if m_min < 1 { 1 } else { m_min };
+    while m <= m_max {
+        let vco_in = (source_hz / m) as u64;
+        let shortfall = target - vco_in * (target / vco_in);
+        let better = match best {
+            Some((_, least)) => shortfall < least,
+            None => true,
+        };
+        if better {
+            best = Some((m, shortfall));
         }
         m += 1;
     }
-    Err(ClockError::NoExactPll(sysclk_hz))
+    let Some((m, 0)) = best else {
+        return Err(ClockError::NoExactPll(sysclk_hz));
+    };
+    let vco_in = (source_hz / m) as u64;
+    let n = target / vco_in;
+    let q = target.div_ceil(48_000_000);
+    let candidate = PllConfig {
+        m: if m > u8::MAX as u32 { 0 } else { m as u8 },
+        n: if n > u16::MAX as u64 { 0 } else { n as u16 },
+        p: p as u8,
+        q: if q > u8::MAX as u64 { 0 } else { q as u8 },
+    };
+    match candidate.check(chip, source_hz) {
+        Ok(out) if out.sysclk_hz == sysclk_hz => Ok(candidate),
+        Ok(_) => Err(ClockError::NoExactPll(sysclk_hz)),
+        Err(e) => Err(e),
+    }
 }
 
 /// Flash wait states (FLASH_ACR.LATENCY) for `hclk_hz` at 2.7–3.6 V: the smallest count
@@ -268,6 +301,9 @@ pub const fn ahb_divider_from_hpre(bits: u8) -> u16 {
 /// RCC_CFGR.SWS (bits 3:2) when SYSCLK runs from the main PLL.
 pub const SWS_PLL: u8 = 0b10;
 
+/// RCC_PLLCFGR.PLLSRC (bit 22): set when the PLL runs from the HSE, clear for the HSI.
+pub const PLLSRC_HSE: u32 = 1 << 22;
+
 /// The bus and timer clocks, Hz.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ClockTree {
@@ -286,6 +322,17 @@ pub struct ClockTree {
 }
 
 impl ClockTree {
+    /// True when `self` and `other` give every bus and timer the same clock (a `const`
+    /// comparison, for compile-time checks).
+    pub const fn same_as(&self, other: &ClockTree) -> bool {
+        self.sysclk_hz == other.sysclk_hz
+            && self.hclk_hz == other.hclk_hz
+            && self.pclk1_hz == other.pclk1_hz
+            && self.pclk2_hz == other.pclk2_hz
+            && self.timclk1_hz == other.timclk1_hz
+            && self.timclk2_hz == other.timclk2_hz
+    }
+
     /// The tree for `sysclk_hz` and RCC_CFGR's HPRE (bits 7:4), PPRE1 (12:10) and PPRE2
     /// (15:13) fields taken from `cfgr`.
     pub const fn from_cfgr(sysclk_hz: u32, cfgr: u32) -> ClockTree {
@@ -423,6 +470,126 @@ mod tests {
     }
 
     #[test]
+    fn f411_at_100_mhz_from_the_boards_external_oscillators() {
+        // The Black Pill's 25 MHz crystal: no whole M gives a 2 MHz VCO input; the HAL's
+        // search takes the first M with an exact VCO, 16 (1.5625 MHz).
+        let crystal = plan(Chip::F411, 25_000_000, 100_000_000).unwrap();
+        assert_eq!(
+            crystal.pll,
+            PllConfig {
+                m: 16,
+                n: 256,
+                p: 4,
+                q: 9
+            }
+        );
+        assert_eq!(crystal.pll_output.vco_in_hz, 1_562_500);
+        assert_eq!(crystal.pll_output.vco_out_hz, 400_000_000);
+        // The Nucleo's 8 MHz from the ST-LINK: 2 MHz, as from the HSI.
+        let mco = plan(Chip::F411, 8_000_000, 100_000_000).unwrap();
+        assert_eq!(
+            mco.pll,
+            PllConfig {
+                m: 4,
+                n: 200,
+                p: 4,
+                q: 9
+            }
+        );
+        assert_eq!(mco.pll_output.vco_in_hz, 2_000_000);
+        // Whatever the source, the buses, timers, wait states and scale are the same.
+        let hsi = plan(Chip::F411, HSI_HZ, 100_000_000).unwrap();
+        for other in [crystal, mco] {
+            assert!(other.tree.same_as(&hsi.tree));
+            assert_eq!(other.tree, hsi.tree);
+            assert_eq!(
+                (other.flash_wait_states, other.scale),
+                (3, VoltageScale::Scale1)
+            );
+        }
+        // M = 13 would give 1.92 MHz and an exact 100 MHz too, but only as a fraction of
+        // a Hz at the VCO input, which neither the HAL nor `check` takes.
+        let thirteen = PllConfig {
+            m: 13,
+            n: 208,
+            p: 4,
+            q: 9,
+        };
+        assert_eq!(
+            thirteen.check(Chip::F411, 25_000_000),
+            Err(ClockError::VcoInput(1_923_076))
+        );
+        // The F401 port example at 72 MHz from either oscillator.
+        assert_eq!(
+            plan(Chip::F401, 25_000_000, 72_000_000).map(|p| p.pll),
+            Ok(PllConfig {
+                m: 25,
+                n: 432,
+                p: 6,
+                q: 9
+            })
+        );
+        assert!(plan(Chip::F401, 8_000_000, 72_000_000).is_ok());
+    }
+
+    #[test]
+    fn the_search_is_the_hal_s() {
+        // stm32f4xx-hal 0.23's `fast_setup` without a 48 MHz clock, transcribed with its
+        // whole-Hz arithmetic, against `pll_for` over every source and SYSCLK the chips
+        // allow in whole MHz.
+        fn hal(source: u32, sysclk: u32) -> (u32, u32, u32, u32, u32) {
+            let m_min = source.div_ceil(2_000_000);
+            let m_max = source / 1_000_000;
+            let div = 8.min((432_000_000 / sysclk) & !1);
+            let target = sysclk * div;
+            let m = (m_min..=m_max)
+                .min_by_key(|m| {
+                    let vco_in = source / m;
+                    target - vco_in * (target / vco_in)
+                })
+                .unwrap();
+            let vco_in = source / m;
+            let n = target / vco_in;
+            let q = (vco_in * n).div_ceil(48_000_000);
+            (m, n, div, q, vco_in * n / div)
+        }
+        for source in [8_000_000, HSI_HZ, 25_000_000, 12_000_000, 24_000_000] {
+            for mhz in 24..=100 {
+                let sysclk = mhz * 1_000_000;
+                let (m, n, p, q, hal_sysclk) = hal(source, sysclk);
+                match pll_for(Chip::F411, source, sysclk) {
+                    Ok(c) => {
+                        assert_eq!(
+                            (
+                                u32::from(c.m),
+                                u32::from(c.n),
+                                u32::from(c.p),
+                                u32::from(c.q)
+                            ),
+                            (m, n, p, q),
+                            "{source} Hz -> {sysclk} Hz"
+                        );
+                        assert_eq!(hal_sysclk, sysclk);
+                    }
+                    // Refused: the HAL's setting is not exact or breaks a limit.
+                    Err(_) => assert!(
+                        hal_sysclk != sysclk
+                            || PllConfig {
+                                m: m as u8,
+                                n: n as u16,
+                                p: p as u8,
+                                q: q as u8
+                            }
+                            .check(Chip::F411, source)
+                            .is_err(),
+                        "{source} Hz -> {sysclk} Hz"
+                    ),
+                }
+            }
+        }
+    }
+
+    #[test]
     fn f401_at_72_mhz_and_f446_at_100_mhz() {
         // RM0368 requires 192 <= PLLN <= 432 on the F401. The HAL's choice for 84 MHz
         // from the HSI (M = 8, N = 168, P = 4) breaks it; an exact 84 MHz exists only
@@ -437,12 +604,18 @@ mod tests {
         assert_eq!(hal_84.check(Chip::F401, HSI_HZ), Err(ClockError::PllN(168)));
         assert_eq!(
             pll_for(Chip::F401, HSI_HZ, 84_000_000),
-            Ok(PllConfig {
-                m: 10,
-                n: 210,
-                p: 4,
-                q: 7
-            })
+            Err(ClockError::PllN(168)),
+            "the HAL's choice, refused"
+        );
+        let exact_84 = PllConfig {
+            m: 10,
+            n: 210,
+            p: 4,
+            q: 7,
+        };
+        assert_eq!(
+            exact_84.check(Chip::F401, HSI_HZ).map(|out| out.sysclk_hz),
+            Ok(84_000_000)
         );
         let f401 = plan(Chip::F401, HSI_HZ, 72_000_000).unwrap();
         assert_eq!(

@@ -4,13 +4,15 @@
 //!
 //! # Sectors
 //!
-//! The STM32F411xE and STM32F446xE have the same 512 KiB single-bank layout (RM0383
-//! Table 5, RM0390 Table 4): sectors 0–3 of 16 KiB from 0x0800_0000, sector 4 of
-//! 64 KiB at 0x0801_0000, sectors 5–7 of 128 KiB from 0x0802_0000. The records
+//! The STM32F411xE and STM32F446xE have the same 512 KiB single-bank layout (RM0383 and
+//! RM0390, "Flash module organization"): sectors 0–3 of 16 KiB from 0x0800_0000, sector 4
+//! of 64 KiB at 0x0801_0000, sectors 5–7 of 128 KiB from 0x0802_0000. The records
 //! ([`crate::persist`], two pages used in turn) go to the last two sectors, 6 and 7
 //! ([`STORAGE_F411`]), so the code may use sectors 0–5: the firmware's `memory.x`
-//! gives it [`code_flash_len`] = 256 KiB. A debug build, much larger than the firmware
-//! build (which `cargo xtask size` holds to sectors 0–4, 128 KiB), still links.
+//! gives it [`code_flash_len`]`(&STORAGE_F411)` = 256 KiB (`cargo test -p xtask` checks
+//! `memory/stm32f411.x` against it). The firmware build is held to sectors 0–4,
+//! [`FIRMWARE_FLASH_BUDGET`] = 128 KiB (`cargo xtask size` reads that constant), so a
+//! debug build, much larger, still links.
 //!
 //! The STM32F401 port example has no storage: the F401CC of the WeAct board has only
 //! sectors 0–5 (256 KiB), all of which a debug build may need.
@@ -134,6 +136,11 @@ pub const fn code_flash_len(storage: &StorageSectors) -> u32 {
     first - FLASH_BASE
 }
 
+/// The flash the firmware build may take, bytes: sectors 0–4 of [`SECTORS_512K`]
+/// (16 + 16 + 16 + 16 + 64 KiB = 128 KiB), leaving sector 5 to a debug build and
+/// sectors 6–7 to the records. `cargo xtask size` holds the build to it.
+pub const FIRMWARE_FLASH_BUDGET: u32 = SECTORS_512K[5].address - FLASH_BASE;
+
 /// Longest programming time of one 32-bit word (x32 parallelism), µs.
 pub const WORD_PROGRAM_MAX_US: u32 = 100;
 
@@ -193,6 +200,8 @@ mod tests {
         assert_eq!((s.b.number, s.b.address), (7, 0x0806_0000));
         assert_eq!(s.sector(Slot::B), s.b);
         assert_eq!(code_flash_len(&s), 256 * 1024);
+        assert_eq!(FIRMWARE_FLASH_BUDGET, 128 * 1024);
+        assert!(FIRMWARE_FLASH_BUDGET < code_flash_len(&s));
         // A record is far smaller than a sector.
         assert!(MAX_RECORD_LEN as u32 <= s.a.size_bytes);
     }

@@ -7,6 +7,8 @@
 //! |---|---|
 //! | [`chip`] | the supported parts and their limits (clock, buses, flash, PLL, LSI, ADC) |
 //! | [`clock`] | PLL M/N/P/Q, flash wait states, voltage scale, APB dividers, timer clocks |
+//! | [`oscillator`] | the board's external oscillator (HSE), its startup timeout, the fallback to the HSI |
+//! | [`option_bytes`] | the brown-out reset level in FLASH_OPTCR, and the value written to set it |
 //! | [`watchdog`] | IWDG prescaler and reload for a timeout, and its spread over the LSI |
 //! | [`tick`] | control periods elapsed since the last step, from a free-running counter |
 //! | [`encoder_filter`] | the quadrature inputs' digital filter against the fastest real edge |
@@ -22,6 +24,8 @@ pub mod chip;
 pub mod clock;
 pub mod encoder_filter;
 pub mod flash;
+pub mod option_bytes;
+pub mod oscillator;
 pub mod reset;
 pub mod stack;
 pub mod supply;

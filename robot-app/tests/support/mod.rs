@@ -35,6 +35,8 @@ pub const IDENTITY: Identity = Identity {
     git_hash: "0123456789ab-dirty",
     chip: "host",
     robot_name: "fake board",
+    clock: link::ClockSource::Crystal { hz: 25_000_000 },
+    brown_out_reset: link::BrownOutReset::Level3,
 };
 
 /// The configuration the test robot starts with: the reference robot at 1 kHz, starting
@@ -179,7 +181,12 @@ pub struct Rig<'a> {
 impl<'a> Rig<'a> {
     /// A test robot on a link at `baud`, with or without storage.
     pub fn new(channels: &'a mut Channels, baud: u32, storage: bool) -> Self {
-        let (control, link) = start(channels, app_config(baud, storage)).expect("valid config");
+        Self::with_config(channels, app_config(baud, storage))
+    }
+
+    /// A test robot started with `config`.
+    pub fn with_config(channels: &'a mut Channels, config: AppConfig) -> Self {
+        let (control, link) = start(channels, config).expect("valid config");
         Self {
             control,
             link,

@@ -9,7 +9,8 @@
 //!    written while BSY is set) and clear the sticky error flags (FLASH_SR.PGSERR,
 //!    PGPERR, PGAERR, WRPERR, OPERR: rc_w1).
 //! 3. **Erase** the sector: FLASH_CR.PSIZE = 10 (x32 parallelism: allowed at V_DD
-//!    2.7–3.6 V; both boards run at 3.3 V), SER = 1, SNB = the sector; then STRT = 1;
+//!    2.7–3.6 V; both boards run at 3.3 V, and the link service asks for a write only
+//!    while the brown-out reset at level 3 holds V_DD above 2.7 V), SER = 1, SNB = the sector; then STRT = 1;
 //!    wait for BSY = 0. Every fetch from flash stalls meanwhile (single bank): 1–2 s for
 //!    a 128 KiB sector (`robot_app::stm32f4::flash`), which is why the caller has lengthened
 //!    the watchdog to [`WATCHDOG_PERSIST`] first.
@@ -60,7 +61,7 @@ pub enum FlashError {
 }
 
 /// FLASH_SR error flags: OPERR, WRPERR, PGAERR, PGPERR, PGSERR (bits 1, 4–7).
-const SR_ERRORS: u32 = 0b1111_0010;
+pub(super) const SR_ERRORS: u32 = 0b1111_0010;
 
 /// The flash interface, owned for the storage's erase and program operations.
 pub struct Storage {

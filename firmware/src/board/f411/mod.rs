@@ -21,6 +21,7 @@
 //! | Control tick                | —    | TIM5 CC1 IRQ, 1 kHz   | —          | —               |
 //! | Parameter storage           | —    | flash sectors 6 and 7 (0x0804_0000, 0x0806_0000, 128 KiB each) | — | — |
 //! | SWD (probe)                 | PA13 / PA14 | SWDIO / SWCLK  | SWD header | ST-LINK         |
+//! | System clock ([`HSE`])      | PH0 / PH1 | OSC_IN / OSC_OUT | 25 MHz crystal | 8 MHz ST-LINK MCO on OSC_IN (SB50) |
 //!
 //! The link runs at [`LINK_BAUD`] 8N1 (3.3 V logic: a USB-serial adapter's RX to PA2,
 //! TX to PA3, GND to GND; on the Nucleo the ST-LINK's virtual COM port is already wired
@@ -31,10 +32,13 @@
 //! The supply divider is 39 kΩ (supply to PA1) over 10 kΩ (PA1 to GND) with 100 nF from
 //! PA1 to GND ([`supply`]).
 //!
-//! Everything chip-specific the firmware writes is derived here from [`CHIP`] and
-//! [`SYSCLK_HZ`] through `robot_app::stm32f4`, whose host tests check it against the
-//! reference manuals.
+//! Everything chip-specific the firmware writes is derived here from [`CHIP`], [`HSE`]
+//! and [`SYSCLK_HZ`] through `robot_app::stm32f4`, whose host tests check it against the
+//! reference manuals. `init` sets the brown-out reset to level 3 the first time it runs
+//! on a chip ([`brown_out`]) and runs the clock from the [`HSE`], or the HSI when it does
+//! not start ([`clock`]).
 
+mod brown_out;
 mod clock;
 mod encoder;
 mod flash;
@@ -42,14 +46,17 @@ mod motor;
 mod pins;
 mod supply;
 mod tick;
+mod wait;
 mod watchdog;
 
 use core::num::NonZeroU32;
 
 use controller_core::supervisor::ResetCause;
-use cortex_m::peripheral::DWT;
+use cortex_m::peripheral::{DWT, NVIC};
+use link::{BrownOutReset, ClockSource};
 use robot_app::stm32f4::chip::{Chip, HSI_HZ};
 use robot_app::stm32f4::clock::{self as clock_plan, ClockPlan};
+use robot_app::stm32f4::oscillator::Hse;
 use robot_app::stm32f4::supply::{AdcPrescaler, Divider, SampleTime};
 use robot_app::stm32f4::usart::BaudSetting;
 use robot_app::stm32f4::watchdog::IwdgConfig;
@@ -84,8 +91,7 @@ pub const CHIP: Chip = Chip::F446;
 /// What `Info` reports as the chip.
 pub const NAME: &str = CHIP.name();
 
-/// System clock from the HSI (16 MHz RC) through the PLL, Hz. No crystal needed, so the
-/// same binary runs on a Black Pill (25 MHz crystal) and a Nucleo (no crystal).
+/// System clock through the PLL, Hz: 100 MHz, the F411's maximum.
 #[cfg(not(feature = "stm32f401"))]
 pub const SYSCLK_HZ: u32 = 100_000_000;
 /// System clock of the STM32F401, Hz: 72 MHz, not its 84 MHz maximum, because for 84 MHz
@@ -94,13 +100,40 @@ pub const SYSCLK_HZ: u32 = 100_000_000;
 #[cfg(feature = "stm32f401")]
 pub const SYSCLK_HZ: u32 = 72_000_000;
 
-/// The clock configuration for [`CHIP`] at [`SYSCLK_HZ`]: PLL, bus dividers, flash wait
-/// states, voltage scale (`robot_app::stm32f4::clock::plan`). `clock::configure` checks the
-/// registers against it after the HAL has written them.
-pub const CLOCK_PLAN: ClockPlan = match clock_plan::plan(CHIP, HSI_HZ, SYSCLK_HZ) {
+/// The board's external oscillator: the WeAct Black Pill's 25 MHz crystal.
+#[cfg(not(feature = "nucleo"))]
+pub const HSE: Hse = Hse::Crystal(25_000_000);
+/// The board's external oscillator: a Nucleo-64's 8 MHz from the ST-LINK's MCO on OSC_IN
+/// (HSE bypass; UM1724's default solder bridges).
+#[cfg(feature = "nucleo")]
+pub const HSE: Hse = Hse::ExternalClock(8_000_000);
+const _: () = assert!(
+    HSE.in_range(),
+    "the HSE's frequency is outside its datasheet range"
+);
+
+/// The clock configuration for [`CHIP`] at [`SYSCLK_HZ`] from the [`HSE`]: PLL, bus
+/// dividers, flash wait states, voltage scale (`robot_app::stm32f4::clock::plan`).
+/// `clock::configure` checks the registers against it after the HAL has written them.
+pub const CLOCK_PLAN: ClockPlan = match clock_plan::plan(CHIP, HSE.hz(), SYSCLK_HZ) {
     Ok(plan) => plan,
-    Err(_) => panic!("SYSCLK_HZ is not reachable within the chip's limits"),
+    Err(_) => panic!("SYSCLK_HZ is not reachable from the HSE within the chip's limits"),
 };
+
+/// The clock configuration from the HSI (16 MHz RC), used when the [`HSE`] does not
+/// start: the same bus and timer clocks, wait states and voltage scale as
+/// [`CLOCK_PLAN`] (checked below), so every timer and baud setting derived from
+/// [`CLOCK_PLAN`] holds on either, only less accurately on this one.
+pub const FALLBACK_CLOCK_PLAN: ClockPlan = match clock_plan::plan(CHIP, HSI_HZ, SYSCLK_HZ) {
+    Ok(plan) => plan,
+    Err(_) => panic!("SYSCLK_HZ is not reachable from the HSI within the chip's limits"),
+};
+const _: () = assert!(
+    CLOCK_PLAN.tree.same_as(&FALLBACK_CLOCK_PLAN.tree)
+        && CLOCK_PLAN.flash_wait_states == FALLBACK_CLOCK_PLAN.flash_wait_states
+        && CLOCK_PLAN.scale as u8 == FALLBACK_CLOCK_PLAN.scale as u8,
+    "the HSE and HSI plans must give the same clocks"
+);
 
 /// Motor PWM frequency, Hz: above hearing.
 pub const PWM_HZ: u32 = 20_000;
@@ -135,7 +168,8 @@ pub const LINK_BRR: BaudSetting = match BaudSetting::for_baud(CLOCK_PLAN.tree.pc
 };
 
 /// Independent watchdog while `init` runs: 250 ms at the typical LSI (170–471 ms over its
-/// spread), started before the clock set-up so that no wait in `init` can hang forever.
+/// spread), started before the clock set-up so that no wait in `init` can hang forever
+/// (lengthened to [`WATCHDOG_PERSIST`] only around a brown-out level write).
 pub const WATCHDOG_INIT: IwdgConfig = match IwdgConfig::for_timeout_us(250_000, CHIP.lsi_hz().1) {
     Ok(config) => config,
     Err(_) => panic!("init watchdog timeout out of range"),
@@ -207,35 +241,61 @@ pub struct Board {
     pub storage: Option<Storage>,
     /// Why the chip reset.
     pub reset: ResetCause,
+    /// What the system clock runs from.
+    pub clock: ClockSource,
+    /// The brown-out reset level in force.
+    pub brown_out_reset: BrownOutReset,
 }
 
-/// Brings the board up (see the crate doc for the order): reset cause, watchdog, clock,
-/// pins, PWM with the driver in standby, encoders, supply ADC, link USART, storage.
-/// The control tick is not started yet ([`ControlIo::start`]).
+/// Interrupts the RTIC application binds only for the other board (its `plant_port` task,
+/// compiled out here): RTIC 2 sets the priority of and unmasks every bound interrupt
+/// before `init`, whether or not its task is compiled in, so [`init`] masks these again
+/// and an unexpected one can never run the default handler. `cargo xtask`'s task check
+/// holds this list to the tasks the F411 build leaves out.
+pub const UNUSED_INTERRUPTS: [pac::Interrupt; 1] = [pac::Interrupt::USART1];
+
+/// Brings the board up (see the crate doc for the order): reset cause, watchdog,
+/// brown-out level, clock, pins, PWM with the driver in standby, encoders, supply ADC,
+/// link USART, storage. The control tick is not started yet ([`ControlIo::start`]).
 pub fn init(dp: pac::Peripherals, mut cp: cortex_m::Peripherals) -> Board {
     // Why did we reset? Read (and clear) before anything else touches RCC.
     let reset = pins::take_reset_flags(&dp.RCC).cause();
+    for interrupt in UNUSED_INTERRUPTS {
+        NVIC::mask(interrupt);
+        NVIC::unpend(interrupt);
+    }
 
     // The watchdog first, with a long timeout, so that no wait below (the HAL's PLL
     // lock included) can hang init: it resets the chip with the motors never enabled.
     #[cfg(feature = "halt-stops-watchdog")]
     watchdog::stop_while_halted(&dp.DBGMCU);
-    let watchdog = match Watchdog::start(dp.IWDG, WATCHDOG_INIT) {
+    let mut watchdog = match Watchdog::start(dp.IWDG, WATCHDOG_INIT) {
         Ok(watchdog) => watchdog,
         Err(e) => defmt::panic!("watchdog: {}", e),
     };
 
-    // Clock: HSI → PLL → SYSCLK_HZ at the voltage scale it needs, read back.
+    // Cycle counter for the bounded waits below and the step timing; keep the debug port
+    // clocked during WFI so the probe can read the RTT buffer while the core sleeps.
+    cp.DCB.enable_trace();
+    cp.DWT.enable_cycle_counter();
+    dp.DBGMCU.cr().modify(|_, w| w.dbg_sleep().set_bit());
+
+    // Brown-out reset at level 3 (once per chip), while still on the HSI at 0 wait states.
+    let brown_out = brown_out::ensure_level(&dp.FLASH, &mut watchdog);
+
+    // Clock: HSE (or the HSI if it does not start) → PLL → SYSCLK_HZ at the voltage
+    // scale it needs, read back.
     let (mut rcc, clocks) = match clock::configure(dp.RCC, &dp.PWR, &dp.FLASH) {
         Ok(configured) => configured,
         Err(e) => defmt::panic!("clock: {}", e),
     };
-
-    // Cycle counter for the step timing; keep the debug port clocked during WFI so the
-    // probe can read the RTT buffer while the core sleeps.
-    cp.DCB.enable_trace();
-    cp.DWT.enable_cycle_counter();
-    dp.DBGMCU.cr().modify(|_, w| w.dbg_sleep().set_bit());
+    if clocks.source.is_fallback() {
+        defmt::warn!(
+            "clock: the HSE ({=u32} Hz) did not start within {=u32} us; running from the HSI (±1 % at 25 °C, a few % over temperature)",
+            HSE.hz(),
+            robot_app::stm32f4::oscillator::HSE_STARTUP_TIMEOUT_US,
+        );
+    }
 
     let pins = Pins::new(
         dp.GPIOA.split(&mut rcc),
@@ -318,10 +378,12 @@ pub fn init(dp: pac::Peripherals, mut cp: cortex_m::Peripherals) -> Board {
     });
 
     defmt::info!(
-        "board: {=str}, sysclk {=u32} Hz (VOSRDY after {=u32} reads), encoder filter {=u8:#06b}, link {=u32} Bd (BRR {=u16})",
+        "board: {=str}, sysclk {=u32} Hz from the {=str} (VOSRDY after {=u32} reads), brown-out reset {=str}, encoder filter {=u8:#06b}, link {=u32} Bd (BRR {=u16})",
         NAME,
         clocks.sysclk_hz,
+        if clocks.source.is_fallback() { "HSI" } else { "HSE" },
         clocks.vos_polls,
+        brown_out.name(),
         encoder::INPUT_FILTER.code,
         LINK_BRR.actual_baud,
         LINK_BRR.brr,
@@ -341,6 +403,8 @@ pub fn init(dp: pac::Peripherals, mut cp: cortex_m::Peripherals) -> Board {
         link_usart,
         storage: Storage::new(dp.FLASH),
         reset,
+        clock: clocks.source,
+        brown_out_reset: brown_out.report(),
     }
 }
 

@@ -36,6 +36,7 @@ mod instructions;
 mod plant_port;
 
 use controller_core::supervisor::ResetCause;
+use link::{BrownOutReset, ClockSource};
 use lockstep::{BoardStep, PlantStep};
 use robot_app::channel::ring::{Consumer, Producer, Ring};
 use robot_app::persist::Slot;
@@ -79,6 +80,10 @@ pub struct Board {
     pub reset: ResetCause,
     /// The plant port (USART1), for its interrupt task.
     pub plant: PlantPort,
+    /// No oscillator of its own: time is the emulator's.
+    pub clock: ClockSource,
+    /// No supply: not applicable.
+    pub brown_out_reset: BrownOutReset,
 }
 
 /// Brings the emulated board up: SysTick as the instruction counter (calibrated), the
@@ -123,6 +128,8 @@ pub fn init(dp: pac::Peripherals, cp: cortex_m::Peripherals) -> Board {
         storage: None,
         reset: ResetCause::Unknown,
         plant: PlantPort::new(dp.USART1, step_tx, reply_rx),
+        clock: ClockSource::Simulated,
+        brown_out_reset: BrownOutReset::NotApplicable,
     }
 }
 

@@ -127,11 +127,11 @@ impl SimHardware {
     }
 
     /// Spins the wheels up to the scenario's start motion (v m/s, ω rad/s, true
-    /// geometry), for a run that starts in motion.
-    pub fn start_moving(&mut self, v_m_s: f64, omega_rad_s: f64) {
-        let speeds = self.plant.wheel_speeds_for(v_m_s, omega_rad_s);
-        let pose = self.plant.pose();
-        self.plant.reset(pose, speeds);
+    /// geometry and slip), for a run that starts in motion; refused, the wheels left as
+    /// they are, when a wheel would exceed its motor's no-load speed
+    /// ([`Plant::start_in_motion`]).
+    pub fn start_moving(&mut self, v_m_s: f64, omega_rad_s: f64) -> Result<(), PlantError> {
+        self.plant.start_in_motion(v_m_s, omega_rad_s)
     }
 
     /// The plant (for its true state).

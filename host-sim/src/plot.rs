@@ -9,7 +9,7 @@ use std::path::Path as FsPath;
 
 use anyhow::Result;
 use robot_files::figures::chart::{
-    draw_panel, present, svg_canvas, Series, BLUE, GREEN, GREY, ORANGE, PALETTE,
+    draw_panel, present, run_style, svg_canvas, LineStyle, Series, BLUE, GREEN, GREY, ORANGE,
 };
 
 use crate::run::StepResponse;
@@ -28,17 +28,19 @@ pub fn step_response(file: &FsPath, title: &str, response: &StepResponse) -> Res
         &t,
         &[
             (
-                "set-point",
-                GREY,
-                true,
-                vec![response.setpoint_rad_s; s.len()],
+                "true",
+                LineStyle::solid(BLUE, 2),
+                s.iter().map(|x| x.1).collect(),
             ),
-            ("true", BLUE, false, s.iter().map(|x| x.1).collect()),
             (
                 "estimated (encoder window)",
-                ORANGE,
-                false,
+                LineStyle::solid(ORANGE, 1),
                 s.iter().map(|x| x.2).collect(),
+            ),
+            (
+                "set-point",
+                LineStyle::dashed(GREY, 1),
+                vec![response.setpoint_rad_s; s.len()],
             ),
         ],
         None,
@@ -48,7 +50,11 @@ pub fn step_response(file: &FsPath, title: &str, response: &StepResponse) -> Res
         "",
         "duty (−1…1)",
         &t,
-        &[("left duty", GREEN, false, s.iter().map(|x| x.3).collect())],
+        &[(
+            "left duty",
+            LineStyle::solid(GREEN, 2),
+            s.iter().map(|x| x.3).collect(),
+        )],
         None,
     )?;
     present(&root, file)?;
@@ -66,23 +72,25 @@ pub fn step_comparison(file: &FsPath, title: &str, runs: &[(&str, &StepResponse)
     };
     let n = runs.iter().map(|(_, r)| r.samples.len()).min().unwrap_or(0);
     let t: Vec<f64> = first.samples.iter().take(n).map(|x| x.0).collect();
-    let mut speeds: Vec<Series<'_>> =
-        vec![("set-point", GREY, true, vec![first.setpoint_rad_s; n])];
+    let mut speeds: Vec<Series<'_>> = Vec::new();
     let mut duties: Vec<Series<'_>> = Vec::new();
-    for ((label, r), colour) in runs.iter().zip(PALETTE.iter().cycle()) {
+    for (i, (label, r)) in runs.iter().enumerate() {
         speeds.push((
             label,
-            *colour,
-            false,
+            run_style(i),
             r.samples.iter().take(n).map(|x| x.1).collect(),
         ));
         duties.push((
             label,
-            *colour,
-            false,
+            run_style(i),
             r.samples.iter().take(n).map(|x| x.3).collect(),
         ));
     }
+    speeds.push((
+        "set-point",
+        LineStyle::dashed(GREY, 1),
+        vec![first.setpoint_rad_s; n],
+    ));
     draw_panel(
         &panels[0],
         &format!("wheel-speed step, {title}"),

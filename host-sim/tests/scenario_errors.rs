@@ -158,6 +158,130 @@ fn syntax_unknown_keys_and_wrong_types_name_the_key() {
     );
 }
 
+#[test]
+fn far_positions_and_long_lengths_are_refused_on_the_key_written() {
+    let circle = BUILTIN[0].1;
+    let line = BUILTIN[1].1;
+    let refused = |text: &str, from: &str, to: &str| replaced_error(text, from, to);
+    // Each was refused as `supervisor.geofence_radius_m must be > 0`: the geofence derived
+    // from the path and the start overflowed f32.
+    assert_eq!(
+        refused(circle, "radius_m = 1.25", "radius_m = 1e30"),
+        "path.radius_m must be ≤ 1000 m, got 1e30"
+    );
+    assert_eq!(
+        refused(circle, "x_m = -1.0", "x_m = 1e30"),
+        "start.x_m must be within ±1000 m of the origin, got 1e30"
+    );
+    assert_eq!(
+        refused(circle, "y_m = -1.2", "y_m = -1e30"),
+        "start.y_m must be within ±1000 m of the origin, got -1e30"
+    );
+    assert_eq!(
+        refused(circle, "center_m = [0.0, 0.0]", "center_m = [0.0, 2e3]"),
+        "path.center_m[1] must be within ±1000 m of the origin, got 2000"
+    );
+    assert_eq!(
+        refused(line, "length_m = 10.0", "length_m = 1e30"),
+        "path.length_m must be ≤ 1000 m, got 1e30"
+    );
+    // At the bound, everything the supervisor derives is finite and the run starts.
+    let mut far = replaced(circle, "radius_m = 1.25", "radius_m = 1000.0").unwrap();
+    let geofence = far
+        .supervisor
+        .geofence_radius_m
+        .expect("derived from the path");
+    assert!(geofence.is_finite() && geofence > 1000.0, "{geofence}");
+    far.duration_s = 0.01;
+    let options = RunOptions {
+        trace_every_steps: 0,
+    };
+    run_scenario_with(&far, controller_core::law::LawKind::Tracking, options).unwrap();
+}
+
+/// The paper's start in motion on a floor where the wheels slip 99 %: the run reported
+/// peaks of 1 300 rad/s and 42 A, the plant having been started with its wheels 36 × above
+/// the motor's no-load speed (the body's 0.4 m/s needs the wheels 100 × faster than they
+/// roll). It is refused, with the keys and the figures; a reachable slip runs, and no
+/// wheel in it turns faster than the no-load speed.
+#[test]
+fn a_start_in_motion_beyond_the_motors_is_refused() {
+    let slip = |s: f64| with(&format!("[plant.slip]\nleft = {s}\nright = {s}")).unwrap();
+    let e = run_scenario_with(
+        &slip(0.99),
+        controller_core::law::LawKind::Tracking,
+        RunOptions {
+            trace_every_steps: 0,
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert_eq!(
+        e,
+        "start.v_m_s = 0.4 m/s with start.omega_rad_s = 0.3 rad/s cannot be the robot's \
+         motion: the right wheel would turn at 1300.0 rad/s (slip 0.99), beyond its motor's \
+         no-load speed of 35.7 rad/s on 6 V"
+    );
+    let mut reachable = slip(0.5);
+    reachable.duration_s = 2.0;
+    let r = run_scenario_with(
+        &reachable,
+        controller_core::law::LawKind::Tracking,
+        RunOptions {
+            trace_every_steps: 0,
+        },
+    )
+    .unwrap();
+    let peak = r.summary.max_wheel_speed_rad_s;
+    assert!(peak > 25.0 && peak <= 35.72, "{peak} rad/s");
+    assert!(r.max_current_a < 1.4, "{} A", r.max_current_a);
+}
+
+#[test]
+fn deep_nesting_names_the_line_and_what_is_too_deep() {
+    let base = BUILTIN[0].1;
+    // `with` appends after one blank line: the extra text starts two lines past the base.
+    let first_extra_line = base.lines().count() + 2;
+    let deep_key = vec!["a"; 200].join(".");
+    let e = error(&format!("{deep_key} = 1"));
+    assert_eq!(
+        e,
+        format!(
+            "test.toml: line {first_extra_line}: the key `{}…` has 200 parts; a key may \
+             have at most 16",
+            &deep_key[..40]
+        )
+    );
+    // The same in a table header, one line further down.
+    let e = error(&format!("x = 1\n[{deep_key}]\nb = 1"));
+    assert!(
+        e.starts_with(&format!(
+            "test.toml: line {}: the key `a.a.",
+            first_extra_line + 1
+        )),
+        "{e}"
+    );
+    // Arrays nested past the limit, under a real key.
+    let e = error(&format!(
+        "[robot]\nwheel_radius_m = {}{}",
+        "[".repeat(200),
+        "]".repeat(200)
+    ));
+    assert_eq!(
+        e,
+        format!(
+            "test.toml: line {}: arrays and inline tables nest more than 16 deep; a value \
+             may nest at most 16",
+            first_extra_line + 1
+        )
+    );
+    // A robot file (the station's `params set`) is read the same way.
+    let e = robot_files::robot_file::RobotFile::from_toml(&format!("\n{deep_key} = 1\n"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("line 2: the key `a.a."), "{e}");
+}
+
 /// Every float in every built-in scenario replaced, one at a time, by values that are out
 /// of range, absurd or not numbers: loading returns `Ok` or `Err`, never panics, and a
 /// scenario that loads also runs (briefly) without panicking.

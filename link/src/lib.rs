@@ -8,6 +8,10 @@
 //!
 //! # Wire format
 //!
+//! `docs/protocol.md` specifies it byte by byte for clients in other languages (every
+//! message and the types it carries, the handshake, the rates); `cargo xtask ci` checks
+//! that page against this crate.
+//!
 //! ```text
 //! payload = version (u8) ++ schema hash (u32 LE) ++ postcard(message)
 //! frame   = COBS(payload ++ CRC-32/ISO-HDLC LE (payload)) ++ 0x00

@@ -17,6 +17,14 @@
 //! protocol's): a change of the link that leaves [`ParamSet`] alone keeps stored records
 //! readable, and any change of `ParamSet`'s shape makes them foreign.
 //!
+//! # Versioning: one rule
+//!
+//! A record is loaded only by a firmware whose [`RECORD_SCHEMA`] equals the record's
+//! schema word; any other record is [`LoadError::ForeignSchema`], ignored whole, with no
+//! migration: the board boots with its built-in parameters and logs why. A field whose
+//! meaning or unit changes without its type changing is renamed, so that the hash (which
+//! covers the names) moves with it. `docs/protocol.md` states the same rule for users.
+//!
 //! [`decode`] tells every way a page can fail apart ([`LoadError`]); the board then falls
 //! back to its built-in defaults and logs which one it was.
 //!

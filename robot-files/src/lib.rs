@@ -17,6 +17,7 @@
 //! | [`output`] | writing a run's trace and summary; the settle time as text |
 //! | [`figures`] | Figs. 5–7 and the comparison as SVG (feature `figures`, on by default) |
 //! | [`rng`] | the deterministic random number generator of every simulated draw |
+//! | [`toml_text`] | reading TOML text: how deeply it may nest, with the line of what is too deep |
 //! | [`cli`] | command-line values both programs take |
 
 #![deny(missing_docs)]
@@ -32,5 +33,6 @@ pub mod plant;
 pub mod rng;
 pub mod robot_file;
 pub mod scenario;
+pub mod toml_text;
 pub mod trace;
 pub mod truth;

@@ -130,7 +130,7 @@ pub struct Summary {
     pub true_error: Option<ErrorReport>,
     /// The controller's own estimate's errors (module doc).
     pub estimated_error: ErrorReport,
-    /// RMS true position error of each whole hour of a run longer than 2 h, m (a soak's
+    /// RMS true position error of each whole hour of a run of 2 h or more, m (a soak's
     /// drift check); empty for shorter runs.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub hourly_rms_true_position_error_m: Vec<f64>,
@@ -191,8 +191,15 @@ impl HourlyRms {
         self.hour += 1;
     }
 
-    /// The RMS of each completed hour, m; empty for runs under 2 h.
-    pub fn finish(self) -> Vec<f64> {
+    /// The RMS of each whole hour the samples cover, m, given `end_s` (s, on the
+    /// samples' clock), the end of the time they cover: a run sampled every period from
+    /// t = 0 to 24 h has its last sample one period before 24 h, and its 24th hour is
+    /// whole all the same. Empty for runs under 2 h.
+    pub fn finish(mut self, end_s: f64) -> Vec<f64> {
+        let whole_hours = (end_s / 3600.0) as u64;
+        while self.hour < whole_hours {
+            self.close_hour();
+        }
         if self.hours.len() >= 2 {
             self.hours
         } else {
@@ -205,19 +212,26 @@ impl HourlyRms {
 mod tests {
     use super::*;
 
-    #[test]
-    fn hourly_rms_closes_each_hour() {
+    /// Three hours sampled every second from t = 0: the last sample is at 10 799 s, and
+    /// the third hour is whole.
+    fn three_hours() -> HourlyRms {
         let mut h = HourlyRms::default();
         for k in 0..3 * 3600 {
-            let t = f64::from(k);
-            h.push(t, if k < 3600 { 3.0 } else { 4.0 });
+            h.push(f64::from(k), f64::from(3 + k / 3600));
         }
-        // The third hour is still open at the end: two complete hours.
-        assert_eq!(h.finish(), vec![3.0, 4.0]);
+        h
+    }
+
+    #[test]
+    fn hourly_rms_closes_every_whole_hour_including_the_last() {
+        assert_eq!(three_hours().finish(3.0 * 3600.0), vec![3.0, 4.0, 5.0]);
+        // A run that ends a second short of its third hour has two whole hours.
+        assert_eq!(three_hours().finish(3.0 * 3600.0 - 1.0), vec![3.0, 4.0]);
+        // Under 2 h: none.
         let mut short = HourlyRms::default();
         short.push(10.0, 1.0);
         short.push(4000.0, 1.0);
-        assert!(short.finish().is_empty());
+        assert!(short.finish(4001.0).is_empty());
     }
 
     #[test]

@@ -6,6 +6,8 @@
 //! - `flip-link` (the ARM linker in `.cargo/config.toml`): `cargo install flip-link --locked`;
 //! - `qemu-system-arm`: Debian's package, installed with apt-get when running as root,
 //!   otherwise a message naming the package;
+//! - for the protocol client's step only ([`ensure_python3`]): `python3`, 3.8 or later,
+//!   the same way (Debian's `python3`);
 //! - for the Miri step only ([`ensure_miri`]): the nightly toolchain with its `miri` and
 //!   `rust-src` components, installed with rustup, and Miri's own build of the standard
 //!   library (`cargo +nightly miri setup`).
@@ -120,20 +122,56 @@ fn ensure_flip_link(ctx: &Context) -> Result<()> {
 }
 
 fn ensure_qemu() -> Result<()> {
-    if let Some(path) = on_path("qemu-system-arm") {
-        println!("qemu-system-arm: {}", path.display());
-        return Ok(());
+    ensure_program(
+        "qemu-system-arm",
+        "qemu-system-arm",
+        "or your distribution's QEMU ARM system emulator",
+    )
+    .map(drop)
+}
+
+/// `python3` (3.8 or later), for the protocol client's step: Debian's package `python3`
+/// when missing and running as root; the client needs nothing beyond
+/// Python's standard library, so no environment is set up for it.
+pub fn ensure_python3() -> Result<PathBuf> {
+    let python = ensure_program("python3", "python3", "or Python 3.8 or later")?;
+    let output = Command::new(&python)
+        .args([
+            "-c",
+            "import sys; print(sys.version_info[0], sys.version_info[1])",
+        ])
+        .output()
+        .with_context(|| format!("could not run {}", python.display()))?;
+    let version = String::from_utf8_lossy(&output.stdout).trim().to_string();
+    let parsed: Vec<u32> = version
+        .split_whitespace()
+        .filter_map(|n| n.parse().ok())
+        .collect();
+    match parsed.as_slice() {
+        [major, minor] if (*major, *minor) >= (3, 8) => Ok(python),
+        _ => bail!(
+            "{} is Python `{version}`; the protocol client needs Python 3.8 or later",
+            python.display()
+        ),
+    }
+}
+
+/// The program `name` on `PATH`, installing Debian's `package` with apt-get when it is
+/// missing and this runs as root; otherwise an error naming the package and `otherwise`.
+fn ensure_program(name: &str, package: &str, otherwise: &str) -> Result<PathBuf> {
+    if let Some(path) = on_path(name) {
+        println!("{name}: {}", path.display());
+        return Ok(path);
     }
     let apt = on_path("apt-get");
     if apt.is_none() || !running_as_root() {
         bail!(
-            "qemu-system-arm is missing: install Debian's package `qemu-system-arm` \
-             (as root: apt-get update && apt-get install -y qemu-system-arm), or your \
-             distribution's QEMU ARM system emulator"
+            "{name} is missing: install Debian's package `{package}` (as root: apt-get \
+             update && apt-get install -y {package}), {otherwise}"
         );
     }
-    println!("qemu-system-arm: missing, installing Debian's package qemu-system-arm");
-    for args in [&["update"][..], &["install", "-y", "qemu-system-arm"][..]] {
+    println!("{name}: missing, installing Debian's package {package}");
+    for args in [&["update"][..], &["install", "-y", package][..]] {
         run_command(
             Command::new("apt-get")
                 .args(args)
@@ -141,10 +179,7 @@ fn ensure_qemu() -> Result<()> {
                 .stdin(Stdio::null()),
         )?;
     }
-    if on_path("qemu-system-arm").is_none() {
-        bail!("apt-get installed qemu-system-arm but it is not on PATH");
-    }
-    Ok(())
+    on_path(name).with_context(|| format!("apt-get installed {package} but {name} is not on PATH"))
 }
 
 /// True when the effective user id is 0 (read from `/proc/self/status`).

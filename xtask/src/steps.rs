@@ -270,8 +270,10 @@ pub fn ci() -> Vec<Step> {
         link_qemu(),
         pil(),
         docs(),
+        protocol_page(),
+        protocol_client(),
         Step::new(
-            "figures: docs/figures.md up to date with the simulator",
+            "figures: docs/figures.md and the README's headline rows up to date with the simulator",
             |ctx| crate::figures::run(ctx, true),
         ),
     ]
@@ -300,6 +302,26 @@ pub fn docs() -> Step {
                 .env("RUSTDOCFLAGS", "-D warnings"),
             )
         },
+    )
+}
+
+/// `docs/protocol.md` against the `link` crate: every type, field and variant of the
+/// messages, the constants (the schema hash among them) and the example frame (see
+/// `crate::protocol_page`).
+pub fn protocol_page() -> Step {
+    Step::new(
+        "protocol page: docs/protocol.md against the link crate (types, constants, schema hash, example frame)",
+        crate::protocol_page::check,
+    )
+}
+
+/// The Python client written from `docs/protocol.md` against the virtual robot: the
+/// handshake, `Info`, the configuration and telemetry decoded and checked (see
+/// `crate::protocol_client`).
+pub fn protocol_client() -> Step {
+    Step::new(
+        "protocol client: tools/protocol-client (Python, from docs/protocol.md) against host-sim serve",
+        crate::protocol_client::check,
     )
 }
 

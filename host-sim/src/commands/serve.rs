@@ -28,7 +28,8 @@ pub fn check_speed(speed: f64) -> Result<(), Failed> {
 pub struct Listening {
     /// The scenario's name.
     pub scenario: String,
-    /// The address as asked.
+    /// The address it listens on: the one asked for, with the port the system chose
+    /// when port 0 was asked.
     pub listen: String,
     /// Simulated time per wall-clock time.
     pub speed: f64,
@@ -100,7 +101,9 @@ pub fn run(
     let rate_hz = f64::from(scenario.robot.control_rate_hz);
     listening(&Listening {
         scenario: scenario.name.clone(),
-        listen: listen.to_string(),
+        listen: listener
+            .local_addr()
+            .map_or_else(|_| listen.to_string(), |address| address.to_string()),
         speed,
         heartbeat_timeout_steps: scenario.supervisor.heartbeat_timeout_steps,
     })?;
@@ -125,6 +128,30 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn port_zero_is_announced_as_the_port_the_system_chose() {
+        let mut announced = None;
+        let mut listening = |line: &Listening| {
+            announced = Some(line.listen.clone());
+            // Stops the command once it has said where it listens.
+            Err(std::io::Error::other("enough"))
+        };
+        let result = run(
+            "paper-circle",
+            "127.0.0.1:0",
+            1.0,
+            &mut listening,
+            &mut |_| {},
+        );
+        assert!(result.is_err());
+        let address: std::net::SocketAddr = announced
+            .expect("announced")
+            .parse()
+            .expect("a socket address");
+        assert_eq!(address.ip().to_string(), "127.0.0.1");
+        assert_ne!(address.port(), 0);
+    }
 
     #[test]
     fn the_speed_must_be_positive_finite_and_at_most_a_thousand() {

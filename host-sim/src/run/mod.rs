@@ -32,7 +32,9 @@
 //! ([`ArmRequest::initial_motion`]), so the controller's speed estimate and ramp start
 //! from the motion instead of from rest. The runtime link's `Arm` carries the same
 //! assertion, which is how a processor-in-the-loop run reproduces these numbers. Figures
-//! from such runs say "armed in motion".
+//! from such runs say "armed in motion". A motion the plant's motors could not have given
+//! the wheels (faster than the no-load speed on the supply; with slip s a wheel turns
+//! 1/(1 − s) times faster than it rolls) is refused before the run, with the keys.
 //!
 //! ## Errors
 //!
@@ -80,6 +82,20 @@ pub enum RunError {
     /// The plant parameters are invalid.
     #[error(transparent)]
     Plant(#[from] PlantError),
+    /// The scenario's `[start]` motion is beyond what the plant's motors can turn its
+    /// wheels at.
+    #[error(
+        "start.v_m_s = {v_m_s} m/s with start.omega_rad_s = {omega_rad_s} rad/s cannot be \
+         the robot's motion: {refused}"
+    )]
+    StartMotion {
+        /// `[start] v_m_s`, m/s.
+        v_m_s: f64,
+        /// `[start] omega_rad_s`, rad/s.
+        omega_rad_s: f64,
+        /// What the plant refused (in the message, so not also a `source`).
+        refused: PlantError,
+    },
     /// The reference could not be built (speed or distance out of range).
     #[error("reference: {0}")]
     Reference(ReferenceError),
@@ -239,7 +255,13 @@ pub fn run_with_logic<L: RobotLogic>(
     let s = scenario.start;
     logic.set_pose_locally(Pose::new(s.x_m as f32, s.y_m as f32, s.theta_rad as f32));
     if s.v_m_s != 0.0 || s.omega_rad_s != 0.0 {
-        hardware.start_moving(s.v_m_s, s.omega_rad_s);
+        hardware
+            .start_moving(s.v_m_s, s.omega_rad_s)
+            .map_err(|refused| RunError::StartMotion {
+                v_m_s: s.v_m_s,
+                omega_rad_s: s.omega_rad_s,
+                refused,
+            })?;
     }
     let mut armed_at: Option<u64> = None;
     if scenario.arm_at_start {
@@ -381,7 +403,9 @@ pub fn run_with_logic<L: RobotLogic>(
             source: source.to_string(),
             true_error: Some(ErrorReport::from(true_stats.summary())),
             estimated_error: ErrorReport::from(est_stats.summary()),
-            hourly_rms_true_position_error_m: hourly.finish(),
+            // The true error is sampled from arming to the end of the run.
+            hourly_rms_true_position_error_m: hourly
+                .finish(armed_at.map_or(0.0, |a| total.saturating_sub(a) as f64 / rate)),
             max_wheel_speed_rad_s: max_wheel,
             max_duty,
             supervisor,

@@ -269,7 +269,10 @@ impl<'a> VirtualRobot<'a> {
                 self.frozen = false;
                 if let Some(motion) = self.arm_motion {
                     let (v, omega) = self.start_motion(motion);
-                    self.hardware.start_moving(v, omega);
+                    // A motion the motors could not have given the wheels is not the
+                    // plant's state: refused, the robot starts from rest, as a real one
+                    // armed with a false claim would (the ground truth shows it).
+                    let _ = self.hardware.start_moving(v, omega);
                 }
             }
             // The virtual robot runs its outer loop in the step: it is always seated.
@@ -422,7 +425,7 @@ pub struct ServeOptions {
 
 /// Runs the virtual robot on `listener`, paced at `options.speed` × real time. Every
 /// connection receives what the robot sends; the newest one commands it, the older ones
-/// observe ([`Hosts`]). `log` gets every step that changed the supervisor's state. Returns
+/// observe (the client rule in `docs/protocol.md`). `log` gets every step that changed the supervisor's state. Returns
 /// after `options.max_steps`, or on an I/O error of the listener.
 pub fn serve(
     robot: &mut VirtualRobot<'_>,

@@ -249,7 +249,7 @@ pub enum NotPermitted {
     /// configuration in use is unchanged. Retry, or power-cycle if it keeps failing.
     StorageFailed,
     /// Another host commands this robot; this connection only observes (the virtual
-    /// robot's rule: its newest connection commands, see `docs/station.md`).
+    /// robot's rule: its newest connection commands, see `docs/protocol.md`).
     AnotherHostCommands,
     /// Arming from rest while a wheel still turns: both measured wheel speeds must have
     /// stayed below the core's `REST_SPEED_RAD_S` for `REST_STEPS` control steps (wait,

@@ -19,13 +19,14 @@ use std::path::{Path as FsPath, PathBuf};
 
 use controller_core::path::Path;
 use plotters::drawing::DrawingAreaErrorKind;
-use plotters::prelude::*;
 
 use crate::metrics::Summary;
 use crate::scenario::Scenario;
 use crate::trace::TraceRow;
-use chart::{draw_panel, present, svg_canvas, Series, BLUE, GREEN, ORANGE, PALETTE, RED};
-use paths::{draw_paths, path_bbox, path_canvas_height};
+use chart::{
+    darker, draw_panel, present, run_style, svg_canvas, LineStyle, Series, BLUE, GREEN, ORANGE, RED,
+};
+use paths::{draw_paths, legend_entries, path_bbox, path_canvas_height};
 
 /// Why a figure could not be drawn or written.
 #[derive(Debug, thiserror::Error)]
@@ -71,13 +72,14 @@ pub fn fig5_path(
     path: &Path,
     trace: &[TraceRow],
 ) -> Result<(), FigureError> {
-    let b = path_bbox(path, &[("", BLUE, trace)]);
-    let root = svg_canvas(file, (760, path_canvas_height(b, 760)))?;
+    let robot = [("robot (true)", LineStyle::solid(BLUE, 2), trace)];
+    let height = path_canvas_height(path_bbox(path, &robot), 760, legend_entries(1, true));
+    let root = svg_canvas(file, (760, height))?;
     draw_paths(
         &root,
         &format!("Fig. 5 — path, {title}"),
         path,
-        &[("robot (true)", BLUE, trace)],
+        &robot,
         true,
     )?;
     present(&root, file)
@@ -124,7 +126,7 @@ pub fn fig6_errors(
         &format!("Fig. 6 — tracking error (9) of the true pose, {title}{note}"),
         "x_e (m)",
         &t,
-        &[("x_e (along track)", BLUE, false, col(0))],
+        &[("x_e (along track)", LineStyle::solid(BLUE, 2), col(0))],
         marker,
     )?;
     draw_panel(
@@ -132,7 +134,7 @@ pub fn fig6_errors(
         "",
         "y_e (m)",
         &t,
-        &[("y_e (cross track)", GREEN, false, col(1))],
+        &[("y_e (cross track)", LineStyle::solid(GREEN, 2), col(1))],
         unlabelled,
     )?;
     draw_panel(
@@ -140,7 +142,7 @@ pub fn fig6_errors(
         "",
         "θ_e (rad)",
         &t,
-        &[("θ_e = θ_r − θ", RED, false, col(2))],
+        &[("θ_e = θ_r − θ", LineStyle::solid(RED, 2), col(2))],
         unlabelled,
     )?;
     present(&root, file)
@@ -162,19 +164,22 @@ pub fn fig7_inputs(
     let unlabelled = marker.map(|(t, _)| (t, ""));
     let t: Vec<f64> = trace.iter().map(|r| r.t_s).collect();
     let get = |f: &dyn Fn(&TraceRow) -> f64| trace.iter().map(f).collect::<Vec<_>>();
+    // The truth solid in the series' colour, the command dashed in its darker shade and
+    // drawn over it, so both show where they coincide.
+    let truth = |colour| LineStyle::solid(colour, 2);
+    let command = |colour| LineStyle::dashed(darker(colour), 2);
     draw_panel(
         &panels[0],
         &format!("Fig. 7 — inputs, {title}{note}"),
         "v (m/s)",
         &t,
         &[
+            ("v true", truth(BLUE), get(&|r| r.true_velocity.0)),
             (
                 "v commanded",
-                BLUE,
-                true,
+                command(BLUE),
                 get(&|r| f64::from(r.command.v_m_s)),
             ),
-            ("v true", BLUE, false, get(&|r| r.true_velocity.0)),
         ],
         marker,
     )?;
@@ -184,13 +189,12 @@ pub fn fig7_inputs(
         "ω (rad/s)",
         &t,
         &[
+            ("ω true", truth(RED), get(&|r| r.true_velocity.1)),
             (
                 "ω commanded",
-                RED,
-                true,
+                command(RED),
                 get(&|r| f64::from(r.command.omega_rad_s)),
             ),
-            ("ω true", RED, false, get(&|r| r.true_velocity.1)),
         ],
         unlabelled,
     )?;
@@ -200,20 +204,18 @@ pub fn fig7_inputs(
         "ω_wheel (rad/s)",
         &t,
         &[
+            ("left true", truth(GREEN), get(&|r| r.true_wheel[0])),
+            ("right true", truth(ORANGE), get(&|r| r.true_wheel[1])),
             (
                 "left set-point",
-                GREEN,
-                true,
+                command(GREEN),
                 get(&|r| f64::from(r.setpoint.left_rad_s)),
             ),
-            ("left true", GREEN, false, get(&|r| r.true_wheel[0])),
             (
                 "right set-point",
-                ORANGE,
-                true,
+                command(ORANGE),
                 get(&|r| f64::from(r.setpoint.right_rad_s)),
             ),
-            ("right true", ORANGE, false, get(&|r| r.true_wheel[1])),
         ],
         unlabelled,
     )?;
@@ -223,48 +225,51 @@ pub fn fig7_inputs(
         "duty (−1…1)",
         &t,
         &[
-            ("left", GREEN, false, get(&|r| f64::from(r.duty.left))),
-            ("right", ORANGE, false, get(&|r| f64::from(r.duty.right))),
+            ("left", truth(GREEN), get(&|r| f64::from(r.duty.left))),
+            ("right", truth(ORANGE), get(&|r| f64::from(r.duty.right))),
         ],
         unlabelled,
     )?;
     present(&root, file)
 }
 
-/// The comparison: every law's true path over the reference (top) and its position
-/// error against time (bottom). `runs` = (law name, trace).
+/// The comparison: every law's true path over the reference (top), with each robot and
+/// its reference point joined every 2 s (the paper's law trails its reference along the
+/// path, where its line alone would lie on the others'), and each law's position error
+/// against time (bottom). `runs` = (law name, trace); the `i`-th is drawn in
+/// [`chart::run_style`]`(i)`, each narrower than the one before and over it.
 pub fn compare(
     file: &FsPath,
     title: &str,
     path: &Path,
     runs: &[(&str, &[TraceRow])],
 ) -> Result<(), FigureError> {
-    let coloured: Vec<(&str, RGBColor, &[TraceRow])> = runs
+    let styled: Vec<(&str, LineStyle, &[TraceRow])> = runs
         .iter()
-        .zip(PALETTE.iter().cycle())
-        .map(|((name, trace), colour)| (*name, *colour, *trace))
+        .enumerate()
+        .map(|(i, (name, trace))| (*name, run_style(i), *trace))
         .collect();
-    let top_height = path_canvas_height(path_bbox(path, &coloured), 800);
+    let entries = legend_entries(styled.len(), true);
+    let top_height = path_canvas_height(path_bbox(path, &styled), 800, entries);
     let root = svg_canvas(file, (800, top_height + 370))?;
     let (top, bottom) = root.split_vertically(top_height);
     draw_paths(
         &top,
         &format!("{title}: every law on the same plant"),
         path,
-        &coloured,
-        false,
+        &styled,
+        true,
     )?;
     let t: Vec<f64> = runs
         .first()
         .map(|(_, trace)| trace.iter().map(|r| r.t_s).collect())
         .unwrap_or_default();
-    let series: Vec<Series<'_>> = coloured
+    let series: Vec<Series<'_>> = styled
         .iter()
-        .map(|(name, colour, trace)| {
+        .map(|(name, style, trace)| {
             (
                 *name,
-                *colour,
-                false,
+                *style,
                 trace.iter().map(|r| r.true_error.0).collect(),
             )
         })

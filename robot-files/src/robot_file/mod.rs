@@ -157,7 +157,7 @@ pub struct RobotFile {
 impl RobotFile {
     /// Parses a robot file; a syntax error or an unknown key names the line.
     pub fn from_toml(text: &str) -> Result<Self, SectionError> {
-        toml::from_str(text).map_err(|e| SectionError::new("file", e.to_string().trim_end()))
+        crate::toml_text::from_str(text).map_err(|message| SectionError::new("file", message))
     }
 
     /// Both sections of a complete configuration.

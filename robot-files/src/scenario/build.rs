@@ -8,8 +8,8 @@ use controller_core::prelude::{Pose, Reference};
 use controller_core::reference::ReferenceMode;
 
 use super::checks::{
-    as_f32, check, check_duration, finite, in_range, non_negative, optional_point, path_error,
-    point, positive, required,
+    as_f32, check, check_duration, coordinate, finite, in_range, length, length_or_zero,
+    non_negative, optional_point, path_error, point, positive, required,
 };
 use super::raw_value::{array, numbers};
 use super::schema::{
@@ -66,7 +66,7 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
     let path = match p.kind {
         PathKind::Circle => {
             let center = optional_point("path.center_m", p.center_m.as_ref())?;
-            let r = positive(
+            let r = length(
                 "path.radius_m",
                 required(p.radius_m, "path.radius_m", kind_name)?,
             )?;
@@ -84,7 +84,7 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
             })?;
             let start = point("path.start_m", numbers("path.start_m", raw)?)?;
             let h = finite("path.heading_rad", p.heading_rad.unwrap_or(0.0))?;
-            let l = positive(
+            let l = length(
                 "path.length_m",
                 required(p.length_m, "path.length_m", kind_name)?,
             )?;
@@ -104,7 +104,7 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
                 let key = format!("path.waypoints_m[{i}]");
                 points.push(point(&key, numbers(&key, w)?)?);
             }
-            let r = non_negative("path.corner_radius_m", p.corner_radius_m.unwrap_or(0.0))?;
+            let r = length_or_zero("path.corner_radius_m", p.corner_radius_m.unwrap_or(0.0))?;
             Path::polyline(
                 &points,
                 as_f32("path.corner_radius_m", r)?,
@@ -113,7 +113,7 @@ fn build_path(p: &FilePath) -> Result<Path, ScenarioError> {
         }
         PathKind::FigureEight => {
             let center = optional_point("path.center_m", p.center_m.as_ref())?;
-            let r = positive(
+            let r = length(
                 "path.lobe_radius_m",
                 required(p.lobe_radius_m, "path.lobe_radius_m", kind_name)?,
             )?;
@@ -400,7 +400,7 @@ pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, 
             ReferenceMode::TimeIndexed {
                 start_offset_m: as_f32(
                     "reference.start_offset_m",
-                    non_negative("reference.start_offset_m", r.start_offset_m.unwrap_or(0.0))?,
+                    length_or_zero("reference.start_offset_m", r.start_offset_m.unwrap_or(0.0))?,
                 )?,
             }
         }
@@ -414,16 +414,15 @@ pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, 
             ReferenceMode::PathFollowing {
                 lookahead_m: as_f32(
                     "reference.lookahead_m",
-                    non_negative("reference.lookahead_m", r.lookahead_m.unwrap_or(0.0))?,
+                    length_or_zero("reference.lookahead_m", r.lookahead_m.unwrap_or(0.0))?,
                 )?,
             }
         }
     };
 
     let s = &file.start;
+    // x and y are bounded by `coordinate` below, well inside f32.
     for (key, v) in [
-        ("start.x_m", s.x_m),
-        ("start.y_m", s.y_m),
         ("start.theta_rad", s.theta_rad),
         ("start.v_m_s", s.v_m_s),
         ("start.omega_rad_s", s.omega_rad_s),
@@ -431,8 +430,8 @@ pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, 
         as_f32(key, v)?;
     }
     let start = StartState {
-        x_m: finite("start.x_m", s.x_m)?,
-        y_m: finite("start.y_m", s.y_m)?,
+        x_m: coordinate("start.x_m", s.x_m)?,
+        y_m: coordinate("start.y_m", s.y_m)?,
         theta_rad: finite("start.theta_rad", s.theta_rad)?,
         v_m_s: finite("start.v_m_s", s.v_m_s)?,
         omega_rad_s: finite("start.omega_rad_s", s.omega_rad_s)?,

@@ -8,7 +8,7 @@ use controller_core::path::PathError;
 use controller_core::prelude::Point;
 
 use super::raw_value::{numbers, RawValue};
-use super::{ScenarioError, MAX_CONTROL_STEPS, MAX_DURATION_S};
+use super::{ScenarioError, MAX_CONTROL_STEPS, MAX_DURATION_S, MAX_POSITION_M};
 
 /// `sim.duration_s` (s) at a control rate of `control_hz`: in (0, 24 h] and within the
 /// simulator's step budget.
@@ -73,6 +73,47 @@ pub(super) fn in_range(
     Ok(v)
 }
 
+/// `v` as it reads in an error: exponent notation from 1e6 up (1e30, not 31 digits).
+fn shown(v: f64) -> String {
+    if v.abs() >= 1e6 {
+        format!("{v:e}")
+    } else {
+        v.to_string()
+    }
+}
+
+/// `v` (m, a coordinate of a position) if finite and within ±[`MAX_POSITION_M`].
+pub(super) fn coordinate(key: &str, v: f64) -> Result<f64, ScenarioError> {
+    finite(key, v)?;
+    check(
+        v.abs() <= MAX_POSITION_M,
+        key,
+        &format!("must be within ±{MAX_POSITION_M} m of the origin"),
+        shown(v),
+    )?;
+    Ok(v)
+}
+
+/// `v` (m, a length) if finite, > 0 and ≤ [`MAX_POSITION_M`].
+pub(super) fn length(key: &str, v: f64) -> Result<f64, ScenarioError> {
+    at_most_world(key, positive(key, v)?)
+}
+
+/// `v` (m, a length that may be 0) if finite, ≥ 0 and ≤ [`MAX_POSITION_M`].
+pub(super) fn length_or_zero(key: &str, v: f64) -> Result<f64, ScenarioError> {
+    at_most_world(key, non_negative(key, v)?)
+}
+
+fn at_most_world(key: &str, v: f64) -> Result<f64, ScenarioError> {
+    check(
+        v <= MAX_POSITION_M,
+        key,
+        &format!("must be ≤ {MAX_POSITION_M} m"),
+        shown(v),
+    )?;
+    Ok(v)
+}
+
 /// `v` as the f32 the controller uses; an error naming `key` if it does not fit.
 pub(super) fn as_f32(key: &str, v: f64) -> Result<f32, ScenarioError> {
     let f = v as f32;
@@ -99,11 +140,17 @@ pub(super) fn optional_point(key: &str, raw: Option<&RawValue>) -> Result<Point,
     point(key, raw.map_or(Ok([0.0, 0.0]), |raw| numbers(key, raw))?)
 }
 
-/// `p` (m, world frame) as the controller's point; each coordinate finite and within
-/// f32, its error naming `key[0]` or `key[1]`.
+/// `p` (m, world frame) as the controller's point; each coordinate a [`coordinate`], its
+/// error naming `key[0]` or `key[1]`.
 pub(super) fn point(key: &str, p: [f64; 2]) -> Result<Point, ScenarioError> {
-    let x = as_f32(&format!("{key}[0]"), finite(&format!("{key}[0]"), p[0])?)?;
-    let y = as_f32(&format!("{key}[1]"), finite(&format!("{key}[1]"), p[1])?)?;
+    let x = as_f32(
+        &format!("{key}[0]"),
+        coordinate(&format!("{key}[0]"), p[0])?,
+    )?;
+    let y = as_f32(
+        &format!("{key}[1]"),
+        coordinate(&format!("{key}[1]"), p[1])?,
+    )?;
     Ok(Point::new(x, y))
 }
 

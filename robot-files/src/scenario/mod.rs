@@ -2,7 +2,8 @@
 //! controller believes about the robot and what the robot really is.
 //!
 //! Every quantity is in SI units named in its key (`_m`, `_m_s`, `_rad`, `_rad_s`, `_s`,
-//! `_hz`, `_v`, `_ohm`, …); percentages end in `_pct`. Only `[path]`, `[reference]` and
+//! `_hz`, `_v`, `_ohm`, …); percentages end in `_pct`. Positions are within ±1 km of the
+//! origin and lengths at most 1 km ([`MAX_POSITION_M`]). Only `[path]`, `[reference]` and
 //! `[start]` are required; everything else has a documented default. The built-in
 //! scenarios in `robot-files/scenarios/` are commented examples of every section:
 //!
@@ -66,7 +67,10 @@
 //!
 //! A bad file gets an error naming the key and the problem, e.g.
 //! `robot.wheel_radius_m must be > 0, got -0.03`; an array key of the wrong length, e.g.
-//! `path.center_m must have exactly 2 numbers, got 3`. Nothing in here panics on input.
+//! `path.center_m must have exactly 2 numbers, got 3`; text nested past
+//! [`MAX_NESTING`](crate::toml_text::MAX_NESTING) gets its line and what is too deep, e.g.
+//! ``line 3: the key `a.a.a.…` has 200 parts; a key may have at most 16``. Nothing in here
+//! panics on input.
 
 //!
 //! | file | what it holds |
@@ -131,8 +135,9 @@ pub enum ScenarioError {
         /// The OS error.
         source: std::io::Error,
     },
-    /// The text is not valid TOML, or a key is unknown or of the wrong type (the TOML
-    /// parser's message names the key and line).
+    /// The text is not valid TOML, nests deeper than
+    /// [`MAX_NESTING`](crate::toml_text::MAX_NESTING), or a key is unknown or of the
+    /// wrong type (the message names the line, and the key where there is one).
     #[error("{origin}: {message}")]
     Syntax {
         /// File name or built-in name.
@@ -367,10 +372,11 @@ impl fmt::Display for Scenario {
 }
 
 fn parse(text: &str, origin: &str, default_name: &str) -> Result<Scenario, ScenarioError> {
-    let file: ScenarioFile = toml::from_str(text).map_err(|e| ScenarioError::Syntax {
-        origin: origin.to_string(),
-        message: e.to_string().trim_end().to_string(),
-    })?;
+    let file: ScenarioFile =
+        crate::toml_text::from_str(text).map_err(|message| ScenarioError::Syntax {
+            origin: origin.to_string(),
+            message,
+        })?;
     build::build(file, default_name)
 }
 
@@ -380,6 +386,15 @@ pub const MAX_DURATION_S: f64 = 86_400.0;
 /// Most control steps one run may take (duration × control rate): bounds the memory a
 /// scenario file can ask for (the run keeps a trace and per-steering-step samples).
 pub const MAX_CONTROL_STEPS: f64 = 1e8;
+
+/// Largest distance a scenario takes, m: every coordinate of the path and the start is
+/// within ± this of the origin, and every length and radius (the path's, the reference's
+/// offset and look-ahead) at most this. The controller holds poses in `f32`, which
+/// resolves 0.25 mm or finer within 4 km (an encoder tick of wheel travel is 0.14 mm), and
+/// what the supervisor derives from the path and the start (the geofence, the
+/// divergence check's settle time) stays far inside `f32`'s range; at 1e30 m the square
+/// of a distance overflows it, and the refusal would name a key the file never wrote.
+pub const MAX_POSITION_M: f64 = 1_000.0;
 
 /// Fastest control loop accepted, Hz (the plant then runs at ≥ 10× this).
 pub const MAX_CONTROL_RATE_HZ: u32 = 100_000;

@@ -11,7 +11,7 @@ use stm32f4xx_hal::pac;
 use super::PwmTimer;
 
 /// Wiring polarity: set so that a positive duty drives the wheel forward and forward
-/// wheel rotation counts up. Flip after the bring-up check in the README.
+/// wheel rotation counts up. Flip after the bring-up check (`docs/hardware.md`, "Bring-up").
 pub mod polarity {
     /// The left motor's leads are swapped (positive duty would turn it backwards).
     pub const LEFT_MOTOR_INVERTED: bool = false;

@@ -42,7 +42,7 @@ pub struct PlantParams {
 
 /// Why [`Plant::new`](super::Plant::new) or a run-time setter rejected a value (the scenario layer validates
 /// first, with the TOML key; this is the last line of defence).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum PlantError {
     /// The inertia matrix is not positive definite (mass or inertias ≤ 0).
     #[error("the chassis inertia matrix is not positive definite (check mass and inertias)")]
@@ -50,6 +50,24 @@ pub enum PlantError {
     /// A parameter is not finite or outside its physical range.
     #[error("plant parameter {0} is out of range")]
     OutOfRange(&'static str),
+    /// A start in motion needs a wheel turning faster than its motor's no-load speed on
+    /// the present supply: a speed the motor can never have given it.
+    #[error(
+        "the {wheel} wheel would turn at {needed_rad_s:.1} rad/s (slip {slip}), beyond its \
+         motor's no-load speed of {no_load_rad_s:.1} rad/s on {supply_v} V"
+    )]
+    BeyondNoLoadSpeed {
+        /// `left` or `right`.
+        wheel: &'static str,
+        /// The wheel speed the motion needs, rad/s (magnitude).
+        needed_rad_s: f64,
+        /// That wheel's slip ratio.
+        slip: f64,
+        /// The no-load speed at the supply, rad/s.
+        no_load_rad_s: f64,
+        /// The supply, V.
+        supply_v: f64,
+    },
 }
 
 /// The rule of [`PlantParams`] (module doc): `Ok` for a valid set, otherwise the first

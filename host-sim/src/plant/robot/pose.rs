@@ -17,7 +17,7 @@
 use robot_files::plant::Load;
 use robot_files::truth::{wrap_angle, TruePose};
 
-use super::Plant;
+use super::{Plant, PlantError};
 
 /// The true pose as the integrator carries it: position, unwrapped heading and the
 /// heading's (cos θ, sin θ), advanced by small rotations (no trigonometry per step).
@@ -119,6 +119,32 @@ impl Plant {
             (v_m_s - half) / ((1.0 - self.slip[0]) * g.wheel_radius_left_m),
             (v_m_s + half) / ((1.0 - self.slip[1]) * g.wheel_radius_right_m),
         ]
+    }
+
+    /// Sets the wheels turning for forward speed `v_m_s` (m/s) and yaw rate
+    /// `omega_rad_s` (rad/s) of the true robot ([`Plant::wheel_speeds_for`]), at the
+    /// present pose: a start in motion. Refused, nothing changed, when a wheel would turn
+    /// faster than its motor's no-load speed on the present supply, which no drive from
+    /// rest could have reached (with slip s the wheel turns 1/(1 − s) times faster than
+    /// it rolls).
+    pub fn start_in_motion(&mut self, v_m_s: f64, omega_rad_s: f64) -> Result<(), PlantError> {
+        let speeds = self.wheel_speeds_for(v_m_s, omega_rad_s);
+        let no_load_rad_s = self.drive.steady_speed_rad_s(self.supply_v);
+        // `≤` is false for NaN: a NaN speed is refused too. The faster wheel is named.
+        let within = speeds.iter().all(|w| w.abs() <= no_load_rad_s);
+        let i = usize::from(speeds[1].abs() > speeds[0].abs());
+        if !within {
+            return Err(PlantError::BeyondNoLoadSpeed {
+                wheel: ["left", "right"][i],
+                needed_rad_s: speeds[i].abs(),
+                slip: self.slip[i],
+                no_load_rad_s,
+                supply_v: self.supply_v,
+            });
+        }
+        let pose = self.pose();
+        self.reset(pose, speeds);
+        Ok(())
     }
 
     /// True body velocity (forward m/s, yaw rad/s) from the wheel speeds and slip.

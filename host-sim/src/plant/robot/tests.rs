@@ -403,6 +403,52 @@ fn a_blocked_wheel_stays_at_zero_and_the_robot_pivots_about_it() {
 }
 
 #[test]
+fn a_start_in_motion_is_refused_beyond_the_motors_no_load_speed() {
+    let pose = TruePose {
+        x_m: 1.0,
+        y_m: -2.0,
+        theta_rad: 0.5,
+    };
+    // The paper's start (0.4 m/s, 0.3 rad/s) on a floor where the wheels slip 99 %: the
+    // wheels would have to turn 100 × faster than they roll, (0.4 + 0.3 · 0.075) /
+    // (0.01 · 0.0325) = 1 300 rad/s, 36 × the motor's 35.7 rad/s no-load speed on 6 V.
+    let mut pp = params();
+    pp.slip = [0.99, 0.99];
+    let mut p = Plant::new(pp).unwrap();
+    p.reset(pose, [0.0; 2]);
+    let Err(PlantError::BeyondNoLoadSpeed {
+        wheel,
+        needed_rad_s,
+        no_load_rad_s,
+        ..
+    }) = p.start_in_motion(0.4, 0.3)
+    else {
+        panic!("a start 36 × faster than the motor can turn was accepted");
+    };
+    assert_eq!(wheel, "right");
+    assert!((needed_rad_s - 1300.0).abs() < 1e-6, "{needed_rad_s}");
+    assert!((no_load_rad_s - 35.71).abs() < 0.01, "{no_load_rad_s}");
+    // Refused: nothing changed.
+    assert_eq!(p.wheel_speeds(), [0.0; 2]);
+    assert_eq!(p.pose(), pose);
+    // Half the slip: the wheels turn twice as fast as they roll, within the motor's
+    // reach, and the body moves as asked.
+    let mut pp = params();
+    pp.slip = [0.5, 0.5];
+    let mut p = Plant::new(pp).unwrap();
+    p.reset(pose, [0.0; 2]);
+    p.start_in_motion(0.4, 0.3).unwrap();
+    let [l, r] = p.wheel_speeds();
+    assert!((l - 2.0 * (0.4 - 0.0225) / 0.0325).abs() < 1e-9, "{l}");
+    assert!((r - 2.0 * (0.4 + 0.0225) / 0.0325).abs() < 1e-9, "{r}");
+    let (v, omega) = p.body_velocity();
+    assert!((v - 0.4).abs() < 1e-12 && (omega - 0.3).abs() < 1e-12);
+    assert_eq!(p.pose(), pose);
+    // A NaN motion is refused too.
+    assert!(p.start_in_motion(f64::NAN, 0.0).is_err());
+}
+
+#[test]
 fn a_slip_patch_shortens_that_wheels_ground_distance() {
     let mut p = Plant::new(frictionless()).unwrap();
     p.set_driver_enabled(false);

@@ -109,7 +109,9 @@ fn a_lost_and_a_repeated_chunk_then_a_commit_the_controller_follows() {
     assert_eq!(rig.active_reference().speed_m_s(), 0.2);
     assert_eq!(rig.active_reference().mode(), begin(7).mode);
     assert_eq!(rig.active_law(), LawKind::Kanayama);
-    assert_eq!(controller.pose(), Pose::new(0.0, 0.0, FRAC_PI_2));
+    // The commit does not move the robot's estimate: the pose command does.
+    let before = controller.pose();
+    assert_ne!(before, Pose::new(0.0, 0.0, FRAC_PI_2));
     let start = rig.control.supervisor().config().start_pose;
     assert_eq!(start, Pose::new(0.0, 0.0, FRAC_PI_2));
     let Ok(Reply::Params(active)) = rig.ask(Request::GetParams) else {
@@ -117,6 +119,15 @@ fn a_lost_and_a_repeated_chunk_then_a_commit_the_controller_follows() {
     };
     assert_eq!(active.supervisor.start_pose, start);
     assert_eq!(active.robot, default_params().robot);
+    assert_eq!(
+        rig.ask(Request::SetPose {
+            x_m: start.x_m,
+            y_m: start.y_m,
+            theta_rad: start.theta_rad,
+        }),
+        Ok(Reply::Ack)
+    );
+    assert_eq!(rig.control.controller().pose(), start);
 
     // Armed, it follows the new path: up +y, where the built-in one went along +x.
     rig.heartbeat_every = Some(100);
@@ -216,6 +227,14 @@ fn a_commit_moves_an_enabled_geofence_to_the_new_path() {
     // Farthest path point from the start: its end, 1.8 m away; plus 1 m.
     let radius = rig.control.supervisor().config().geofence_radius_m;
     assert!(radius.is_some_and(|r| (r - 2.8).abs() < 1e-4), "{radius:?}");
+    // Put at the new path's start and told so.
+    let start = far_begin.start_pose;
+    let set_pose = Request::SetPose {
+        x_m: start.x_m,
+        y_m: start.y_m,
+        theta_rad: start.theta_rad,
+    };
+    assert_eq!(rig.ask(set_pose), Ok(Reply::Ack));
     rig.heartbeat_every = Some(100);
     rig.ask(Request::Arm {
         mode: ArmMode::FollowPath,

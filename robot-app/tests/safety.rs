@@ -81,9 +81,10 @@ fn the_button_overrides_the_link() {
     assert!(rig
         .last
         .is_some_and(|a| a.duty.left == 0.0 && a.duty.right == 0.0));
-    // Released (the release of the press that disarmed does not arm), the link can.
+    // Released (the release of the press that disarmed does not arm) and the wheels at
+    // rest, the link can.
     rig.button = false;
-    rig.run(50);
+    rig.run(150);
     assert_eq!(rig.last.map(|a| a.state), Some(State::Disarmed));
     assert_eq!(rig.ask(hold()), Ok(Reply::Ack));
     assert_eq!(rig.last.map(|a| a.state), Some(State::Armed));

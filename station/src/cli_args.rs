@@ -66,6 +66,21 @@ pub(crate) enum Command {
         #[arg(long, default_value_t = 60.0)]
         timeout_s: f64,
     },
+    /// Tell the disarmed robot where it is (the pose command, in the path's frame): its
+    /// odometry is set there and its next run starts the path afresh. Arming never sets
+    /// the pose; after moving the robot by hand, send this (or long-press its button to
+    /// say it stands at the path's start).
+    Pose {
+        /// x, m.
+        #[arg(long, allow_negative_numbers = true)]
+        x_m: f32,
+        /// y, m.
+        #[arg(long, allow_negative_numbers = true)]
+        y_m: f32,
+        /// Heading, rad, counter-clockwise from +x.
+        #[arg(long, allow_negative_numbers = true)]
+        theta_rad: f32,
+    },
     /// Disarm.
     Disarm,
     /// Emergency stop (latches a fault; `clear-faults` to recover).

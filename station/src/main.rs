@@ -204,6 +204,19 @@ fn main() -> ExitCode {
         Command::Path(PathCommand::Upload { scenario, law }) => cmd_upload(link, &scenario, law),
         Command::Arm { hz } => live::cmd_arm(link, hz),
         Command::Tune { timeout_s } => cmd_tune(link, timeout_s),
+        Command::Pose {
+            x_m,
+            y_m,
+            theta_rad,
+        } => cmd_simple(
+            link,
+            Request::SetPose {
+                x_m,
+                y_m,
+                theta_rad,
+            },
+            &format!("pose set: ({x_m} m, {y_m} m, {theta_rad} rad)"),
+        ),
         Command::Disarm => cmd_simple(link, Request::Disarm, "disarmed"),
         Command::Estop => cmd_simple(link, Request::EmergencyStop, "emergency stop latched"),
         Command::ClearFaults => cmd_simple(link, Request::ClearFaults, "faults cleared"),

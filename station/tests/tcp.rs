@@ -782,3 +782,50 @@ fn watch_into_a_pipe_writes_plain_lines_and_a_disarmed_robot_s_motors_off() {
     assert!(!text.contains('\u{1b}'), "no escape codes: {start:?}");
     assert!(text.contains("motors            off (Disarmed)"), "{start}");
 }
+
+#[test]
+fn pose_tells_the_robot_where_it_is_and_refuses_a_field_that_is_not_a_number_by_name() {
+    let _one = one_at_a_time();
+    let (address, events) = virtual_robot("paper-line", 60.0);
+    let output = station(&[
+        "--connect",
+        &address,
+        "pose",
+        "--x-m",
+        "-0.25",
+        "--y-m",
+        "1.5",
+        "--theta-rad",
+        "0.5",
+    ])
+    .output()
+    .expect("the station runs");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}");
+    assert!(
+        stdout.contains("pose set: (-0.25 m, 1.5 m, 0.5 rad)"),
+        "{stdout}"
+    );
+    let set =
+        std::iter::from_fn(|| next_event(&events, 10)).find(|r| r.event == Some(Event::PoseSet));
+    assert!(set.is_some(), "the robot took the pose command");
+    let output = station(&[
+        "--connect",
+        &address,
+        "pose",
+        "--x-m",
+        "0",
+        "--y-m",
+        "NaN",
+        "--theta-rad",
+        "0",
+    ])
+    .output()
+    .expect("the station runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("the robot refused SetPose: invalid argument: y_m must be finite"),
+        "{stderr}"
+    );
+}

@@ -114,16 +114,21 @@ pub struct BatteryCheck {
     derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
 )]
 pub struct SupervisorConfig {
-    /// Mode the robot is in after a reset (a long press selects the other one).
+    /// Mode the robot is in after a reset (a press held for the mode-select time selects
+    /// the next one, see `long_press_steps`).
     pub initial_mode: RunMode,
-    /// Pose (world frame, m and rad) the odometry is reset to each time the robot is armed
-    /// in [`RunMode::FollowPath`]: where the robot is put down before pressing the button.
+    /// The path's start pose (world frame, m and rad): where the robot is put down before
+    /// a run. The odometry starts there after a reset, a long press while disarmed sets
+    /// it there (the pose command, [`super::Supervisor::set_pose`]), and the geofence is
+    /// centred on it. Arming never sets the pose.
     pub start_pose: Pose,
     /// Wheel speeds held in [`RunMode::HoldWheelSpeeds`], rad/s.
     pub hold_speeds: WheelSpeeds,
     /// Steps the button level must be stable before a press or release counts (≥ 1).
     pub debounce_steps: u32,
-    /// Steps a press must last to count as long (> `debounce_steps`).
+    /// Steps a press must last to count as long (> `debounce_steps`): released after
+    /// that while disarmed, it sets the pose to `start_pose`; held
+    /// [`super::MODE_SELECT_FACTOR`] times as long, it selects the next run mode instead.
     pub long_press_steps: u32,
     /// Arm by itself this many steps after a power-on or pin reset (`None`: button only).
     /// Happens at most once per boot, never after a watchdog, software or brown-out

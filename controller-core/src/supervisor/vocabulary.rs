@@ -160,7 +160,7 @@ pub enum Event {
     Faulted,
     /// The faults were acknowledged; the robot is Disarmed.
     FaultsCleared,
-    /// A long press selected this mode for the next arming.
+    /// A press held for the mode-select time selected this mode for the next arming.
     ModeSelected(RunMode),
     /// The supply fell below the battery's warning threshold.
     BatteryLow,

@@ -25,7 +25,9 @@ pub struct PathBegin {
     pub mode: ReferenceMode,
     /// Steering law to use.
     pub law: LawKind,
-    /// Pose (world frame, m and rad) the odometry is reset to when armed on this path.
+    /// The path's start pose (world frame, m and rad): where the robot is put down, the
+    /// pose a long press of the button sets (the pose command). Arming does not set it;
+    /// a host sets it with [`Request::SetPose`](crate::Request::SetPose).
     pub start_pose: Pose,
 }
 

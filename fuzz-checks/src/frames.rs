@@ -15,17 +15,14 @@
 
 use std::fmt::Debug;
 
+use link::frame::CRC_LEN;
+use link::protocol::HEADER_LEN;
 use link::{
     crc32, encode, Decoder, Downlink, Dropped, Message, Outcome, ProtocolId, Received, RxCounters,
     Uplink, MAX_FRAME_LEN,
 };
 
 use crate::messages::assert_canonical;
-
-/// Bytes of the frame header and of the CRC (the link's `protocol::HEADER_LEN` and
-/// `frame::CRC_LEN`).
-const HEADER_LEN: usize = 5;
-const CRC_LEN: usize = 4;
 
 /// Feeds `input` to a host's and a robot's decoder ([`Uplink`] and [`Downlink`]) and
 /// checks every outcome against the wire format; panics naming the broken property.

@@ -88,9 +88,10 @@ pub type Outcome<M> = Result<Received<M>, Dropped>;
 
 /// A streaming frame decoder with a fixed buffer of [`MAX_FRAME_LEN`] − 1 bytes (no heap).
 ///
-/// Frames end at a 0x00 byte. Bytes before the first delimiter, and empty frames (two
-/// delimiters in a row), are ignored without counting, so a sender may start with a
-/// 0x00 to flush whatever a receiver had half-read.
+/// Frames end at a 0x00 byte. Empty frames (two delimiters in a row) are ignored without
+/// counting, so a sender may start with a 0x00 to flush whatever a receiver had
+/// half-read: those bytes end there as one frame, dropped and counted like any other
+/// (a receiver that starts mid-frame drops its first frame the same way).
 ///
 /// ```
 /// use link::{encode, Decoder, Downlink, Received, Request, MAX_FRAME_LEN};

@@ -5,6 +5,7 @@
 //! |---|---|
 //! | a 1 000-run sweep of `paper-circle` | the controller settles on 1 000 robots drawn from the scenario's spreads (mismatch, noise, start pose); the sweep prints its percentiles and fails when a run does not settle |
 //! | mutation testing (`cargo xtask mutants`) | the tests notice a wrong sign, a swapped comparison or a dropped statement in the mutated crates |
+//! | every fuzz target for 10 minutes (`cargo xtask fuzz 600`) | no input of a decoder of outside bytes or text (the link's frames and messages, the parameter record, scenarios, robot files) crashes it, hangs it or breaks one of its properties (`fuzz-checks`) |
 
 use anyhow::{ensure, Result};
 
@@ -12,6 +13,9 @@ use crate::steps::{run_command, Context, Step};
 
 /// Runs of the long sweep.
 const SWEEP_RUNS: &str = "1000";
+
+/// Seconds each fuzz target runs.
+const FUZZ_SECONDS: u32 = 600;
 
 /// The long checks, in order.
 pub fn steps() -> Vec<Step> {
@@ -35,6 +39,9 @@ pub fn steps() -> Vec<Step> {
                 "mutants were missed or timed out"
             );
             Ok(())
+        }),
+        Step::new("fuzz: every target, 10 minutes each", |ctx: &Context| {
+            crate::fuzz::run(ctx, FUZZ_SECONDS)
         }),
     ]
 }

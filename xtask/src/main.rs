@@ -17,7 +17,8 @@
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
 //! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt, the steering task and the link USART's interrupt reach no panic and no indirect call; then bounds the firmware's worst-case stack from the same call graph |
 //! | `panic-check ELF [--root NAME:IRQ]…` | the same proof on a given ELF (no build), from the given interrupts (default `TIM5:50`, `EXTI3:9`, `USART2:38`) |
-//! | `long` | the checks too long for CI: a 1 000-run sweep and mutation testing (`long.rs`) |
+//! | `long` | the checks too long for CI: a 1 000-run sweep, mutation testing and 10 minutes of each fuzz target (`long.rs`) |
+//! | `fuzz [SECONDS]` | every fuzz target of `fuzz/` (cargo-fuzz on nightly: the link's frames and messages, the parameter record, scenarios, robot files) for SECONDS each (default 60), one at a time, then a table of executions, coverage and corpus per target; fails on a crash, a broken property or a hang. Installs nightly and cargo-fuzz when missing (`fuzz.rs`). CI replays the committed corpus instead (`fuzz-checks`' tests) |
 //! | `mutants [ARGS…]` | mutation testing of `controller-core` (and `link`) with cargo-mutants: score, missed list, wall time. Slow; not part of `ci` |
 //!
 //! Every step runs even if an earlier one failed, so one CI log shows every problem.
@@ -28,6 +29,7 @@ mod elf_size;
 mod figures;
 #[cfg(test)]
 mod firmware_logger;
+mod fuzz;
 mod link_qemu;
 mod long;
 mod miri;
@@ -80,8 +82,13 @@ commands:
   panic-check ELF [--root NAME:IRQ]...
           the same proof on an ELF (no build), from the given interrupts (default TIM5:50,
           EXTI3:9, USART2:38)
-  long    the checks too long for CI: a 1 000-run sweep of paper-circle and mutation
-          testing (cargo xtask mutants)
+  long    the checks too long for CI: a 1 000-run sweep of paper-circle, mutation
+          testing (cargo xtask mutants) and every fuzz target for 10 minutes
+  fuzz [SECONDS]
+          run every fuzz target of fuzz/ (cargo-fuzz, libFuzzer) for SECONDS each
+          (default 60), one at a time, and print executions, coverage and corpus per
+          target; fails on a crash, a broken property or a hang. Installs the nightly
+          toolchain and cargo-fuzz when missing. Run it under `nice` on a shared machine
   mutants [ARGS...]
           mutation testing of controller-core (and link, when the workspace has it) with
           cargo-mutants: prints the score, the missed mutants and the wall time; ARGS go to
@@ -117,6 +124,17 @@ fn run() -> Result<bool> {
         ["qemu"] => vec![steps::setup(), steps::qemu()],
         ["e2e"] => vec![steps::end_to_end()],
         ["miri"] => vec![steps::miri()],
+        ["fuzz"] => vec![fuzz_step(fuzz::DEFAULT_SECONDS)],
+        ["fuzz", seconds] => {
+            let seconds = seconds
+                .parse()
+                .ok()
+                .filter(|&s: &u32| s > 0)
+                .with_context(|| {
+                    format!("fuzz: SECONDS must be a whole number > 0, got `{seconds}`\n\n{USAGE}")
+                })?;
+            vec![fuzz_step(seconds)]
+        }
         ["link-qemu"] => vec![steps::setup(), steps::link_qemu()],
         ["pil"] => vec![steps::setup(), steps::pil()],
         ["docs"] => vec![steps::setup(), steps::docs()],
@@ -152,6 +170,13 @@ fn run() -> Result<bool> {
     };
     let budget_s = (args == ["ci"]).then_some(steps::CI_BUDGET_S);
     Ok(steps::run_all(&ctx, &selected, budget_s))
+}
+
+/// Every fuzz target for `seconds` each.
+fn fuzz_step(seconds: u32) -> Step {
+    Step::new("fuzz: every target of fuzz/", move |ctx| {
+        fuzz::run(ctx, seconds)
+    })
 }
 
 /// `ELF [--root NAME:IRQ]...` of `panic-check`: the ELF and the roots (default: the

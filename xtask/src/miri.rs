@@ -80,7 +80,7 @@ pub fn check(ctx: &Context) -> Result<()> {
     args.push(UNIT_TESTS);
     args.extend(INTEGRATION_TESTS.iter().map(|&(_, name)| name));
     let tests_started = Instant::now();
-    let passed = run_tests(&mut setup::miri_cargo(ctx, &args))?;
+    let passed = run_tests(&mut setup::nightly_cargo(ctx, &args))?;
     let tests = tests_started.elapsed();
 
     let units = passed.iter().filter(|n| n.starts_with(UNIT_TESTS)).count();

@@ -10,7 +10,9 @@
 //!   the same way (Debian's `python3`);
 //! - for the Miri step only ([`ensure_miri`]): the nightly toolchain with its `miri` and
 //!   `rust-src` components, installed with rustup, and Miri's own build of the standard
-//!   library (`cargo +nightly miri setup`).
+//!   library (`cargo +nightly miri setup`);
+//! - for the fuzz targets only ([`ensure_fuzzing`]): the nightly toolchain and
+//!   `cargo-fuzz` (`cargo install cargo-fuzz --locked`).
 
 use std::env;
 use std::path::{Path, PathBuf};
@@ -98,26 +100,38 @@ fn ensure_target(ctx: &Context) -> Result<()> {
 }
 
 fn ensure_flip_link(ctx: &Context) -> Result<()> {
-    if let Some(path) = on_path("flip-link") {
-        println!("flip-link: {}", path.display());
+    ensure_cargo_program(
+        ctx,
+        "flip-link",
+        "the ARM linker, see .cargo/config.toml",
+        "rustc looks for the linker",
+    )
+}
+
+/// Makes the program `name` (a crate of the same name, installed with `cargo install
+/// NAME --locked`) available on `PATH`; `why` says what it is for, `who` who looks for it
+/// there (e.g. "rustc looks for the linker").
+fn ensure_cargo_program(ctx: &Context, name: &str, why: &str, who: &str) -> Result<()> {
+    if let Some(path) = on_path(name) {
+        println!("{name}: {}", path.display());
         return Ok(());
     }
-    let installed = cargo_bin().map(|bin| bin.join("flip-link"));
+    let installed = cargo_bin().map(|bin| bin.join(name));
     if !installed.as_deref().is_some_and(is_executable) {
-        println!("flip-link: missing, installing it (the ARM linker, see .cargo/config.toml)");
-        run_command(&mut ctx.cargo(&["install", "flip-link", "--locked"]))?;
+        println!("{name}: missing, installing it ({why})");
+        run_command(&mut ctx.cargo(&["install", name, "--locked"]))?;
     }
-    match (on_path("flip-link"), installed) {
+    match (on_path(name), installed) {
         (Some(path), _) => {
-            println!("flip-link: {}", path.display());
+            println!("{name}: {}", path.display());
             Ok(())
         }
         (None, Some(path)) if is_executable(&path) => bail!(
-            "flip-link is installed at {} but that directory is not on PATH, where rustc \
-             looks for the linker: add it to PATH",
+            "{name} is installed at {} but that directory is not on PATH, where {who}: \
+             add it to PATH",
             path.display()
         ),
-        (None, _) => bail!("`cargo install flip-link --locked` ran but flip-link is not found"),
+        (None, _) => bail!("`cargo install {name} --locked` ran but {name} is not found"),
     }
 }
 
@@ -194,18 +208,19 @@ fn running_as_root() -> bool {
         .unwrap_or(false)
 }
 
-/// The toolchain Miri runs on (it ships with nightly only).
-pub const MIRI_TOOLCHAIN: &str = "nightly";
+/// The toolchain Miri and the fuzz targets run on (Miri ships with nightly only, and
+/// libFuzzer's instrumentation needs nightly's `-Z` flags).
+pub const NIGHTLY: &str = "nightly";
 /// The nightly components Miri needs: itself, and the standard library's source, which
 /// `cargo miri setup` builds Miri's standard library from.
 const MIRI_COMPONENTS: [&str; 2] = ["miri", "rust-src"];
 
-/// `cargo <args>` on the [`MIRI_TOOLCHAIN`], through rustup, in the workspace root (the
+/// `cargo <args>` on the [`NIGHTLY`] toolchain, through rustup, in the workspace root (the
 /// variables that name another toolchain's tools are removed, so nothing of the stable
 /// toolchain that runs xtask leaks in).
-pub fn miri_cargo(ctx: &Context, args: &[&str]) -> Command {
+pub fn nightly_cargo(ctx: &Context, args: &[&str]) -> Command {
     let mut cmd = Command::new("rustup");
-    cmd.args(["run", MIRI_TOOLCHAIN, "cargo"])
+    cmd.args(["run", NIGHTLY, "cargo"])
         .args(args)
         .current_dir(&ctx.root)
         .stdin(Stdio::null());
@@ -219,13 +234,7 @@ pub fn miri_cargo(ctx: &Context, args: &[&str]) -> Command {
 /// installed.
 fn missing_miri_components(ctx: &Context) -> Result<Option<Vec<&'static str>>> {
     let output = Command::new("rustup")
-        .args([
-            "component",
-            "list",
-            "--installed",
-            "--toolchain",
-            MIRI_TOOLCHAIN,
-        ])
+        .args(["component", "list", "--installed", "--toolchain", NIGHTLY])
         .current_dir(&ctx.root)
         .stdin(Stdio::null())
         .output()
@@ -258,7 +267,7 @@ pub fn ensure_miri(ctx: &Context) -> Result<()> {
     const INSTALL_ARGS: [&str; 11] = [
         "toolchain",
         "install",
-        MIRI_TOOLCHAIN,
+        NIGHTLY,
         "--allow-downgrade",
         "--no-self-update",
         "--component",
@@ -277,7 +286,7 @@ pub fn ensure_miri(ctx: &Context) -> Result<()> {
     }
     match missing_miri_components(ctx)? {
         None => {
-            println!("toolchain {MIRI_TOOLCHAIN}: missing, installing it with Miri");
+            println!("toolchain {NIGHTLY}: missing, installing it with Miri");
             run_command(
                 Command::new("rustup")
                     .args(INSTALL_ARGS)
@@ -286,26 +295,26 @@ pub fn ensure_miri(ctx: &Context) -> Result<()> {
             )
             .with_context(|| {
                 format!(
-                    "the {MIRI_TOOLCHAIN} toolchain with its miri component is missing and \
+                    "the {NIGHTLY} toolchain with its miri component is missing and \
                      could not be installed (no network?)"
                 )
             })?;
         }
         Some(missing) if !missing.is_empty() => {
             println!(
-                "toolchain {MIRI_TOOLCHAIN}: missing the component(s) {}, adding them",
+                "toolchain {NIGHTLY}: missing the component(s) {}, adding them",
                 missing.join(", ")
             );
             run_command(
                 Command::new("rustup")
-                    .args(["component", "add", "--toolchain", MIRI_TOOLCHAIN])
+                    .args(["component", "add", "--toolchain", NIGHTLY])
                     .args(&missing)
                     .current_dir(&ctx.root)
                     .stdin(Stdio::null()),
             )
             .with_context(|| {
                 format!(
-                    "the {MIRI_TOOLCHAIN} toolchain lacks {} and rustup could not add it \
+                    "the {NIGHTLY} toolchain lacks {} and rustup could not add it \
                      (no network?)",
                     missing.join(" and ")
                 )
@@ -315,19 +324,71 @@ pub fn ensure_miri(ctx: &Context) -> Result<()> {
     }
     match missing_miri_components(ctx)? {
         Some(missing) if missing.is_empty() => {
-            println!(
-                "toolchain {MIRI_TOOLCHAIN}: with {}",
-                MIRI_COMPONENTS.join(", ")
-            )
+            println!("toolchain {NIGHTLY}: with {}", MIRI_COMPONENTS.join(", "))
         }
         Some(missing) => bail!(
-            "rustup ran but the {MIRI_TOOLCHAIN} toolchain still lacks {}",
+            "rustup ran but the {NIGHTLY} toolchain still lacks {}",
             missing.join(" and ")
         ),
-        None => bail!("rustup ran but the {MIRI_TOOLCHAIN} toolchain is still not installed"),
+        None => bail!("rustup ran but the {NIGHTLY} toolchain is still not installed"),
     }
-    run_command(&mut miri_cargo(ctx, &["miri", "setup"])).context(
+    run_command(&mut nightly_cargo(ctx, &["miri", "setup"])).context(
         "Miri's standard library could not be built (`cargo +nightly miri setup`, from the \
          rust-src component and the crates it needs; no network?)",
+    )
+}
+
+/// Makes `cargo +nightly fuzz` ready: the [`NIGHTLY`] toolchain (installed with rustup,
+/// minimal profile, when missing; never updated) and `cargo-fuzz` (`cargo install
+/// cargo-fuzz --locked` when missing). The error names what is missing and the command
+/// that would install it.
+pub fn ensure_fuzzing(ctx: &Context) -> Result<()> {
+    const INSTALL_ARGS: [&str; 6] = [
+        "toolchain",
+        "install",
+        NIGHTLY,
+        "--no-self-update",
+        "--profile",
+        "minimal",
+    ];
+    let nightly_runs = || {
+        Command::new("rustup")
+            .args(["run", NIGHTLY, "rustc", "--version"])
+            .current_dir(&ctx.root)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|status| status.success())
+    };
+    let install = format!("rustup {}", INSTALL_ARGS.join(" "));
+    if on_path("rustup").is_none() {
+        bail!(
+            "the fuzz targets need the {NIGHTLY} toolchain, and rustup is not available to \
+             install it: install rustup, then `{install}`"
+        );
+    }
+    if nightly_runs() {
+        println!("toolchain {NIGHTLY}: installed");
+    } else {
+        println!("toolchain {NIGHTLY}: missing, installing it");
+        run_command(
+            Command::new("rustup")
+                .args(INSTALL_ARGS)
+                .current_dir(&ctx.root)
+                .stdin(Stdio::null()),
+        )
+        .with_context(|| {
+            format!("the {NIGHTLY} toolchain is missing and `{install}` failed (no network?)")
+        })?;
+        if !nightly_runs() {
+            bail!("rustup ran but the {NIGHTLY} toolchain is still not installed");
+        }
+    }
+    ensure_cargo_program(
+        ctx,
+        "cargo-fuzz",
+        "cargo fuzz, libFuzzer's driver",
+        "cargo looks for its subcommands",
     )
 }

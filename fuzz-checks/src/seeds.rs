@@ -128,11 +128,20 @@ fn downlinks() -> Vec<Downlink> {
         Request::Arm {
             mode: ArmMode::FollowPath,
             initial_motion: Some(BodyVelocity::new(0.4, 0.3)),
+            run_time_limit_steps: Some(30_000),
         },
         Request::Arm {
             mode: ArmMode::HoldWheelSpeeds(WheelSpeeds::new(5.0, -5.0)),
             initial_motion: None,
+            run_time_limit_steps: None,
         },
+        Request::SetPose {
+            x_m: -1.0,
+            y_m: -1.2,
+            theta_rad: 2.09,
+        },
+        Request::GetPanicRecord,
+        Request::ClearPanicRecord,
         Request::Disarm,
         Request::EmergencyStop,
         Request::Heartbeat,

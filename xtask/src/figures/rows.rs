@@ -70,6 +70,13 @@ pub fn fault_row(case: &Value) -> Result<String> {
             "not detectable by odometry (needs {})",
             undetectable["sensor"].as_str().unwrap_or("another sensor")
         )
+    } else if let Some(rearm) = expect.get("rearm") {
+        let second = if rearm["armed_again"].as_bool() == Some(true) {
+            "stopped, then re-armed"
+        } else {
+            "stopped, re-arm refused"
+        };
+        format!("{second}: {}", rearm["because"].as_str().unwrap_or(""))
     } else {
         bail!("faults.json: `{name}` has an expectation this page does not know");
     };
@@ -205,6 +212,15 @@ mod tests {
         assert_eq!(
             fault_row(&harmless).unwrap(),
             "| slip | harmless | — | — | — | — | NOT as expected |\n"
+        );
+        let rearm = serde_json::json!({
+            "case": "twice", "expect": {"rearm": {"limit_s": 0.021, "armed_again": false, "because": "turning"}},
+            "latency_s": 0.019, "limit_s": 0.021, "passed": true,
+            "report": {"detected_by": ["disarmed: Button"], "distance_after_m": 0.0143},
+        });
+        assert_eq!(
+            fault_row(&rearm).unwrap(),
+            "| twice | stopped, re-arm refused: turning | disarmed: Button | 19.0 ms | 21.0 ms | 14.3 mm | as expected |\n"
         );
         let unknown = serde_json::json!({"case": "x", "expect": {"other": {}}});
         assert!(fault_row(&unknown).is_err());

@@ -83,6 +83,7 @@ pub mod controller;
 pub mod drive;
 pub mod encoder;
 pub mod fixed;
+pub mod gyro;
 pub mod kinematics;
 pub mod law;
 pub mod limits;

@@ -17,6 +17,7 @@
 use core::num::NonZeroU32;
 
 use controller_core::controller::{Controller, MotorCommand, TickDeltas};
+use controller_core::gyro::GyroSample;
 use controller_core::outer_loop::{OuterLoop, OuterLoopAway};
 use controller_core::pid::PidParts as CorePidParts;
 use controller_core::supervisor::{
@@ -44,6 +45,9 @@ pub struct Sensors {
     pub overrun: bool,
     /// A counter the lowest-priority work increments (any change proves it runs).
     pub background_heartbeat: u32,
+    /// The gyro's newest reading, if one arrived since the previous step (`None`: no IMU,
+    /// or no new reading).
+    pub gyro: Option<GyroSample>,
 }
 
 impl Sensors {
@@ -56,6 +60,7 @@ impl Sensors {
             button_pressed: false,
             overrun: false,
             background_heartbeat: 0,
+            gyro: None,
         }
     }
 }
@@ -307,6 +312,7 @@ impl<'a> ControlSide<'a> {
                 overrun: sensors.overrun || !outer_loop_seated,
                 background_heartbeat: sensors.background_heartbeat,
                 command,
+                gyro: sensors.gyro,
             },
         );
 

@@ -147,6 +147,7 @@ proptest! {
                 button_pressed: button,
                 overrun: k % 7 == 0,
                 background_heartbeat: k as u32,
+                gyro: None,
             });
             for d in [out.duty.left, out.duty.right] {
                 prop_assert!(d.is_finite() && (-1.0..=1.0).contains(&d));

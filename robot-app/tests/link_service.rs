@@ -496,6 +496,7 @@ fn a_run_that_ends_while_the_uplink_is_full_still_wakes_the_link_and_sends_its_r
             button_pressed,
             overrun: false,
             background_heartbeat: background,
+            gyro: None,
         })
     };
     let mut press = |rig: &mut Rig<'_>, steps: u32| {

@@ -31,6 +31,7 @@ use core::num::NonZeroU32;
 
 use crate::drive::{SupplyFilter, WheelDrive, WheelLoopReport, WheelVolts};
 use crate::encoder::SpeedEstimator;
+use crate::gyro::GyroSample;
 use crate::kinematics::{BodyVelocity, Pose, TrackingError, WheelSpeeds};
 use crate::law::{LawKind, LawOutput};
 use crate::limits::LimitFlags;
@@ -68,15 +69,24 @@ pub struct StepInput {
     pub periods: NonZeroU32,
     /// The measured motor supply (battery) voltage, V.
     pub supply_v: f32,
+    /// The gyro's newest reading, if one arrived since the previous step (`None`: no IMU,
+    /// or no new reading).
+    pub gyro: Option<GyroSample>,
+    /// The robot is still: disarmed, both wheels at rest (the supervisor's judgement).
+    /// Only then is the gyro's bias learned.
+    pub still: bool,
 }
 
 impl StepInput {
-    /// A step on time (one period) with `ticks` and a supply of `supply_v` (V).
+    /// A step on time (one period) with `ticks` and a supply of `supply_v` (V), no gyro
+    /// reading, not still.
     pub const fn on_time(ticks: TickDeltas, supply_v: f32) -> Self {
         Self {
             ticks,
             periods: NonZeroU32::MIN,
             supply_v,
+            gyro: None,
+            still: false,
         }
     }
 }

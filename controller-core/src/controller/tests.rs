@@ -509,6 +509,8 @@ fn a_late_step_moves_the_set_point_ramp_by_the_periods_it_covered() {
         ticks: ticks(3, 3),
         periods: NonZeroU32::new(3).unwrap(),
         supply_v: SUPPLY_V,
+        gyro: None,
+        still: false,
     });
     let (a, b) = (
         on_time.telemetry().wheel_setpoint,
@@ -562,6 +564,8 @@ fn a_late_step_moves_the_reference_by_the_time_that_passed() {
         ticks: ticks(0, 0),
         periods: NonZeroU32::new(11).unwrap(),
         supply_v: SUPPLY_V,
+        gyro: None,
+        still: false,
     });
     assert_eq!(late.telemetry().periods, 11);
     step(&mut on_time, ticks(0, 0));
@@ -586,6 +590,8 @@ fn a_late_step_is_not_an_encoder_jump_for_the_time_it_covered() {
         ticks: ticks(80, 80),
         periods: NonZeroU32::new(2).unwrap(),
         supply_v: SUPPLY_V,
+        gyro: None,
+        still: false,
     });
     assert!(!c.faults().any());
     step(&mut c, ticks(80, 0));
@@ -646,6 +652,8 @@ fn set_points_move_every_step_not_every_steering_period() {
         ticks: ticks(0, 0),
         periods: NonZeroU32::new(3).unwrap(),
         supply_v: SUPPLY_V,
+        gyro: None,
+        still: false,
     });
     let w = c.telemetry().wheel_setpoint.left_rad_s;
     assert!(
@@ -803,6 +811,8 @@ proptest! {
                 ticks: t,
                 periods: NonZeroU32::new(n).unwrap_or(NonZeroU32::MIN),
                 supply_v: supply,
+                gyro: None,
+                still: false,
             });
             for d in [duty.left, duty.right] {
                 prop_assert!(d.is_finite() && (-1.0..=1.0).contains(&d));

@@ -372,6 +372,8 @@ impl Supervisor {
             ticks: input.ticks,
             periods: input.periods,
             supply_v: input.supply_v,
+            gyro: input.gyro,
+            still: self.state == State::Disarmed && self.rest.at_rest(),
         });
         self.rest.update(controller.telemetry().wheel_speed);
 

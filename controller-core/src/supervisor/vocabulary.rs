@@ -6,6 +6,7 @@ use core::num::NonZeroU32;
 
 use super::{Faults, SupervisorConfigError};
 use crate::controller::{MotorCommand, TickDeltas};
+use crate::gyro::GyroSample;
 use crate::kinematics::{BodyVelocity, Pose, WheelSpeeds};
 use crate::tune::TuneConfigError;
 
@@ -291,6 +292,9 @@ pub struct Inputs {
     pub background_heartbeat: u32,
     /// A command from the link, at most one per step.
     pub command: Option<Command>,
+    /// The gyro's newest reading, if one arrived since the previous step (`None`: no IMU,
+    /// or no new reading).
+    pub gyro: Option<GyroSample>,
 }
 
 impl Inputs {
@@ -304,6 +308,7 @@ impl Inputs {
             overrun: false,
             background_heartbeat: 0,
             command: None,
+            gyro: None,
         }
     }
 }

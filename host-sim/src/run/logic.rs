@@ -137,6 +137,7 @@ fn supervise(
             overrun: false,
             background_heartbeat: *heartbeat,
             command: None,
+            gyro: None,
         },
     )
 }

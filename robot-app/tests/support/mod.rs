@@ -288,6 +288,7 @@ impl<'a> Rig<'a> {
             button_pressed: self.button,
             overrun: false,
             background_heartbeat: self.background,
+            gyro: None,
         });
         self.last = Some(out);
         // The lower-priority task runs between this step and the next.

@@ -87,6 +87,7 @@ impl Rig {
             overrun: self.overrun,
             background_heartbeat: self.heartbeat,
             command: self.command.take(),
+            gyro: None,
         };
         self.sup.step(&mut self.ctl, input)
     }

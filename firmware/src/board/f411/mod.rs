@@ -443,6 +443,7 @@ impl ControlIo {
             button_pressed: pins::button_pressed(&mut self.button),
             overrun: self.overran,
             background_heartbeat: heartbeat,
+            gyro: None,
         })
     }
 

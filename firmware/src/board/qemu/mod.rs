@@ -169,6 +169,7 @@ impl ControlIo {
             button_pressed: step.button_pressed,
             overrun: false,
             background_heartbeat: heartbeat,
+            gyro: None,
         })
     }
 

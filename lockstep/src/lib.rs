@@ -3,7 +3,8 @@
 //!
 //! The plant owns time. Each [`PlantStep`] it sends carries what the board's sensors
 //! read for one control step (encoder ticks, the periods since the previous step, the
-//! supply measurement, the button) and triggers exactly one control step; the board
+//! supply measurement, the button, and the gyro's reading when there is one) and
+//! triggers exactly one control step; the board
 //! answers with one [`BoardStep`] (the duties, the bridge, the supervisor's decision and
 //! the controller's estimate), and the plant advances only after it has that answer. So
 //! the closed loop computes the same numbers however fast or slow either side runs, and
@@ -11,7 +12,8 @@
 //!
 //! ```text
 //!  board ─► READY ('R', once, after both USARTs are enabled)
-//!  plant ─► PlantStep   ('S', or 'P' with the button pressed; 8 bytes typically)  ┐ one
+//!  plant ─► PlantStep   ('S', 'P' with the button pressed; 8 bytes typically;    ┐ one
+//!                        'G', 'H' the same with a gyro reading, 5 bytes more)     │
 //!  board ─► BoardStep   ('A' 10 bytes, or 'D' 40 bytes or more with the details)    ┘ step
 //!  …
 //!  plant ─► FINISH ('F')
@@ -50,6 +52,10 @@ pub const READY: u8 = b'R';
 pub const STEP_TAG: u8 = b'S';
 /// Tag of a [`PlantStep`] with the button pressed.
 pub const STEP_PRESSED_TAG: u8 = b'P';
+/// Tag of a [`PlantStep`] with the button released and a gyro reading.
+pub const STEP_GYRO_TAG: u8 = b'G';
+/// Tag of a [`PlantStep`] with the button pressed and a gyro reading.
+pub const STEP_GYRO_PRESSED_TAG: u8 = b'H';
 /// Tag of a [`BoardStep`] without its details (the decoder repeats the last ones).
 pub const BOARD_STEP_TAG: u8 = b'A';
 /// Tag of a [`BoardStep`] with its details.
@@ -58,8 +64,8 @@ pub const BOARD_DETAIL_TAG: u8 = b'D';
 pub const FINISH: u8 = b'F';
 
 /// Most bytes of a [`PlantStep`] on the wire: tag, three varints of up to 5 bytes, an
-/// `f32`.
-pub const PLANT_STEP_MAX_LEN: usize = 1 + 3 * 5 + 4;
+/// `f32`, and the gyro's reading (an `f32` and its age, one byte).
+pub const PLANT_STEP_MAX_LEN: usize = 1 + 3 * 5 + 4 + 4 + 1;
 /// Most bytes of a [`BoardStep`] on the wire: tag, two `f32`, the status byte, and the
 /// details (faults, event, two varint counters, six `f32`).
 pub const BOARD_STEP_MAX_LEN: usize = 1 + 8 + 1 + 2 + 2 + 2 * 5 + 24;

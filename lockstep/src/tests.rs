@@ -4,6 +4,7 @@ use core::num::NonZeroU32;
 use std::vec::Vec;
 
 use controller_core::controller::{MotorCommand, TickDeltas};
+use controller_core::gyro::GyroSample;
 use controller_core::kinematics::{Pose, TrackingError};
 use controller_core::supervisor::{
     Bridge, CommandRefusal, DisarmReason, Event, Fault, Faults, RunMode, State,
@@ -17,6 +18,17 @@ fn step(left: i32, right: i32, periods: u32, button_pressed: bool) -> PlantStep 
         periods: NonZeroU32::new(periods).unwrap(),
         supply_v: 5.987_654,
         button_pressed,
+        gyro: None,
+    }
+}
+
+fn with_gyro(s: PlantStep, yaw_rate_radps: f32, age_periods: u8) -> PlantStep {
+    PlantStep {
+        gyro: Some(GyroSample {
+            yaw_rate_radps,
+            age_periods,
+        }),
+        ..s
     }
 }
 
@@ -76,9 +88,49 @@ fn plant_steps_cross_bit_for_bit_in_few_bytes() {
     assert_eq!(plant_bytes(&steps[0]).len(), 8);
     assert_eq!(plant_bytes(&steps[0])[0], STEP_TAG);
     assert_eq!(plant_bytes(&steps[1])[0], STEP_PRESSED_TAG);
-    assert_eq!(plant_bytes(&steps[1]).len(), PLANT_STEP_MAX_LEN);
+    // The longest step without a gyro reading: five bytes short of the longest with one.
+    assert_eq!(plant_bytes(&steps[1]).len(), PLANT_STEP_MAX_LEN - 5);
     assert_eq!(d.push(FINISH), Some(ToBoard::Finish));
     assert_eq!(d.errors(), 0);
+}
+
+#[test]
+fn a_gyro_reading_crosses_bit_for_bit_and_a_step_without_one_is_unchanged() {
+    let steps = [
+        with_gyro(step(-7, 3, 1, false), 0.123_456_7, 0),
+        with_gyro(step(i32::MIN, i32::MAX, u32::MAX, true), -34.9, u8::MAX),
+        with_gyro(step(0, 0, 1, false), f32::from_bits(0x7fc0_1234), 2),
+        step(0, -1, 12, false),
+        with_gyro(step(1, 1, 1, true), f32::NEG_INFINITY, 1),
+    ];
+    let mut d = StepDecoder::new();
+    let mut got = Vec::new();
+    for s in &steps {
+        got.extend(plant_bytes(s).iter().filter_map(|&b| d.push(b)));
+    }
+    assert_eq!(d.errors(), 0);
+    assert_eq!(got.len(), steps.len());
+    for (got, sent) in got.iter().zip(&steps) {
+        let ToBoard::Step(got) = got else {
+            panic!("{got:?}")
+        };
+        // Bits, not values: a NaN reading must reach the board as the plant sent it.
+        let bits = |s: &PlantStep| s.gyro.map(|g| (g.yaw_rate_radps.to_bits(), g.age_periods));
+        assert_eq!(bits(got), bits(sent));
+        assert_eq!(
+            (got.ticks, got.periods, got.button_pressed),
+            (sent.ticks, sent.periods, sent.button_pressed)
+        );
+    }
+    // The reading costs five bytes; without one the message is what it always was.
+    assert_eq!(plant_bytes(&steps[0]).len(), 8 + 5);
+    assert_eq!(plant_bytes(&steps[0])[0], STEP_GYRO_TAG);
+    assert_eq!(plant_bytes(&steps[1])[0], STEP_GYRO_PRESSED_TAG);
+    assert_eq!(plant_bytes(&steps[1]).len(), PLANT_STEP_MAX_LEN);
+    assert_eq!(
+        plant_bytes(&step(-7, 3, 1, false)),
+        [STEP_TAG, 13, 6, 1, 0xDD, 0x9A, 0xBF, 0x40]
+    );
 }
 
 #[test]

@@ -199,6 +199,7 @@ impl RobotLogic for Firmware {
             periods: NonZeroU32::new(sensors.periods).unwrap_or(NonZeroU32::MIN),
             supply_v: sensors.supply_v,
             button_pressed: sensors.button_pressed,
+            gyro: None,
         };
         let started = Instant::now();
         let answer = loop {

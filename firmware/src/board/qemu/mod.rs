@@ -12,6 +12,7 @@
 //! | control tick | TIM5 compare every 1 ms | the plant's step message pends TIM5 ([`plant_port`]) |
 //! | periods since the last step | TIM5's free-running count | the step message (never 0) |
 //! | encoders, supply, button | TIM2/TIM4, ADC1, a pin | the step message |
+//! | gyro (when an IMU is fitted) | the ICM-42688-P on SPI2, read at the step's start | the step message's reading, if it has one |
 //! | duties and bridge | TIM3 PWM, driver pins | the answer message |
 //! | link | USART2 on PA2/PA3 | USART2 (QEMU's second `-serial`) |
 //! | step timing | DWT CYCCNT, cycles | SysTick under `-icount shift=0`, instructions ([`instructions`]) |
@@ -169,7 +170,7 @@ impl ControlIo {
             button_pressed: step.button_pressed,
             overrun: false,
             background_heartbeat: heartbeat,
-            gyro: None,
+            gyro: step.gyro,
         })
     }
 

@@ -12,7 +12,7 @@
 //!
 //! 1. [`app::init`] reads a previous run's panic record ([`panic_record`]), brings the
 //!    board up ([`board`]: on the F411 the watchdog with a long timeout first, the
-//!    brown-out reset level, the clock from the board's oscillator, pins, PWM with the driver in standby, encoders, supply ADC, the link USART),
+//!    brown-out reset level, the clock from the board's oscillator, pins, PWM with the driver in standby, encoders, supply ADC, the IMU if one answers, the link USART),
 //!    loads the parameters from flash or falls back to the built-in ones
 //!    ([`persistence`], [`robot`]), builds the two sides of the application
 //!    (`robot_app::start`: the control side and the link service, joined by lock-free

@@ -9,13 +9,17 @@
 //! | Right encoder B             | PB7  | TIM4 CH2              | B7         | CN7-21          |
 //! | TB6612 PWMA (left motor)    | PA6  | TIM3 CH1, 20 kHz      | A6         | D12 (CN5-5)     |
 //! | TB6612 PWMB (right motor)   | PA7  | TIM3 CH2, 20 kHz      | A7         | D11 (CN5-4)     |
-//! | TB6612 AIN1 / AIN2          | PB12 / PB13 | GPIO out       | B12 / B13  | CN10-16 / -30   |
-//! | TB6612 BIN1 / BIN2          | PB14 / PB15 | GPIO out       | B14 / B15  | CN10-28 / -26   |
+//! | TB6612 AIN1 / AIN2          | PB4 / PB5   | GPIO out       | B4 / B5    | D5 (CN9-6) / D4 (CN9-5) |
+//! | TB6612 BIN1 / BIN2          | PB8 / PB9   | GPIO out       | B8 / B9    | D15 (CN5-10) / D14 (CN5-9) |
 //! | TB6612 STBY                 | PB10 | GPIO out (high = run) | B10        | D6 (CN9-7)      |
 //! | DRV8833 only: AIN2 / BIN2   | PB0 / PB1 | TIM3 CH3 / CH4   | B0 / B1    | A3 / CN10-24    |
 //! | Arm button (active low)     | PA0 / PC13 | GPIO in         | KEY (PA0)  | B1 USER (PC13)  |
 //! | Status LED                  | PC13 / PA5 | GPIO out        | C13 (low = on) | LD2 (PA5, high = on) |
 //! | Supply sense (divider)      | PA1  | ADC1_IN1, analog      | A1         | A1 (CN8-2)      |
+//! | IMU SCLK (optional, [`imu`]) | PB13 | SPI2 SCK, AF5, 12.5 MHz | B13      | CN10-30         |
+//! | IMU SDO (MISO)              | PB14 | SPI2 MISO, AF5, pull-down | B14    | CN10-28         |
+//! | IMU SDI (MOSI)              | PB15 | SPI2 MOSI, AF5        | B15        | CN10-26         |
+//! | IMU CS                      | PB12 | GPIO out (low = selected) | B12    | CN10-16         |
 //! | Link TX (robot → host)      | PA2  | USART2 TX, AF7        | A2 → adapter RX | ST-LINK VCP (no wire) |
 //! | Link RX (host → robot)      | PA3  | USART2 RX, AF7, pull-up | A3 ← adapter TX | ST-LINK VCP (no wire) |
 //! | Control tick                | —    | TIM5 CC1 IRQ, 1 kHz   | —          | —               |
@@ -42,6 +46,7 @@ mod brown_out;
 mod clock;
 mod encoder;
 mod flash;
+mod imu;
 mod motor;
 mod pins;
 mod supply;
@@ -220,7 +225,7 @@ type Channel<const C: u8, const IN1: u8, const IN2: u8> =
     Tb6612Channel<PwmChannel<PwmTimer, C>, Out<'B', IN1>, Out<'B', IN2>>;
 /// Both motors and STBY, pins as in the table.
 #[cfg(not(feature = "drv8833"))]
-type Drive = DriveTrain<Channel<0, 12, 13>, Channel<1, 14, 15>, Out<'B', 10>>;
+type Drive = DriveTrain<Channel<0, 4, 5>, Channel<1, 8, 9>, Out<'B', 10>>;
 /// A DRV8833 channel on PWM channels `C1` (IN1) and `C2` (IN2) of [`PwmTimer`].
 #[cfg(feature = "drv8833")]
 type Channel<const C1: u8, const C2: u8> =
@@ -256,7 +261,8 @@ pub const UNUSED_INTERRUPTS: [pac::Interrupt; 1] = [pac::Interrupt::USART1];
 
 /// Brings the board up (see the crate doc for the order): reset cause, watchdog,
 /// brown-out level, clock, pins, PWM with the driver in standby, encoders, supply ADC,
-/// link USART, storage. The control tick is not started yet ([`ControlIo::start`]).
+/// the IMU if one answers (about 47 ms), link USART, storage. The control tick is not
+/// started yet ([`ControlIo::start`]).
 pub fn init(dp: pac::Peripherals, mut cp: cortex_m::Peripherals) -> Board {
     // Why did we reset? Read (and clear) before anything else touches RCC.
     let reset = pins::take_reset_flags(&dp.RCC).cause();
@@ -327,7 +333,7 @@ pub fn init(dp: pac::Peripherals, mut cp: cortex_m::Peripherals) -> Board {
     };
     #[cfg(feature = "drv8833")]
     let drive: Drive = {
-        // PB12–PB15 (the TB6612's direction inputs) are not needed: they stay low.
+        // PB4, PB5, PB8, PB9 (the TB6612's direction inputs) are not needed: they stay low.
         let _unused = (pins.left_dir, pins.right_dir);
         let mut left_b = _ch3.with(pins.left_pwm_b);
         let mut right_b = _ch4.with(pins.right_pwm_b);
@@ -351,6 +357,9 @@ pub fn init(dp: pac::Peripherals, mut cp: cortex_m::Peripherals) -> Board {
 
     // Supply: one conversion per step, started at its end.
     let supply = supply::Supply::new(dp.ADC1, &dp.ADC_COMMON, pins.supply, &mut rcc);
+
+    // The IMU, if one is fitted (WHO_AM_I): its gyro read at the start of every step.
+    let imu = imu::Imu::probe(dp.SPI2, pins.imu, &mut rcc);
 
     // The link: USART2 at LINK_BAUD, 8N1 (RM0383 §19.6). RCC_APB1ENR.USART2EN on, the
     // peripheral reset (CR1–CR3 = 0: 8 data bits, no parity, 1 stop bit, 16×
@@ -397,6 +406,7 @@ pub fn init(dp: pac::Peripherals, mut cp: cortex_m::Peripherals) -> Board {
             button: pins.button,
             led: pins.led,
             supply,
+            imu,
             overran: false,
         },
         watchdog,
@@ -408,7 +418,8 @@ pub fn init(dp: pac::Peripherals, mut cp: cortex_m::Peripherals) -> Board {
     }
 }
 
-/// The control task's hardware: the tick, encoders, motors, button, LED and supply.
+/// The control task's hardware: the tick, encoders, motors, button, LED, supply and
+/// the IMU (if fitted).
 pub struct ControlIo {
     tick: tick::Tick,
     encoders: encoder::Encoders,
@@ -416,6 +427,8 @@ pub struct ControlIo {
     button: pins::ButtonPin,
     led: Led,
     supply: supply::Supply,
+    /// The IMU found at start-up, if any.
+    imu: Option<imu::Imu>,
     /// The previous step was still running when its successor's period began.
     overran: bool,
 }
@@ -427,12 +440,14 @@ impl ControlIo {
         self.tick.start(TICK_PERIOD);
     }
 
-    /// At the start of a control step: acknowledges the tick and reads the sensors;
+    /// At the start of a control step: acknowledges the tick and reads the sensors (the
+    /// gyro first: one SPI burst, about 5 µs, when an IMU was found);
     /// `None` for an entry before the deadline (not a tick). `heartbeat` is the idle
     /// loop's counter.
     #[inline(always)]
     pub fn sense(&mut self, heartbeat: u32) -> Option<Sensors> {
         let periods = self.tick.on_entry()?;
+        let gyro = self.imu.as_mut().and_then(imu::Imu::sample);
         // No conversion ready reads as NaN: the supervisor treats an unreadable supply
         // as a low one (after its debounce).
         let supply_v = self.supply.read_volts().unwrap_or(f32::NAN);
@@ -443,7 +458,7 @@ impl ControlIo {
             button_pressed: pins::button_pressed(&mut self.button),
             overrun: self.overran,
             background_heartbeat: heartbeat,
-            gyro: None,
+            gyro,
         })
     }
 

@@ -41,9 +41,23 @@ pub type LedPin = gpio::PC13<Output<PushPull>>;
 #[cfg(feature = "nucleo")]
 pub type LedPin = gpio::PA5<Output<PushPull>>;
 
+/// The IMU's SPI2 pins (AF5 on every STM32F4 the firmware builds for) and its chip
+/// select.
+pub struct ImuPins {
+    /// SPI2 SCK (PB13, AF5), fast edges for 12.5 MHz.
+    pub sck: gpio::PB13<gpio::Alternate<5>>,
+    /// SPI2 MISO (PB14, AF5), with the pull-down: with no IMU fitted it reads 0x00,
+    /// never a floating pattern that could pass for an identity.
+    pub miso: gpio::PB14<gpio::Alternate<5>>,
+    /// SPI2 MOSI (PB15, AF5), fast edges.
+    pub mosi: gpio::PB15<gpio::Alternate<5>>,
+    /// The IMU's chip select (PB12), high (deselected).
+    pub chip_select: Out<'B', 12>,
+}
+
 /// Every pin the firmware uses, configured, by function. With feature `drv8833` the
 /// bridge inputs are PWM on both sides (PA6/PB0 left, PA7/PB1 right), nSLEEP is on the
-/// STBY pin, and PB12–PB15 stay low, unused.
+/// STBY pin, and the TB6612's direction pins (PB4, PB5, PB8, PB9) stay low, unused.
 pub struct Pins {
     /// Left encoder A, B (TIM2 CH1, CH2), alternate function with pull-up.
     pub left_encoder: (
@@ -63,9 +77,11 @@ pub struct Pins {
     #[cfg(feature = "drv8833")]
     pub right_pwm_b: gpio::PB1,
     /// TB6612 AIN1, AIN2 (left motor direction), low.
-    pub left_dir: (Out<'B', 12>, Out<'B', 13>),
+    pub left_dir: (Out<'B', 4>, Out<'B', 5>),
     /// TB6612 BIN1, BIN2 (right motor direction), low.
-    pub right_dir: (Out<'B', 14>, Out<'B', 15>),
+    pub right_dir: (Out<'B', 8>, Out<'B', 9>),
+    /// The IMU's bus (found or not at start-up: `super::imu`).
+    pub imu: ImuPins,
     /// TB6612 STBY, low (standby) until armed.
     pub standby: Out<'B', 10>,
     /// The arm button.
@@ -82,8 +98,8 @@ pub struct Pins {
 }
 
 /// GPIOB pins that [`force_motors_off`] drives low: STBY (PB10) and the four direction
-/// inputs (PB12–PB15). Must match [`Pins`].
-const MOTOR_GPIOB_PINS: [u8; 5] = [10, 12, 13, 14, 15];
+/// inputs (PB4, PB5, PB8, PB9). Must match [`Pins`].
+const MOTOR_GPIOB_PINS: [u8; 5] = [10, 4, 5, 8, 9];
 
 impl Pins {
     /// Configures the pins of ports A, B and C for their functions; every output that
@@ -93,8 +109,8 @@ impl Pins {
         gpiob: gpio::gpiob::Parts,
         gpioc: gpio::gpioc::Parts,
     ) -> Self {
-        use stm32f4xx_hal::gpio::PinState::Low;
-        use stm32f4xx_hal::gpio::Pull;
+        use stm32f4xx_hal::gpio::PinState::{High, Low};
+        use stm32f4xx_hal::gpio::{Pull, Speed};
 
         #[cfg(not(feature = "nucleo"))]
         let (button, led) = (
@@ -127,13 +143,19 @@ impl Pins {
             #[cfg(feature = "drv8833")]
             right_pwm_b: gpiob.pb1,
             left_dir: (
-                gpiob.pb12.into_push_pull_output_in_state(Low),
-                gpiob.pb13.into_push_pull_output_in_state(Low),
+                gpiob.pb4.into_push_pull_output_in_state(Low),
+                gpiob.pb5.into_push_pull_output_in_state(Low),
             ),
             right_dir: (
-                gpiob.pb14.into_push_pull_output_in_state(Low),
-                gpiob.pb15.into_push_pull_output_in_state(Low),
+                gpiob.pb8.into_push_pull_output_in_state(Low),
+                gpiob.pb9.into_push_pull_output_in_state(Low),
             ),
+            imu: ImuPins {
+                sck: gpiob.pb13.into_alternate().speed(Speed::High),
+                miso: gpiob.pb14.into_alternate().internal_resistor(Pull::Down),
+                mosi: gpiob.pb15.into_alternate().speed(Speed::High),
+                chip_select: gpiob.pb12.into_push_pull_output_in_state(High),
+            },
             standby: gpiob.pb10.into_push_pull_output_in_state(Low),
             button,
             led,

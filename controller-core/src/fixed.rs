@@ -65,6 +65,12 @@ impl BinaryAngle {
     pub const fn add(self, turn: AngleDelta) -> Self {
         Self(self.0.wrapping_add(turn.0 as u64))
     }
+
+    /// The turn from `other` to this angle, wrapped to [−½, ½) turn.
+    #[must_use]
+    pub const fn minus(self, other: Self) -> AngleDelta {
+        AngleDelta(self.0.wrapping_sub(other.0) as i64)
+    }
 }
 
 /// A signed change of a [`BinaryAngle`], 2⁻⁶⁴ turn per unit; sums wrap modulo a turn.
@@ -82,10 +88,27 @@ impl AngleDelta {
         Self(hi.wrapping_add(lo))
     }
 
+    /// `rad` radians (|rad| < π; beyond, saturated), to 24 bits of `rad` itself: for the
+    /// small per-step turns of a rate sensor, whose rounding is unbiased.
+    pub fn from_rad(rad: f32) -> Self {
+        Self((rad * (TWO_POW_32 * TWO_POW_32 / core::f32::consts::TAU)) as i64)
+    }
+
+    /// The change in radians, in [−π, π), rounded to `f32`.
+    pub fn to_rad(self) -> f32 {
+        self.0 as f32 * (core::f32::consts::TAU / (TWO_POW_32 * TWO_POW_32))
+    }
+
     /// `count` times this change, modulo a turn (an exact integer product: no rounding).
     #[must_use]
     pub const fn times(self, count: i32) -> Self {
         Self(self.0.wrapping_mul(count as i64))
+    }
+
+    /// The sum of two changes, modulo a turn.
+    #[must_use]
+    pub const fn plus(self, other: Self) -> Self {
+        Self(self.0.wrapping_add(other.0))
     }
 
     /// The difference of two changes, modulo a turn.

@@ -4,6 +4,14 @@
 //! step as a [`GyroSample`]; a board without one, or a step with no new reading, passes
 //! `None` ([`crate::controller::StepInput::gyro`]). The reading is the sensor's own:
 //! the core applies the axis sign, the scale factor and the bias estimate.
+//!
+//! [`HeadingFusion`] turns the readings into a heading: the bias learned while the robot
+//! is still, the gyro's rate integrated in the same fixed-point heading as odometry
+//! ([`BinaryAngle`]), a failed gyro (absent, stuck, saturated, non-finite) replaced by
+//! odometry, and the running disagreement between the gyro's and odometry's yaw rates.
+
+use crate::fixed::{AngleDelta, BinaryAngle};
+use crate::math;
 
 /// One reading of the gyro's yaw axis, as the sensor gave it.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -21,4 +29,380 @@ pub struct GyroSample {
     /// Whole control periods between the end of the interval this reading covers and the
     /// start of the step it is handed to: 0 for a reading taken within the last period.
     pub age_periods: u8,
+}
+
+/// Where the controller's heading comes from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum HeadingSource {
+    /// The encoders alone (a robot without an IMU). The fused heading is still computed,
+    /// for telemetry and the disagreement check, when a gyro reads.
+    #[default]
+    Odometry,
+    /// The gyro's integrated rate with its bias removed, corrected towards odometry's
+    /// heading with [`GyroConfig::odometry_blend_time_constant_s`]; odometry's heading
+    /// whenever the gyro has failed.
+    Fused,
+}
+
+/// What the core knows about the gyro: its calibration and the limits that judge it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct GyroConfig {
+    /// The heading the controller uses.
+    pub heading_source: HeadingSource,
+    /// The sensor's z axis points down (its rate is negated): counter-clockwise seen from
+    /// above is positive in the robot's frame.
+    pub axis_inverted: bool,
+    /// Robot yaw rate per unit of sensor rate (1 for a perfect sensor), from bring-up:
+    /// turn through a known angle and divide.
+    pub scale: f32,
+    /// The sensor's full scale, rad/s: a reading at or beyond 0.99 of it is saturated.
+    pub full_scale_radps: f32,
+    /// Time constant of the bias estimate once it has averaged this long, s: before, the
+    /// estimate is the plain mean of every still reading since start.
+    pub bias_time_constant_s: f32,
+    /// Time constant of the correction of the fused heading towards odometry's, s; 0: no
+    /// correction (the gyro alone between rests).
+    pub odometry_blend_time_constant_s: f32,
+    /// A reading older than this many control periods is not used.
+    pub max_age_periods: u8,
+    /// Consecutive steps without a usable reading after which the gyro has failed.
+    pub absent_limit_steps: u16,
+    /// Consecutive identical readings after which the gyro is stuck, if odometry turned
+    /// by more than [`Self::stuck_turn_rad`] meanwhile (a live sensor's noise changes its
+    /// reading within a few samples; an ideal one at rest may repeat it forever).
+    pub stuck_limit_steps: u16,
+    /// See [`Self::stuck_limit_steps`], rad.
+    pub stuck_turn_rad: f32,
+    /// Gyro against odometry yaw rate, beyond which (averaged over
+    /// [`Self::disagreement_window_s`]) they disagree, rad/s.
+    pub disagreement_threshold_radps: f32,
+    /// Time constant of the disagreement's running mean, s.
+    pub disagreement_window_s: f32,
+}
+
+impl GyroConfig {
+    /// The ICM-42688-P at ±2000 °/s, axis up, scale uncalibrated (1), heading from
+    /// odometry: a robot that reads its gyro but does not steer by it yet.
+    pub const ICM42688P: GyroConfig = GyroConfig {
+        heading_source: HeadingSource::Odometry,
+        axis_inverted: false,
+        scale: 1.0,
+        full_scale_radps: 34.906_586,
+        bias_time_constant_s: 20.0,
+        odometry_blend_time_constant_s: 0.0,
+        max_age_periods: 4,
+        absent_limit_steps: 20,
+        stuck_limit_steps: 200,
+        stuck_turn_rad: 0.01,
+        disagreement_threshold_radps: 0.03,
+        disagreement_window_s: 10.0,
+    };
+
+    /// The same with `source` as the heading.
+    #[must_use]
+    pub const fn with_heading(mut self, source: HeadingSource) -> Self {
+        self.heading_source = source;
+        self
+    }
+}
+
+/// Why the gyro is not used.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum GyroFailure {
+    /// No usable reading for [`GyroConfig::absent_limit_steps`].
+    Absent,
+    /// A reading that is NaN or infinite.
+    NonFinite,
+    /// A reading at the sensor's full scale.
+    Saturated,
+    /// The same reading [`GyroConfig::stuck_limit_steps`] times in a row.
+    Stuck,
+}
+
+/// The gyro's state as the fusion sees it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum GyroHealth {
+    /// No gyro has read since start (a robot without an IMU).
+    #[default]
+    None,
+    /// Reading and used.
+    Reading,
+    /// Failed: the heading follows odometry until the supervisor's faults are cleared.
+    Failed(GyroFailure),
+}
+
+/// What the fusion computed in one step, for telemetry.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct GyroReport {
+    /// The gyro's yaw rate, robot frame, counter-clockwise positive, bias removed, rad/s.
+    pub yaw_rate_radps: f32,
+    /// The bias estimate, robot frame, rad/s.
+    pub bias_radps: f32,
+    /// Running mean of gyro minus odometry yaw rate, rad/s.
+    pub disagreement_radps: f32,
+    /// |disagreement| is beyond [`GyroConfig::disagreement_threshold_radps`].
+    pub disagrees: bool,
+    /// The gyro's state.
+    pub health: GyroHealth,
+}
+
+/// The heading fusion: the gyro's bias learned at rest, the gyro's rate integrated into a
+/// fixed-point heading, the gyro judged, its disagreement with odometry measured.
+///
+/// Contract: with no gyro reading ever, it changes nothing (the heading is odometry's,
+/// bit for bit). The fused heading is a [`BinaryAngle`] advanced by the gyro's turn each
+/// step; while the gyro is failed or absent it advances by odometry's turn, so it stays
+/// continuous. The bias is learned only in steps the supervisor judges still.
+#[derive(Clone, Copy, Debug)]
+pub struct HeadingFusion {
+    config: GyroConfig,
+    report: GyroReport,
+    fused: BinaryAngle,
+    odometry: BinaryAngle,
+    /// The last reading's bits, how many times in a row it came, and odometry's turn
+    /// meanwhile.
+    last_bits: u32,
+    same_count: u16,
+    turn_while_same: AngleDelta,
+    /// Steps since the last usable reading.
+    absent_steps: u16,
+    /// The last usable rate, robot frame, bias removed, rad/s (held over a step with no
+    /// new reading).
+    held_rate_radps: f32,
+    /// Still readings averaged into the bias (saturates at the time constant's count).
+    bias_samples: u32,
+    /// Control period, s.
+    period_s: f32,
+}
+
+impl HeadingFusion {
+    /// A fusion with `config` on a loop of period `period_s` (s), at `heading`.
+    pub fn new(config: GyroConfig, period_s: f32, heading: BinaryAngle) -> Self {
+        Self {
+            config,
+            report: GyroReport::default(),
+            fused: heading,
+            odometry: heading,
+            last_bits: 0,
+            same_count: 0,
+            turn_while_same: AngleDelta::default(),
+            absent_steps: 0,
+            held_rate_radps: 0.0,
+            bias_samples: 0,
+            period_s,
+        }
+    }
+
+    /// The configuration in use.
+    pub const fn config(&self) -> &GyroConfig {
+        &self.config
+    }
+
+    /// Replaces the configuration, keeping the bias, the headings and the health.
+    pub fn set_config(&mut self, config: GyroConfig) {
+        self.config = config;
+    }
+
+    /// Starts again on a loop of period `period_s` (s) at `heading` (new parameters):
+    /// the bias, its averaging and the gyro's health stay.
+    pub fn restart(&mut self, period_s: f32, heading: BinaryAngle) {
+        self.period_s = period_s;
+        self.set_heading(heading);
+    }
+
+    /// The last step's report.
+    pub const fn report(&self) -> &GyroReport {
+        &self.report
+    }
+
+    /// Both headings set to `heading` (the pose command); the bias is the sensor's and
+    /// stays.
+    pub fn set_heading(&mut self, heading: BinaryAngle) {
+        self.fused = heading;
+        self.odometry = heading;
+        self.report.disagreement_radps = 0.0;
+        self.report.disagrees = false;
+    }
+
+    /// A failed gyro is tried again (the supervisor's faults were cleared).
+    pub fn clear_failure(&mut self) {
+        if let GyroHealth::Failed(_) = self.report.health {
+            self.report.health = GyroHealth::None;
+            self.absent_steps = 0;
+            self.same_count = 0;
+        }
+        self.report.disagreement_radps = 0.0;
+        self.report.disagrees = false;
+    }
+
+    /// True when the controller should steer by the fused heading in this step.
+    pub fn steers(&self) -> bool {
+        self.config.heading_source == HeadingSource::Fused
+            && self.report.health == GyroHealth::Reading
+    }
+
+    /// One step of `periods` control periods in which odometry turned by `odometry_turn`,
+    /// with the gyro's `sample`; `still` when the bias may be learned. Returns the fused
+    /// heading's turn in this step (odometry's while the gyro is not read).
+    pub fn step(
+        &mut self,
+        sample: Option<GyroSample>,
+        odometry_turn: AngleDelta,
+        periods: u32,
+        still: bool,
+    ) -> AngleDelta {
+        self.odometry = self.odometry.add(odometry_turn);
+        if sample.is_none() && self.report.health == GyroHealth::None {
+            // No gyro (yet): the fused heading is odometry's.
+            self.fused = self.fused.add(odometry_turn);
+            return odometry_turn;
+        }
+        let dt_s = self.period_s * periods as f32;
+        let rate = self.judge(sample, odometry_turn, still);
+        let turn = match (self.report.health, rate) {
+            (GyroHealth::Reading, Some(rate)) => {
+                self.held_rate_radps = rate;
+                self.gyro_turn(rate, dt_s)
+            }
+            (GyroHealth::Reading, None) => self.gyro_turn(self.held_rate_radps, dt_s),
+            _ => odometry_turn,
+        };
+        self.fused = self.fused.add(turn);
+        if self.report.health == GyroHealth::Reading {
+            self.check_disagreement(odometry_turn, turn, dt_s);
+        }
+        turn
+    }
+
+    /// The fused heading, world frame, wrapped to (−π, π], rad.
+    pub fn fused_heading_rad(&self) -> f32 {
+        self.fused.to_rad()
+    }
+
+    /// The heading from the encoders alone, world frame, wrapped to (−π, π], rad.
+    pub fn odometry_heading_rad(&self) -> f32 {
+        self.odometry.to_rad()
+    }
+
+    /// The fused heading's turn at gyro rate `rate` (rad/s) over `dt_s`, with the
+    /// correction towards odometry.
+    fn gyro_turn(&self, rate_radps: f32, dt_s: f32) -> AngleDelta {
+        let turn = AngleDelta::from_rad(rate_radps * dt_s);
+        let tau = self.config.odometry_blend_time_constant_s;
+        if tau > 0.0 {
+            let gap = self.odometry.minus(self.fused).to_rad();
+            turn.plus(AngleDelta::from_rad(gap * (dt_s / tau)))
+        } else {
+            turn
+        }
+    }
+
+    /// The running mean of gyro minus odometry yaw rate, and whether it is beyond the
+    /// threshold.
+    fn check_disagreement(&mut self, odometry_turn: AngleDelta, gyro_turn: AngleDelta, dt_s: f32) {
+        let difference_radps = gyro_turn.minus(odometry_turn).to_rad() / dt_s;
+        let window = self.config.disagreement_window_s;
+        let k = if window > dt_s { dt_s / window } else { 1.0 };
+        let r = &mut self.report;
+        r.disagreement_radps += k * (difference_radps - r.disagreement_radps);
+        r.disagrees = math::abs(r.disagreement_radps) > self.config.disagreement_threshold_radps;
+    }
+
+    /// Judges `sample` (health, bias) and returns its rate, robot frame, bias removed
+    /// (rad/s), if it is usable.
+    fn judge(
+        &mut self,
+        sample: Option<GyroSample>,
+        odometry_turn: AngleDelta,
+        still: bool,
+    ) -> Option<f32> {
+        if let GyroHealth::Failed(_) = self.report.health {
+            return None;
+        }
+        let usable = sample.filter(|s| s.age_periods <= self.config.max_age_periods);
+        let Some(sample) = usable else {
+            if self.report.health == GyroHealth::Reading {
+                self.absent_steps = self.absent_steps.saturating_add(1);
+                if self.absent_steps >= self.config.absent_limit_steps {
+                    self.fail(GyroFailure::Absent);
+                }
+            }
+            return None;
+        };
+        self.absent_steps = 0;
+        let raw = sample.yaw_rate_radps;
+        if !raw.is_finite() {
+            self.fail(GyroFailure::NonFinite);
+            return None;
+        }
+        if math::abs(raw) >= 0.99 * self.config.full_scale_radps {
+            self.fail(GyroFailure::Saturated);
+            return None;
+        }
+        if raw.to_bits() == self.last_bits {
+            self.same_count = self.same_count.saturating_add(1);
+            self.turn_while_same = self.turn_while_same.plus(odometry_turn);
+            if self.same_count >= self.config.stuck_limit_steps
+                && math::abs(self.turn_while_same.to_rad()) > self.config.stuck_turn_rad
+            {
+                self.fail(GyroFailure::Stuck);
+                return None;
+            }
+        } else {
+            self.same_count = 0;
+            self.turn_while_same = AngleDelta::default();
+            self.last_bits = raw.to_bits();
+        }
+        self.report.health = GyroHealth::Reading;
+        let signed = if self.config.axis_inverted { -raw } else { raw };
+        let rate = signed * self.config.scale;
+        if still {
+            self.learn_bias(rate);
+        }
+        let corrected = rate - self.report.bias_radps;
+        self.report.yaw_rate_radps = corrected;
+        Some(corrected)
+    }
+
+    /// One still reading `rate` (robot frame, rad/s) into the bias: the mean of all still
+    /// readings so far, then a low-pass of the bias time constant.
+    fn learn_bias(&mut self, rate_radps: f32) {
+        let cap = (self.config.bias_time_constant_s / self.period_s) as u32;
+        if self.bias_samples < cap.max(1) {
+            self.bias_samples += 1;
+        }
+        let k = 1.0 / self.bias_samples as f32;
+        self.report.bias_radps += k * (rate_radps - self.report.bias_radps);
+    }
+
+    fn fail(&mut self, why: GyroFailure) {
+        self.report.health = GyroHealth::Failed(why);
+        self.report.disagrees = false;
+        self.report.disagreement_radps = 0.0;
+    }
 }

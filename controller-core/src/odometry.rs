@@ -168,10 +168,33 @@ impl Odometry {
 
     /// Turns the heading by the step's ticks: exact integer arithmetic modulo a turn.
     fn turn(&mut self, left_ticks: i32, right_ticks: i32) {
+        self.theta = self.theta.add(self.turn_of(left_ticks, right_ticks));
+    }
+
+    /// The heading change `left_ticks` and `right_ticks` make, exactly as
+    /// [`Odometry::update`] applies it.
+    pub const fn turn_of(&self, left_ticks: i32, right_ticks: i32) -> AngleDelta {
         let [left, right] = self.turn_per_tick;
-        self.theta = self
-            .theta
-            .add(right.times(right_ticks).minus(left.times(left_ticks)));
+        right.times(right_ticks).minus(left.times(left_ticks))
+    }
+
+    /// The heading, as the fixed-point angle it is summed in.
+    pub const fn heading(&self) -> BinaryAngle {
+        self.theta
+    }
+
+    /// Turns the heading by `by` (a small correction from another heading source, well
+    /// below 0.1 rad), the position unchanged; the kept sine and cosine are rotated with
+    /// it. Returns the new pose.
+    pub fn turn_heading(&mut self, by: AngleDelta) -> Pose {
+        self.theta = self.theta.add(by);
+        let rad = by.to_rad();
+        if math::abs(rad) < SMALL_HALF_TURN_RAD {
+            self.heading = rotate(self.heading, small_sin_cos(rad));
+        } else {
+            self.resync_heading();
+        }
+        self.pose()
     }
 }
 

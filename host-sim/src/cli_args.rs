@@ -5,6 +5,28 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use robot_files::cli::Law;
+use robot_files::scenario::HeadingChoice;
+
+/// `--heading`: the heading a robot with a gyro steers by.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Heading {
+    /// The gyro fused with odometry.
+    Fused,
+    /// Odometry alone (today's robot).
+    Odometry,
+    /// The true heading (an ideal gyro; simulation only).
+    Oracle,
+}
+
+impl From<Heading> for HeadingChoice {
+    fn from(h: Heading) -> Self {
+        match h {
+            Heading::Fused => HeadingChoice::Fused,
+            Heading::Odometry => HeadingChoice::Odometry,
+            Heading::Oracle => HeadingChoice::Oracle,
+        }
+    }
+}
 
 /// Differential-drive robot simulator for the Jin & Tack (2011) path-following stack.
 #[derive(Parser)]
@@ -65,6 +87,9 @@ pub enum Command {
         /// Also write sweep.json (every run's draws and results) into this directory.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// The heading steered by, for a scenario with a [gyro] (default: the scenario's).
+        #[arg(long, value_enum)]
+        heading: Option<Heading>,
     },
     /// Wheel-speed loop alone: a set-point step from rest, to tune the wheel PID.
     StepResponse {

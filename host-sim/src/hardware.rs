@@ -16,6 +16,7 @@
 //!    were advanced before sensing, with the previous outputs held).
 
 use controller_core::controller::{MotorCommand, TickDeltas};
+use controller_core::gyro::GyroSample;
 use controller_core::supervisor::Bridge;
 use robot_files::faults::{Fault, FaultKind};
 use robot_files::plant::Wheel;
@@ -24,6 +25,7 @@ use robot_files::scenario::Scenario;
 use robot_files::truth::TruePose;
 
 use crate::encoder::Encoder;
+use crate::gyro::SimGyro;
 use crate::plant::{Plant, PlantError};
 
 /// What the firmware reads in one control step.
@@ -37,6 +39,8 @@ pub struct Sensors {
     pub supply_v: f32,
     /// The arm button's raw level, true while pressed.
     pub button_pressed: bool,
+    /// The gyro's reading (`None`: no gyro, or none handed over this step).
+    pub gyro: Option<GyroSample>,
 }
 
 /// What the firmware writes in one control step.
@@ -79,6 +83,8 @@ pub struct SimHardware {
     /// Nominal supply, V (what a sag returns to).
     nominal_supply_v: f64,
     actuation: Actuation,
+    /// The gyro, if the scenario's robot has one.
+    gyro: Option<SimGyro>,
 }
 
 impl SimHardware {
@@ -108,7 +114,11 @@ impl SimHardware {
             f64::from(c.encoder_lines_per_motor_rev) * 4.0 * f64::from(c.gear_ratio);
         let noise = scenario.plant.encoder_noise_ticks_rms;
         let control_hz = c.control_rate_hz;
+        let gyro = scenario
+            .gyro
+            .map(|setup| SimGyro::new(&setup, control_hz, scenario.seed, plant.pose().theta_rad));
         Ok(Self {
+            gyro,
             nominal_supply_v: plant.supply_v(),
             plant,
             encoders: [
@@ -203,6 +213,10 @@ impl SimHardware {
             periods,
             supply_v: (self.plant.supply_v() + noise) as f32,
             button_pressed,
+            gyro: match &mut self.gyro {
+                Some(gyro) => gyro.read(self.plant.pose().theta_rad, periods),
+                None => None,
+            },
         }
     }
 

@@ -57,6 +57,7 @@
 pub mod commands;
 pub mod encoder;
 pub mod fault_suite;
+pub mod gyro;
 pub mod hardware;
 pub mod margins;
 pub mod output;

@@ -55,12 +55,14 @@ fn dispatch(command: Command) -> Result<()> {
             law,
             seed,
             out,
+            heading,
         } => finish(&commands::sweep::run(&commands::sweep::Options {
             scenario,
             runs,
             law: LawKind::from(law),
             seed,
             out,
+            heading: heading.map(Into::into),
         })?),
         Command::StepResponse {
             scenario,

@@ -14,6 +14,7 @@
 
 use controller_core::law::LawKind;
 use rayon::prelude::*;
+use robot_files::faults::{Fault, FaultKind, Wheel};
 use robot_files::metrics::ErrorReport;
 use robot_files::metrics::Summary;
 use robot_files::rng::Rng;
@@ -47,6 +48,10 @@ pub struct Draws {
     pub start_dy_m: f64,
     /// Start heading offset, rad.
     pub start_dtheta_rad: f64,
+    /// Gyro turn-on bias offset, rad/s (0 without a gyro).
+    pub gyro_bias_rad_s: f64,
+    /// Gyro scale error offset, % (0 without a gyro).
+    pub gyro_scale_error_pct: f64,
 }
 
 /// One Monte-Carlo run.
@@ -62,6 +67,12 @@ pub struct SweepRun {
     pub estimated: ErrorReport,
     /// A fault was latched.
     pub fault: bool,
+    /// |heading estimate − true heading| at the last steering update, rad.
+    pub final_heading_error_rad: Option<f64>,
+    /// The gyro and odometry disagreed at some step (a warning the robot would raise).
+    pub gyro_disagreed: bool,
+    /// The largest |gyro − odometry yaw rate| running mean while armed, rad/s.
+    pub max_gyro_disagreement_radps: f64,
 }
 
 impl SweepRun {
@@ -122,10 +133,25 @@ pub struct SweepReport {
     pub true_settle_rate: f64,
     /// Final true position error of all runs (odometry drift included), m.
     pub final_true_position_error_m: Option<Percentiles>,
+    /// The heading estimate's final error, for a scenario with a gyro.
+    pub heading: Option<HeadingReport>,
     /// Wall-clock time of the whole sweep, s.
     pub wall_time_s: f64,
     /// Every run.
     pub details: Vec<SweepRun>,
+}
+
+/// The heading statistics of a sweep with a gyro.
+#[derive(Clone, Debug, Serialize)]
+pub struct HeadingReport {
+    /// The heading steered by (`fused`, `odometry`, `oracle`).
+    pub source: &'static str,
+    /// |heading estimate − true heading| at the end, degrees.
+    pub final_error_deg: Percentiles,
+    /// Runs in which the gyro and odometry disagreed at some step.
+    pub disagreeing_runs: u32,
+    /// The largest |gyro − odometry yaw rate| running mean of each run, rad/s.
+    pub max_disagreement_radps: Percentiles,
 }
 
 /// `base` perturbed by one draw from its [`SweepSpec`](robot_files::scenario::SweepSpec).
@@ -143,7 +169,10 @@ pub fn perturb(base: &Scenario, rng: &mut Rng) -> (Scenario, Draws) {
         start_dx_m: rng.symmetric(s.start_position_m),
         start_dy_m: rng.symmetric(s.start_position_m),
         start_dtheta_rad: rng.symmetric(s.start_heading_rad),
+        gyro_bias_rad_s: 0.0,
+        gyro_scale_error_pct: 0.0,
     };
+    let mut d = d;
     let mut out = base.clone();
     let p = &mut out.plant;
     p.mismatch.wheel_radius_pct += d.wheel_radius_pct;
@@ -158,6 +187,31 @@ pub fn perturb(base: &Scenario, rng: &mut Rng) -> (Scenario, Draws) {
     out.start.x_m += d.start_dx_m;
     out.start.y_m += d.start_dy_m;
     out.start.theta_rad += d.start_dtheta_rad;
+    if let Some(gyro) = &mut out.gyro {
+        let g = gyro.sweep;
+        d.gyro_bias_rad_s = rng.symmetric(g.turn_on_bias_rad_s);
+        d.gyro_scale_error_pct = rng.symmetric(g.scale_error_pct);
+        gyro.sensor.turn_on_bias_rad_s += d.gyro_bias_rad_s;
+        gyro.sensor.scale_error_pct += d.gyro_scale_error_pct;
+        // Slip patches, each on a random wheel at a random time of the run.
+        let rate = f64::from(out.robot.control_rate_hz);
+        let total_steps = (out.duration_s * rate) as u64;
+        for _ in 0..g.slip_patches {
+            let wheel = if rng.uniform() < 0.5 {
+                Wheel::Left
+            } else {
+                Wheel::Right
+            };
+            let ratio = rng.uniform_in(0.0, g.slip_patch_max);
+            let at_step = (rng.uniform() * total_steps as f64) as u64;
+            let duration_steps = (rng.uniform_in(0.0, g.slip_patch_s) * rate) as u64;
+            out.faults.push(Fault {
+                kind: FaultKind::SlipPatch(wheel, ratio),
+                at_step,
+                duration_steps: Some(duration_steps.max(1)),
+            });
+        }
+    }
     (out, d)
 }
 
@@ -187,6 +241,9 @@ pub fn sweep(
             result.ok().map(|r| SweepRun {
                 index,
                 draws,
+                final_heading_error_rad: r.final_heading_estimate_error_rad.map(f64::abs),
+                gyro_disagreed: r.gyro_disagreed,
+                max_gyro_disagreement_radps: r.max_gyro_disagreement_radps,
                 fault: r.faulted(),
                 estimated: r.summary.estimated_error,
                 summary: r.summary,
@@ -219,6 +276,24 @@ pub fn sweep(
             .count() as f64
             / n,
         final_true_position_error_m: Percentiles::of(&finals),
+        heading: base.gyro.and_then(|g| {
+            let errors: Vec<f64> = details
+                .iter()
+                .filter_map(|r| r.final_heading_error_rad)
+                .map(f64::to_degrees)
+                .collect();
+            Some(HeadingReport {
+                source: g.heading.name(),
+                final_error_deg: Percentiles::of(&errors)?,
+                disagreeing_runs: details.iter().filter(|r| r.gyro_disagreed).count() as u32,
+                max_disagreement_radps: Percentiles::of(
+                    &details
+                        .iter()
+                        .map(|r| r.max_gyro_disagreement_radps)
+                        .collect::<Vec<_>>(),
+                )?,
+            })
+        }),
         wall_time_s: start.elapsed().as_secs_f64(),
         details,
     })

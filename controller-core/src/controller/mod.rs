@@ -31,7 +31,7 @@ use core::num::NonZeroU32;
 
 use crate::drive::{SupplyFilter, WheelDrive, WheelLoopReport, WheelVolts};
 use crate::encoder::SpeedEstimator;
-use crate::gyro::GyroSample;
+use crate::gyro::{GyroConfig, GyroReport, GyroSample, HeadingFusion};
 use crate::kinematics::{BodyVelocity, Pose, TrackingError, WheelSpeeds};
 use crate::law::{LawKind, LawOutput};
 use crate::limits::LimitFlags;
@@ -197,6 +197,8 @@ pub struct Telemetry {
     pub duty: MotorCommand,
     /// Latched faults.
     pub faults: ControllerFaults,
+    /// The gyro and the heading fusion (all zero while no gyro has read).
+    pub gyro: GyroReport,
 }
 
 /// Where path following is in its schedule.
@@ -248,6 +250,8 @@ pub struct Controller<S = OuterLoop> {
     /// command limiter from it.
     restart_limiter_from: Option<BodyVelocity>,
     speed: [SpeedEstimator; 2],
+    /// The heading fusion: the gyro's bias, the fused heading, the gyro's health.
+    fusion: HeadingFusion,
     params: Params,
     /// The outer loop, or where it is when lent.
     steering: S,
@@ -281,7 +285,10 @@ impl<S: OuterLoopHolder> Controller<S> {
         let window = params.config().speed_window_steps as usize;
         let estimator = SpeedEstimator::new(window, params.rad_per_tick(), steps_per_s);
         let odometry = Odometry::new(params.geometry(), params.ticks_per_wheel_rev(), start);
+        let fusion =
+            HeadingFusion::new(GyroConfig::ICM42688P, params.period_s(), odometry.heading());
         Self {
+            fusion,
             speed: [estimator.clone(), estimator],
             drive: WheelDrive::new(&params),
             supply: SupplyFilter::new(params.config().drive.supply_filter_tau_s, params.period_s()),
@@ -320,6 +327,8 @@ impl<S: OuterLoopHolder> Controller<S> {
         self.params = *params;
         let pose = self.odometry.pose();
         self.odometry = Odometry::new(params.geometry(), params.ticks_per_wheel_rev(), pose);
+        self.fusion
+            .restart(params.period_s(), self.odometry.heading());
         self.restart_from_params();
         Ok(())
     }
@@ -504,8 +513,23 @@ impl<S: OuterLoopHolder> Controller<S> {
     pub fn set_pose(&mut self, pose: Pose) {
         self.run_due_job_aside();
         self.odometry.set_pose(pose);
+        self.fusion.set_heading(self.odometry.heading());
         self.telemetry.pose = self.odometry.pose();
         self.reference_afresh = true;
+    }
+
+    /// The gyro's configuration in use.
+    pub const fn gyro_config(&self) -> &GyroConfig {
+        self.fusion.config()
+    }
+
+    /// Replaces the gyro's configuration; the bias estimate stays (it is the sensor's),
+    /// and the fused heading restarts from the heading in use, so a change of heading
+    /// source moves nothing. A due steering job keeps the pose it was due with.
+    pub fn set_gyro_config(&mut self, config: GyroConfig) {
+        self.run_due_job_aside();
+        self.fusion.set_config(config);
+        self.fusion.set_heading(self.odometry.heading());
     }
 
     /// Starts the odometry's heading recomputation afresh ([`Odometry::resync_heading`]),
@@ -532,6 +556,7 @@ impl<S: OuterLoopHolder> Controller<S> {
     /// Clears latched faults. Speed history is dropped and the loops restart from rest.
     pub fn clear_faults(&mut self) {
         self.telemetry.faults = ControllerFaults::default();
+        self.fusion.clear_failure();
         for estimator in &mut self.speed {
             estimator.reset();
         }
@@ -620,7 +645,15 @@ impl<S: OuterLoopHolder> Controller<S> {
         }
 
         if !self.telemetry.faults.any() {
+            let odometry_turn = self.odometry.turn_of(ticks.left, ticks.right);
             self.telemetry.pose = self.odometry.update(ticks.left, ticks.right);
+            let fused_turn =
+                self.fusion
+                    .step(input.gyro, odometry_turn, periods.get(), input.still);
+            if self.fusion.steers() {
+                self.telemetry.pose = self.odometry.turn_heading(fused_turn.minus(odometry_turn));
+            }
+            self.telemetry.gyro = *self.fusion.report();
             self.telemetry.wheel_speed = WheelSpeeds::new(
                 self.speed[0].update(ticks.left, periods),
                 self.speed[1].update(ticks.right, periods),

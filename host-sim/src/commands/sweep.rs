@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use controller_core::law::LawKind;
 use indicatif::{ProgressBar, ProgressStyle};
-use robot_files::scenario::SweepSpec;
+use robot_files::scenario::{HeadingChoice, SweepSpec};
 
 use super::{create_dir, load, Report};
 use crate::sweep::{sweep, SweepReport};
@@ -26,6 +26,8 @@ pub struct Options {
     pub seed: u64,
     /// Also write `sweep.json` into this folder.
     pub out: Option<PathBuf>,
+    /// The heading steered by, for a scenario with a gyro (`None`: the scenario's).
+    pub heading: Option<HeadingChoice>,
 }
 
 /// The sweep's statistics and where `sweep.json` went.
@@ -96,6 +98,22 @@ max {:.3} m; true error settled in {:.1} % of runs",
                 report.true_settle_rate * 100.0
             )?;
         }
+        if let Some(heading) = &report.heading {
+            writeln!(
+                f,
+                "  heading {}: final heading error |estimate − true|: p50 {:.3}°, p90 {:.3}°, \
+max {:.3}°; gyro and odometry disagreed in {} runs (largest running mean of \
+|gyro − odometry| per run: p50 {:.4}, p90 {:.4}, max {:.4} rad/s)",
+                heading.source,
+                heading.final_error_deg.p50,
+                heading.final_error_deg.p90,
+                heading.final_error_deg.max,
+                heading.disagreeing_runs,
+                heading.max_disagreement_radps.p50,
+                heading.max_disagreement_radps.p90,
+                heading.max_disagreement_radps.max,
+            )?;
+        }
         if let Some(file) = &self.file {
             writeln!(f, "  wrote {}", file.display())?;
         }
@@ -108,7 +126,17 @@ impl Report for SweepCommandReport {}
 /// Runs the sweep (a progress bar on stderr while it runs) and writes `sweep.json` when
 /// asked.
 pub fn run(options: &Options) -> Result<SweepCommandReport> {
-    let scenario = load(&options.scenario)?;
+    let mut scenario = load(&options.scenario)?;
+    if let Some(heading) = options.heading {
+        let gyro = scenario.gyro.as_mut().with_context(|| {
+            format!(
+                "--heading {} needs a scenario with a [gyro] table; {} has none",
+                heading.name(),
+                scenario.name
+            )
+        })?;
+        gyro.heading = heading;
+    }
     let bar = ProgressBar::new(u64::from(options.runs));
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} (eta {eta})")

@@ -8,10 +8,11 @@
 //! else; a decision is exactly what the firmware would decide on the same sensors.
 
 use controller_core::controller::Telemetry;
+use controller_core::gyro::{GyroConfig, HeadingSource};
 use controller_core::prelude::*;
 use controller_core::supervisor::{ArmRequest, Bridge, Inputs, Supervisor, SupervisorOutput};
 use robot_files::faults::Fault;
-use robot_files::scenario::Scenario;
+use robot_files::scenario::{GyroSetup, HeadingChoice, Scenario};
 
 use super::RunError;
 use crate::hardware::{Actuation, Sensors, SimHardware};
@@ -73,8 +74,12 @@ impl LocalRobot {
         .map_err(RunError::Reference)?;
         let s = scenario.start;
         let start = Pose::new(s.x_m as f32, s.y_m as f32, s.theta_rad as f32);
+        let mut controller = Controller::new(params, reference, law, start);
+        if let Some(setup) = scenario.gyro {
+            controller.set_gyro_config(gyro_config(&setup));
+        }
         Ok(Self {
-            controller: Controller::new(params, reference, law, start),
+            controller,
             supervisor: Supervisor::new(
                 scenario.supervisor,
                 &params,
@@ -117,6 +122,19 @@ impl RobotLogic for LocalRobot {
     }
 }
 
+/// The core's gyro configuration for a scenario's `setup`: the heading it names (the
+/// oracle is the fusion fed an ideal gyro) and the sensor's full scale.
+pub fn gyro_config(setup: &GyroSetup) -> GyroConfig {
+    let source = match setup.heading {
+        HeadingChoice::Odometry => HeadingSource::Odometry,
+        HeadingChoice::Fused | HeadingChoice::Oracle => HeadingSource::Fused,
+    };
+    GyroConfig {
+        full_scale_radps: setup.sensor.full_scale_rad_s as f32,
+        ..GyroConfig::ICM42688P.with_heading(source)
+    }
+}
+
 /// One step of `supervisor` around `controller` on what the firmware reads, `sensors`,
 /// with the background heartbeat advanced as the firmware's idle loop would.
 fn supervise(
@@ -137,7 +155,7 @@ fn supervise(
             overrun: false,
             background_heartbeat: *heartbeat,
             command: None,
-            gyro: None,
+            gyro: sensors.gyro,
         },
     )
 }

@@ -145,6 +145,15 @@ pub struct RunResult {
     pub max_current_a: f64,
     /// Length of the true path driven (sampled at the steering rate), m.
     pub distance_travelled_m: f64,
+    /// The controller's heading minus the true heading at the last steering update,
+    /// wrapped, rad (`None`: no steering update ran).
+    pub final_heading_estimate_error_rad: Option<f64>,
+    /// The controller reported its gyro and odometry disagreeing at some step (known only
+    /// when the logic runs in this process).
+    pub gyro_disagreed: bool,
+    /// The largest |gyro − odometry yaw rate| running mean the controller reported while
+    /// armed, rad/s (0 without a gyro, or when the logic runs elsewhere).
+    pub max_gyro_disagreement_radps: f64,
     /// Trace rows (empty if not requested, or when the logic ran elsewhere).
     pub trace: Vec<TraceRow>,
     /// The trajectory's fingerprint (see [`Digest`]; hashed as [`run_with_logic`] says).
@@ -264,18 +273,20 @@ pub fn run_with_logic<L: RobotLogic>(
             })?;
     }
     let mut armed_at: Option<u64> = None;
-    if scenario.arm_at_start {
-        let motion = (s.v_m_s != 0.0 || s.omega_rad_s != 0.0)
-            .then(|| BodyVelocity::new(s.v_m_s as f32, s.omega_rad_s as f32));
-        let request = ArmRequest {
-            mode: RunMode::FollowPath,
-            hold_speeds: None,
-            initial_motion: motion,
-            max_armed_steps: None,
-        };
-        if logic.arm_locally(request) {
-            armed_at = Some(0);
-        }
+    let motion = (s.v_m_s != 0.0 || s.omega_rad_s != 0.0)
+        .then(|| BodyVelocity::new(s.v_m_s as f32, s.omega_rad_s as f32));
+    let arm_request = ArmRequest {
+        mode: RunMode::FollowPath,
+        hold_speeds: None,
+        initial_motion: motion,
+        max_armed_steps: None,
+    };
+    // A robot with a gyro may stand still first, to learn the gyro's bias.
+    let rest_steps = scenario
+        .gyro
+        .map_or(0, |g| (g.rest_before_arming_s * rate).round() as u64);
+    if scenario.arm_at_start && rest_steps == 0 && logic.arm_locally(arm_request) {
+        armed_at = Some(0);
     }
 
     let total = (scenario.duration_s * rate).round() as u64;
@@ -293,8 +304,18 @@ pub fn run_with_logic<L: RobotLogic>(
     let mut last_out = None;
 
     let wall = Instant::now();
+    let mut final_heading_estimate_error_rad = None;
+    let mut gyro_disagreed = false;
+    let mut max_gyro_disagreement_radps = 0.0f64;
     while hardware.period() < total {
         let period = hardware.period();
+        if scenario.arm_at_start
+            && rest_steps > 0
+            && period == rest_steps
+            && logic.arm_locally(arm_request)
+        {
+            armed_at = Some(period);
+        }
         let t_s = period as f64 / rate;
         // The true state when the firmware reads its sensors.
         let pose = hardware.plant().pose();
@@ -303,6 +324,11 @@ pub fn run_with_logic<L: RobotLogic>(
         let decision = step(logic, &mut hardware)?;
         let out = decision.out;
         let estimate = decision.estimate;
+        if let (Some(t), State::Armed) = (decision.telemetry, out.state) {
+            gyro_disagreed |= t.gyro.disagrees;
+            max_gyro_disagreement_radps =
+                max_gyro_disagreement_radps.max(f64::from(t.gyro.disagreement_radps.abs()));
+        }
         digest.write_f32(out.duty.left);
         digest.write_f32(out.duty.right);
         digest.write_pose(&Pose::new(
@@ -313,6 +339,9 @@ pub fn run_with_logic<L: RobotLogic>(
         if estimate.steering_updated {
             digest.write_pose(&estimate.pose);
             last_estimate_pose = estimate.pose;
+            final_heading_estimate_error_rad = Some(robot_files::truth::wrap_angle(
+                f64::from(estimate.pose.theta_rad) - pose.theta_rad,
+            ));
         }
         if let Some(Event::Armed(RunMode::FollowPath)) = out.event {
             if armed_at.is_none() {
@@ -416,6 +445,9 @@ pub fn run_with_logic<L: RobotLogic>(
         },
         max_current_a: max_current,
         distance_travelled_m: travelled,
+        final_heading_estimate_error_rad,
+        gyro_disagreed,
+        max_gyro_disagreement_radps,
         trace,
         digest: Some(Digest {
             steps: u32::try_from(total).unwrap_or(u32::MAX),

@@ -258,7 +258,7 @@ impl<'a> VirtualRobot<'a> {
             button_pressed: sensed.button_pressed,
             overrun: false,
             background_heartbeat: self.background,
-            gyro: None,
+            gyro: sensed.gyro,
         });
         let step = self.control.steps();
         if heartbeat_taken {

@@ -57,6 +57,9 @@
 //! [plant.slip]               # left, right (slip ratios in [0, 1))
 //!
 //! [sweep]                    # Monte-Carlo spreads for `host-sim sweep` (see SweepSpec)
+//!
+//! [gyro]                     # the robot has a gyro (see `GyroSetup`; none without it)
+//! heading = "fused"          # fused | odometry | oracle
 //! ```
 //!
 //! The plant's bridge runs in slow decay like the firmware's (duty 0 = short brake; coasting
@@ -83,6 +86,7 @@
 
 mod build;
 mod checks;
+mod gyro;
 mod raw_value;
 mod schema;
 
@@ -97,10 +101,11 @@ use controller_core::supervisor::SupervisorConfig;
 use crate::faults::Fault;
 use crate::plant::{BodyParams, DriverParams, Load, MotorParams};
 use crate::robot_file::{param_error, SectionError};
+pub use gyro::{GyroSensor, GyroSetup, GyroSweep, HeadingChoice};
 use schema::ScenarioFile;
 
 /// The built-in scenarios: (name, TOML text).
-pub const BUILTIN: [(&str, &str); 5] = [
+pub const BUILTIN: [(&str, &str); 6] = [
     (
         "paper-circle",
         include_str!("../../scenarios/paper-circle.toml"),
@@ -120,6 +125,10 @@ pub const BUILTIN: [(&str, &str); 5] = [
     (
         "longest-path",
         include_str!("../../scenarios/longest-path.toml"),
+    ),
+    (
+        "paper-circle-gyro",
+        include_str!("../../scenarios/paper-circle-gyro.toml"),
     ),
 ];
 
@@ -157,7 +166,7 @@ pub enum ScenarioError {
     #[error(transparent)]
     Section(#[from] SectionError),
     /// Neither a file nor a built-in scenario.
-    #[error("no scenario file or built-in scenario named `{0}` (built in: paper-circle, paper-line, square-waypoints, figure-eight, longest-path)")]
+    #[error("no scenario file or built-in scenario named `{0}` (built in: paper-circle, paper-line, square-waypoints, figure-eight, longest-path, paper-circle-gyro)")]
     Unknown(String),
 }
 
@@ -310,6 +319,8 @@ pub struct Scenario {
     pub arm_at_start: bool,
     /// Faults injected on the run's timeline (`[[faults]]`).
     pub faults: Vec<Fault>,
+    /// The gyro, if the robot has one (`[gyro]`, see `gyro`).
+    pub gyro: Option<GyroSetup>,
 }
 
 impl Scenario {

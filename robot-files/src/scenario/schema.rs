@@ -189,4 +189,5 @@ pub(super) struct ScenarioFile {
     pub(super) sweep: FileSweep,
     #[serde(default)]
     pub(super) faults: Vec<FaultEntry>,
+    pub(super) gyro: Option<super::gyro::FileGyro>,
 }

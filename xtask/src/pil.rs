@@ -2,7 +2,7 @@
 //! under `qemu-system-arm` against `host-sim`'s plant in lockstep (`host-sim pil`), and
 //! `host-sim`'s built-in station configures it, uploads the path and arms it over the link.
 //!
-//! Four runs:
+//! Five runs:
 //!
 //! 1. `paper-circle`, then `longest-path` (the most segments a path may have, followed by
 //!    projection: the control interrupt's worst case), each for its whole duration: each
@@ -15,9 +15,14 @@
 //! 3. `paper-circle` with the link cut 1 s after arming, [`FAULT_RUN_S`] long: the motors
 //!    must reach duty 0 within the heartbeat timeout (plus 20 ms for link bytes still in
 //!    the emulator at the cut; `host_sim::pil::verdict`).
+//! 4. `paper-circle` on a robot with a gyro ([`GYRO_SCENARIO`], [`GYRO_RUN_S`] long):
+//!    the gyro's readings reach the firmware in the plant's step messages and go through
+//!    its heading fusion (bias, fused heading, the gyro's checks), and summary and digest
+//!    must equal host-sim's. It steers by odometry's heading, the firmware's default
+//!    heading source, which the link cannot change yet.
 //!
 //! The firmware's figures, read from each run's `pil.json` (every task's runs, longest
-//! run and total in instructions; the stack's high-water mark), the worst of the four
+//! run and total in instructions; the stack's high-water mark), the worst of the five
 //! runs', are printed as the CPU-load line and table and checked against the CPU-load
 //! budget ([`ANY_STATE_LIMIT`], [`ARMED_MEAN_LIMIT`], [`ARMED_WORST_LIMIT`]) and
 //! [`STACK_LIMIT`].
@@ -51,6 +56,12 @@ const CYCLES_PER_PERIOD: f64 = 100_000.0;
 const CYCLES_PER_INSTRUCTION: f64 = 1.5;
 /// Simulated seconds of the fault and link-loss runs.
 pub const FAULT_RUN_S: &str = "2.5";
+/// Simulated seconds of the run with a gyro: a third of the circle, at a third of its
+/// cost in CI's time.
+pub const GYRO_RUN_S: &str = "10";
+
+/// `paper-circle` on a robot with a gyro ([`write_gyro_scenario`]): run 4.
+const GYRO_SCENARIO: &str = "paper-circle-with-gyro";
 
 /// The paper's scenario: run 1, and the base of runs 2 and 3.
 const SCENARIO: &str = "paper-circle";
@@ -58,7 +69,7 @@ const SCENARIO: &str = "paper-circle";
 /// projection): run 1 too, for the control interrupt's worst case.
 const LONGEST_PATH: &str = "longest-path";
 
-/// Builds the firmware for the emulated board and `host-sim`, then runs the three runs.
+/// Builds the firmware for the emulated board and `host-sim`, then runs the five runs.
 pub fn check(ctx: &Context) -> Result<()> {
     let firmware = build_target_executables(ctx, "firmware", &["--features", "qemu"])?
         .into_iter()
@@ -69,11 +80,14 @@ pub fn check(ctx: &Context) -> Result<()> {
 
     // 1. The paper's circle and the longest path the firmware accepts, each against
     //    host-sim; 2. an encoder disconnect on the circle, against host-sim too; 3. a link
-    //    loss on the circle, which has no counterpart there. The figures are the worst
-    //    of the four runs.
+    //    loss on the circle, which has no counterpart there; 4. the circle with a gyro,
+    //    against host-sim. The figures are the worst of the five runs.
     let fault_scenario = out.join("paper-circle-encoder-disconnect.toml");
     write_fault_scenario(&host_sim, &fault_scenario)?;
     let fault_scenario = path_str(&fault_scenario)?;
+    let gyro_scenario = out.join(format!("{GYRO_SCENARIO}.toml"));
+    write_gyro_scenario(&host_sim, &gyro_scenario)?;
+    let gyro_scenario = path_str(&gyro_scenario)?;
     let runs = [
         PilRun {
             name: SCENARIO,
@@ -105,6 +119,12 @@ pub fn check(ctx: &Context) -> Result<()> {
             // host-sim has no link to lose.
             host_sim_scenario: None,
             stop_line: Some(": link lost at "),
+        },
+        PilRun {
+            name: "gyro",
+            args: vec![gyro_scenario, "--duration-s", GYRO_RUN_S],
+            host_sim_scenario: Some(GYRO_SCENARIO),
+            stop_line: None,
         },
     ];
     let mut failures = Vec::new();
@@ -465,6 +485,30 @@ fn print_lines(output: &str, pattern: &str, expected: usize) -> Result<()> {
 /// `paper-circle` with the left encoder disconnected 1 s after the start, as a scenario
 /// file at `path`.
 fn write_fault_scenario(host_sim: &Path, path: &Path) -> Result<()> {
+    write_variant(
+        host_sim,
+        path,
+        "paper-circle-encoder-disconnect",
+        "\n[[faults]]\nat_s = 1.0\nkind = \"encoder-disconnect\"\nwheel = \"left\"\n",
+    )
+}
+
+/// `paper-circle` on a robot with a gyro, steering by odometry's heading (the firmware's
+/// default), as a scenario file at `path`. Its readings are one period late (`latency_periods = 1`), so the
+/// first step has none: the plant repeats that step while the station arms the firmware
+/// (`host_sim::pil::firmware`), and a reading repeated there would be integrated again
+/// and again by the disarmed robot, where `host-sim run` sees it once.
+fn write_gyro_scenario(host_sim: &Path, path: &Path) -> Result<()> {
+    write_variant(
+        host_sim,
+        path,
+        GYRO_SCENARIO,
+        "\n[gyro]\nheading = \"odometry\"\nlatency_periods = 1\n",
+    )
+}
+
+/// `paper-circle` renamed `name`, with `extra` (TOML tables) appended, written to `path`.
+fn write_variant(host_sim: &Path, path: &Path, name: &str, extra: &str) -> Result<()> {
     let output = Command::new(host_sim)
         .args(["show", SCENARIO])
         .output()
@@ -475,7 +519,7 @@ fn write_fault_scenario(host_sim: &Path, path: &Path) -> Result<()> {
     let mut done = false;
     for line in text.lines() {
         if !done && line.starts_with("name = ") {
-            renamed.push_str("name = \"paper-circle-encoder-disconnect\"");
+            renamed.push_str(&format!("name = \"{name}\""));
             done = true;
         } else {
             renamed.push_str(line);
@@ -486,7 +530,7 @@ fn write_fault_scenario(host_sim: &Path, path: &Path) -> Result<()> {
         done,
         "`host-sim show {SCENARIO}` printed no `name = …` line"
     );
-    renamed.push_str("\n[[faults]]\nat_s = 1.0\nkind = \"encoder-disconnect\"\nwheel = \"left\"\n");
+    renamed.push_str(extra);
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }

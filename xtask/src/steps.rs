@@ -400,11 +400,11 @@ pub fn link_qemu() -> Step {
     )
 }
 
-/// The firmware in the loop: `host-sim pil` on `paper-circle`, an encoder disconnect and a
-/// link loss (see `crate::pil`).
+/// The firmware in the loop: `host-sim pil` on `paper-circle`, an encoder disconnect, a
+/// link loss and a robot with a gyro (see `crate::pil`).
 pub fn pil() -> Step {
     Step::new(
-        "pil: the firmware on an emulated Cortex-M4F against host-sim's plant (paper-circle, longest-path, encoder disconnect, link loss)",
+        "pil: the firmware on an emulated Cortex-M4F against host-sim's plant (paper-circle, longest-path, encoder disconnect, link loss, with a gyro)",
         crate::pil::check,
     )
 }

@@ -8,6 +8,12 @@
 //! that says Armed (the step that arms drives) becomes the run's step 0, and the plant
 //! moves from there. So the run starts in the same state however long the station took, and from then on every step
 //! is the same computation as in `host-sim run`.
+//!
+//! **The gyro's readings go from the step after arming on.** A reading in the repeated
+//! first step would reach the disarmed firmware again and again (its bias learned from
+//! it, its heading turned by it), where `host-sim run` sees it once; so the first step
+//! must have none (a gyro of `latency_periods` ≥ 1 gives none then), and the run is
+//! refused otherwise, as is a rest before arming, which the plant's hold replaces.
 
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpStream;
@@ -199,8 +205,15 @@ impl RobotLogic for Firmware {
             periods: NonZeroU32::new(sensors.periods).unwrap_or(NonZeroU32::MIN),
             supply_v: sensors.supply_v,
             button_pressed: sensors.button_pressed,
-            gyro: None,
+            gyro: sensors.gyro,
         };
+        if self.holding && step.gyro.is_some() {
+            return Err(RunError::Logic(
+                "the gyro has a reading at the first step, which processor in the loop repeats \
+                 until the firmware is armed: give the scenario's [gyro] latency_periods = 1 or more"
+                    .into(),
+            ));
+        }
         let started = Instant::now();
         let answer = loop {
             let answer = self.exchange(&step)?;

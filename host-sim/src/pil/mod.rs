@@ -88,6 +88,14 @@ pub struct PilOutcome {
 
 /// Runs `scenario` with `law` on the emulated firmware (module doc).
 pub fn run(scenario: &Scenario, law: LawKind, options: &PilOptions) -> Result<PilOutcome> {
+    if let Some(gyro) = scenario.gyro {
+        ensure!(
+            gyro.rest_before_arming_s == 0.0,
+            "processor in the loop arms the firmware at the first step (the plant holds still \
+             until then, `firmware`): the scenario's [gyro] rest_before_arming_s must be 0, not {}",
+            gyro.rest_before_arming_s
+        );
+    }
     let started = Instant::now();
     let plant_listener = TcpListener::bind("127.0.0.1:0").context("binding the plant port")?;
     let link_listener = TcpListener::bind("127.0.0.1:0").context("binding QEMU's link port")?;

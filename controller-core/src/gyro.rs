@@ -406,3 +406,143 @@ impl HeadingFusion {
         self.report.disagreement_radps = 0.0;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PERIOD_S: f32 = 0.001;
+
+    fn fusion(source: HeadingSource) -> HeadingFusion {
+        HeadingFusion::new(
+            GyroConfig::ICM42688P.with_heading(source),
+            PERIOD_S,
+            BinaryAngle::default(),
+        )
+    }
+
+    fn sample(rate: f32) -> Option<GyroSample> {
+        Some(GyroSample {
+            yaw_rate_radps: rate,
+            age_periods: 0,
+        })
+    }
+
+    /// A reading that alternates by one part in a thousand, as a live sensor's noise does.
+    fn live(rate: f32, k: u32) -> Option<GyroSample> {
+        sample(rate * (1.0 + 1e-3 * (k % 2) as f32))
+    }
+
+    #[test]
+    fn without_a_gyro_the_heading_is_odometrys() {
+        let mut f = fusion(HeadingSource::Fused);
+        let turn = AngleDelta::from_rad(0.001);
+        for _ in 0..1000 {
+            assert_eq!(f.step(None, turn, 1, false), turn);
+        }
+        assert_eq!(f.report().health, GyroHealth::None);
+        assert!(!f.steers());
+        assert!((f.fused_heading_rad() - 1.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn the_bias_is_learned_at_rest_and_removed_in_motion() {
+        let mut f = fusion(HeadingSource::Fused);
+        let bias = 0.5f32.to_radians();
+        // 5 s still: the mean of the readings.
+        for k in 0..5000 {
+            f.step(live(bias, k), AngleDelta::default(), 1, true);
+        }
+        assert!((f.report().bias_radps - bias).abs() < 1e-5 * bias.max(1.0) + 1e-5);
+        // 1 s turning left at 0.2 rad/s, odometry silent (all slip): the fused heading
+        // follows the gyro, counter-clockwise positive.
+        for _ in 0..1000 {
+            f.step(sample(0.2 + bias), AngleDelta::default(), 1, false);
+        }
+        assert!(f.steers());
+        assert!(
+            (f.fused_heading_rad() - 0.2).abs() < 1e-3,
+            "{}",
+            f.fused_heading_rad()
+        );
+        assert!(f.odometry_heading_rad().abs() < 1e-9);
+    }
+
+    #[test]
+    fn an_inverted_axis_and_a_scale_are_applied() {
+        let mut config = GyroConfig::ICM42688P.with_heading(HeadingSource::Fused);
+        config.axis_inverted = true;
+        config.scale = 2.0;
+        let mut f = HeadingFusion::new(config, PERIOD_S, BinaryAngle::default());
+        for k in 0..1000 {
+            f.step(live(-0.1, k), AngleDelta::default(), 1, false);
+        }
+        // −(−0.1) × 2 = +0.2 rad/s for 1 s.
+        assert!(
+            (f.fused_heading_rad() - 0.2).abs() < 1e-3,
+            "{}",
+            f.fused_heading_rad()
+        );
+    }
+
+    #[test]
+    fn a_failed_gyro_hands_the_heading_back_to_odometry() {
+        let turn = AngleDelta::from_rad(1e-4);
+        let cases: [(GyroFailure, fn(u32) -> Option<GyroSample>); 4] = [
+            (GyroFailure::NonFinite, |_| sample(f32::NAN)),
+            (GyroFailure::Saturated, |_| sample(40.0)),
+            (GyroFailure::Stuck, |_| sample(0.3)),
+            (GyroFailure::Absent, |_| None),
+        ];
+        for (failure, reading) in cases {
+            let mut f = fusion(HeadingSource::Fused);
+            for k in 0..10 {
+                f.step(live(0.1, k), turn, 1, false);
+            }
+            assert!(f.steers());
+            // Odometry turns 0.1 rad/s meanwhile: 200 steps turn 0.02 rad, beyond the
+            // stuck check's 0.01 rad.
+            for k in 0..300 {
+                f.step(reading(k), turn, 1, false);
+            }
+            assert_eq!(f.report().health, GyroHealth::Failed(failure));
+            assert!(!f.steers());
+            assert_eq!(f.step(reading(0), turn, 1, false), turn, "{failure:?}");
+            f.clear_failure();
+            f.step(live(0.1, 1), turn, 1, false);
+            assert!(
+                f.steers(),
+                "{failure:?}: tried again after the faults are cleared"
+            );
+        }
+    }
+
+    #[test]
+    fn a_stuck_reading_at_rest_is_not_a_failure() {
+        let mut f = fusion(HeadingSource::Fused);
+        for _ in 0..5000 {
+            f.step(sample(0.0), AngleDelta::default(), 1, true);
+        }
+        assert_eq!(f.report().health, GyroHealth::Reading);
+    }
+
+    #[test]
+    fn disagreement_is_the_running_mean_of_gyro_minus_odometry() {
+        let mut f = fusion(HeadingSource::Odometry);
+        // The gyro says 0.2 rad/s, odometry 0.1 rad/s (a wheel slipping), for 30 s: the
+        // running mean approaches +0.1 rad/s, beyond the threshold.
+        for k in 0..30_000 {
+            f.step(live(0.2, k), AngleDelta::from_rad(1e-4), 1, false);
+        }
+        let r = f.report();
+        assert!(
+            (r.disagreement_radps - 0.1).abs() < 0.01,
+            "{}",
+            r.disagreement_radps
+        );
+        assert!(r.disagrees);
+        // The pose command resets it with the heading; the bias stays.
+        f.set_heading(BinaryAngle::default());
+        assert!(!f.report().disagrees);
+    }
+}

@@ -90,7 +90,7 @@ fn rebuilding_in_place_equals_building_anew() {
     assert_eq!(format!("{rebuilt:?}"), format!("{fresh:?}"));
 
     let mut followed = driven();
-    let odometry = followed.odometry;
+    let (odometry, fusion) = (followed.odometry, followed.fusion);
     followed
         .follow(&other_reference, LawKind::Kanayama)
         .expect("owned outer loop");
@@ -100,8 +100,10 @@ fn rebuilding_in_place_equals_building_anew() {
         LawKind::Kanayama,
         start,
     );
-    // A new path does not move the robot: its odometry is the driven one's, whole.
+    // A new path does not move the robot: its odometry and heading fusion are the
+    // driven one's, whole.
     fresh.odometry = odometry;
+    fresh.fusion = fusion;
     fresh.telemetry.pose = fresh.odometry.pose();
     assert_eq!(format!("{followed:?}"), format!("{fresh:?}"));
     assert_ne!(format!("{followed:?}"), format!("{:?}", driven()));

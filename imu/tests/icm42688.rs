@@ -202,3 +202,31 @@ fn probe_errors_name_what_they_read() {
     };
     assert!(config.to_string().contains("0x4f"));
 }
+
+/// A bus whose every transaction fails.
+#[derive(Debug)]
+struct BrokenBus;
+
+impl embedded_hal::spi::ErrorType for BrokenBus {
+    type Error = embedded_hal::spi::ErrorKind;
+}
+
+impl embedded_hal::spi::SpiDevice for BrokenBus {
+    fn transaction(
+        &mut self,
+        _operations: &mut [embedded_hal::spi::Operation<'_, u8>],
+    ) -> Result<(), Self::Error> {
+        Err(embedded_hal::spi::ErrorKind::ModeFault)
+    }
+}
+
+#[test]
+fn a_bus_error_while_probing_is_a_bus_error_not_a_part() {
+    let mut waits = Waits::default();
+    let result = Icm42688::probe(BrokenBus, &mut waits);
+    assert_eq!(
+        result.unwrap_err(),
+        ProbeError::Bus(embedded_hal::spi::ErrorKind::ModeFault)
+    );
+    assert_eq!(waits.0, 0, "it gave up at the first failed write");
+}

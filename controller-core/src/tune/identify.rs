@@ -271,7 +271,7 @@ fn solve_tau(sa: f32, sb: f32, target: f32) -> Option<f32> {
 pub(crate) fn simc(model: &Fopdt, dead_time_s: f32, tau_c_s: f32) -> (f32, f32) {
     let horizon = tau_c_s + dead_time_s;
     let kc = model.tau / (model.gain * horizon);
-    let ti = if model.tau < 4.0 * horizon {
+    let ti = if model.tau > 4.0 * horizon {
         model.tau
     } else {
         4.0 * horizon

@@ -546,21 +546,22 @@ impl Tuner {
     /// rad/s per V, the larger wheel's): [`STEP_TAUS`] of the hold's τ + θ (at most the
     /// longest hold), and the largest level whose step and shortest ramp keep this
     /// direction's travel within its budget and the speed within its limit. The step is
-    /// at least as large as the hold's own.
+    /// at least as large as the hold's own; when even that does not fit the budget, the
+    /// step is shortened to fit (and its fit will say it had not settled).
     fn plan_step(&mut self, scale_s: f32, gain: f32) {
-        let step_steps = self
+        let mut step_steps = self
             .steps_of(STEP_TAUS * scale_s)
             .clamp(self.steps_of(HOLD_FIRST_S), self.max_hold_steps());
         let step_s = step_steps as f32 * self.period_s;
         let low = self.hold_speed[0].max(self.hold_speed[1]);
         let mut top = STEP_SPEED_FRACTION * self.config.max_speed_rad_s;
-        if self.config.load == TuneLoad::Ground && self.wheel_radius_m > 0.0 {
-            // Wheel angle left, rad: the step at ω_hi, the shortest ramp at the mean of
-            // ω_hi and ω_lo, the brake about one τ at ω_lo.
-            let angle = self.budget_left_m() / self.wheel_radius_m;
-            let ramp_s = RAMP_MIN_TAUS * scale_s;
-            let budget = (angle - low * (0.5 * ramp_s + scale_s)) / (step_s + 0.5 * ramp_s);
-            top = top.min(budget);
+        // Wheel angle left once the shortest ramp (at the mean of ω_hi and ω_lo) and the
+        // brake (about one τ at ω_lo) are paid for, rad, as ω_hi × s + this.
+        let ramp_s = RAMP_MIN_TAUS * scale_s;
+        let ground = self.config.load == TuneLoad::Ground && self.wheel_radius_m > 0.0;
+        let angle = self.budget_left_m() / self.wheel_radius_m - low * (0.5 * ramp_s + scale_s);
+        if ground {
+            top = top.min(angle / (step_s + 0.5 * ramp_s));
         }
         let high = self.config.experiment_volts_v;
         let least = self.low_v + (self.low_v - self.entry_volts[0].max(self.entry_volts[1]));
@@ -568,6 +569,13 @@ impl Tuner {
         // Written so that a NaN plan takes the least step.
         let planned = if planned >= least { planned } else { least };
         self.high_v = if planned < high { planned } else { high };
+        if ground {
+            let speed = low + gain * (self.high_v - self.low_v);
+            let fits_s = angle / speed - 0.5 * ramp_s;
+            if fits_s < step_s {
+                step_steps = self.steps_of(fits_s).max(self.steps_of(HOLD_FIRST_S));
+            }
+        }
         self.step_steps = step_steps;
     }
 

@@ -102,7 +102,7 @@ impl TuneConfig {
             max_hold_s: 4.0,
             max_speed_rad_s: 0.75 * top,
             max_distance_m: 1.5,
-            tau_c_per_dead_time: 1.2,
+            tau_c_per_dead_time: 2.0,
             load: TuneLoad::Ground,
         }
     }

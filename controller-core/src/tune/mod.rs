@@ -86,6 +86,11 @@ const LOW_FRACTION: f32 = 0.1;
 const MAX_BREAKAWAY_FRACTION: f32 = 0.7;
 /// The hold's and the step's tail, their last fifth, gives their settled speed.
 const BASELINE_FRACTION: u32 = 5;
+/// A hold's response that does not fit is steady when its tail moved by less than this
+/// fraction, or this speed (rad/s, about half a quantum of the reference robot's
+/// estimate), between checkpoints.
+const STEADY_FRACTION: f32 = 0.02;
+const STEADY_RAD_S: f32 = 0.1;
 /// A response counts as settled when it lasted this many of its τ + θ.
 const SETTLE_TAUS: f32 = 5.0;
 /// The step is planned for this many of the hold's τ + θ (the hold's estimate is rough:
@@ -160,10 +165,13 @@ pub struct Tuner {
     /// The step's level, V, and its length, steps: planned from the hold.
     high_v: f32,
     step_steps: u32,
-    /// Hold: the speed and applied volts as it began, per wheel; the present checkpoint
-    /// (steps); then, once settled, its steady speed and volts per wheel.
+    /// Hold: the speed and applied volts as its response began, per wheel; the step of
+    /// the hold it began at; the present checkpoint (steps from there); per wheel the
+    /// last checkpoint's Δω (NaN before the first) and, once settled, the steady speed;
+    /// its tail's Σ volts and, once settled, their mean.
     entry_speed: [f32; 2],
     entry_volts: [f32; 2],
+    hold_origin: u32,
     hold_end: u32,
     hold_speed: [f32; 2],
     hold_volts: [f32; 2],
@@ -230,6 +238,7 @@ impl Tuner {
             step_steps: 0,
             entry_speed: [0.0; 2],
             entry_volts: [0.0; 2],
+            hold_origin: 0,
             hold_end: 0,
             hold_speed: [0.0; 2],
             hold_volts: [0.0; 2],
@@ -440,6 +449,7 @@ impl Tuner {
                 self.low_v = u_b + LOW_FRACTION * (high - u_b);
                 self.entry_speed = speed;
                 self.entry_volts = volts;
+                self.hold_origin = 0;
                 self.hold_end = self.steps_of(HOLD_FIRST_S).min(self.max_hold_steps());
                 self.bank.restart();
                 self.enter(Phase::Hold, self.low_v);
@@ -469,10 +479,27 @@ impl Tuner {
     /// has settled (by [`SETTLE_TAUS`] of its own τ + θ) or the longest hold is reached;
     /// then the identifying step is planned from it.
     fn hold(&mut self, speed: [f32; 2], volts: [f32; 2]) -> Result<(), TuneAbort> {
+        let grace = self.steps_of(HOLD_FIRST_S);
+        self.check_turning(speed, grace)?;
+        if self.steps < grace && speed.iter().any(|w| *w == 0.0) {
+            // A wheel stuck for a moment early in the hold (its estimate reads exactly 0,
+            // no tick in the window): its response is no step any more, so the hold's
+            // fit starts again from rest, with the next sample.
+            self.hold_origin = self.steps.saturating_add(1);
+            self.entry_speed = speed;
+            self.hold_end = grace.min(self.max_hold_steps());
+            self.step_sums = [StepSums::default(); 2];
+            self.hold_speed = [f32::NAN; 2];
+            self.hold_volts = [0.0; 2];
+            self.hold_n = 0;
+            self.bank.restart();
+            return Ok(());
+        }
+        // Steps since the hold's response began.
+        let k = self.steps.saturating_sub(self.hold_origin);
         let end = self.hold_end;
-        self.check_turning(speed, self.steps_of(HOLD_FIRST_S))?;
         self.bank.advance();
-        let tail = self.steps >= end - end / BASELINE_FRACTION;
+        let tail = k >= end - end / BASELINE_FRACTION;
         let weights = self.bank.weights();
         for ((sums, w), base) in self.step_sums.iter_mut().zip(speed).zip(self.entry_speed) {
             sums.push(w - base, weights, tail);
@@ -481,7 +508,7 @@ impl Tuner {
             add(&mut self.hold_volts, volts);
             self.hold_n += 1;
         }
-        if self.steps + 1 < end {
+        if k + 1 < end {
             return Ok(());
         }
         let per = 1.0 / self.hold_n.max(1) as f32;
@@ -489,11 +516,12 @@ impl Tuner {
         let max = self.max_hold_steps();
         let mut models = [None; 2];
         let mut settled = [false; 2];
-        for (((model, ok), sums), (entry, tail_volts)) in models
+        for ((((model, ok), sums), (entry, tail_volts)), last) in models
             .iter_mut()
             .zip(settled.iter_mut())
             .zip(&self.step_sums)
             .zip(self.entry_volts.iter().zip(self.hold_volts))
+            .zip(self.hold_speed.iter_mut())
         {
             *model = sums
                 .fit(
@@ -503,7 +531,18 @@ impl Tuner {
                     weights,
                 )
                 .filter(|m| m.gain > 0.0 && m.tau > 0.0);
-            *ok = model.is_some_and(|m| length_s >= SETTLE_TAUS * settle_scale_s(&m));
+            // A response that does not fit (one that began from a wheel stuck in the hold,
+            // or had nothing left to settle after it) counts as settled once its tail
+            // moved by less than 2 % (or [`STEADY_RAD_S`]) since the last checkpoint
+            // (`last`, the previous tail's Δω; NaN before the first).
+            let delta = sums.delta();
+            let moved = math::abs(delta - *last);
+            let steady = moved <= STEADY_FRACTION * math::abs(delta) || moved <= STEADY_RAD_S;
+            *last = delta;
+            *ok = match model {
+                Some(m) => length_s >= SETTLE_TAUS * settle_scale_s(m),
+                None => steady,
+            };
         }
         if !(settled[0] && settled[1]) && end < max {
             // On to the next checkpoint, 3/2 as long; its tail starts after this one.
@@ -518,14 +557,23 @@ impl Tuner {
         let mut scale_s = 0.0f32;
         let mut gain = 0.0f32;
         for (i, (side, model)) in Side::BOTH.iter().zip(models).enumerate() {
-            let m = model.ok_or(TuneAbort::NoFit(*side))?;
-            if !settled.get(i).copied().unwrap_or(false) {
+            let ok = settled.get(i).copied().unwrap_or(false);
+            match model {
+                Some(m) => {
+                    scale_s = scale_s.max(settle_scale_s(&m));
+                    gain = gain.max(m.gain);
+                }
+                None if ok => {}
+                None => return Err(TuneAbort::NoFit(*side)),
+            }
+            if !ok {
                 if let Some(w) = self.warnings.hold_not_settled.get_mut(i) {
                     *w = true;
                 }
             }
-            scale_s = scale_s.max(settle_scale_s(&m));
-            gain = gain.max(m.gain);
+        }
+        if !(scale_s > 0.0 && gain > 0.0) {
+            return Err(TuneAbort::NoFit(Side::Left));
         }
         for ((steady, sums), entry) in self
             .hold_speed
@@ -735,7 +783,8 @@ impl Tuner {
         match phase {
             Phase::Hold => {
                 self.step_sums = [StepSums::default(); 2];
-                self.hold_speed = [0.0; 2];
+                // The previous checkpoint's Δω: none yet.
+                self.hold_speed = [f32::NAN; 2];
                 self.hold_volts = [0.0; 2];
                 self.hold_n = 0;
             }

@@ -669,13 +669,13 @@ fn a_wheel_that_sticks_for_a_moment_as_the_hold_begins_is_given_time() {
     bench.run(&mut tuner, None).unwrap();
     let at = hold_start(&bench.asked);
     // Stuck for 50 ms early in the hold (a stone, cogging): within the hold's first
-    // 100 ms a stopped wheel is waited for, not reported stalled. (The hold's own fit,
-    // the first estimate of τ, does not survive the stop: the tune ends without a fit.)
+    // 100 ms a stopped wheel is waited for, the hold's fit starts again after it, and
+    // the tune ends normally.
     let mut bench = Bench::new(ground_wheel());
     bench.block = Some((Side::Left, at + 10..at + 60, 10.0));
     let mut tuner = Tuner::new(config(&bench), &bench.params());
     let outcome = bench.run(&mut tuner, None);
-    assert_eq!(outcome, Err(TuneAbort::NoFit(Side::Left)));
+    assert!(outcome.is_ok_and(|r| !r.warnings.any()), "{outcome:?}");
     assert!(bench.speeds[at + 30..at + 60].iter().all(|w| w[0] == 0.0));
     // The same 80 ms later in the hold stops it.
     let mut bench = Bench::new(ground_wheel());

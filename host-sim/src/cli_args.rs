@@ -180,16 +180,17 @@ pub enum Command {
         /// Output directory for the plot (default: out/<scenario>/tune).
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Also the acceptance sweep: the identification on 36 robots (supply 5–12.6 V,
-        /// each motor parameter ±30 %) against their linearised truth.
+        /// Also the acceptance sweep: the tune on 27 robots (the nominal motor at 5–12.6 V,
+        /// R_a, K_t and inertia ±40 % and friction ×3, one at a time and at every corner)
+        /// against their linearised truth, and each tuned loop's step.
         #[arg(long)]
         sweep: bool,
         /// SIMC's τ_c over the loop's effective dead time (default: the core's).
         #[arg(long)]
         tau_c_per_dead_time: Option<f32>,
-        /// Length of the tune's hold and step, s (default: the core's).
+        /// The longest hold and step of the tune, s (default: the core's).
         #[arg(long)]
-        hold_s: Option<f32>,
+        max_hold_s: Option<f32>,
         /// Tune with the wheels lifted (the plant's load set to `lifted`): τ is corrected
         /// for the chassis before the PI is set.
         #[arg(long)]

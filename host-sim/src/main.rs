@@ -144,7 +144,7 @@ fn dispatch(command: Command) -> Result<()> {
             out,
             sweep,
             tau_c_per_dead_time,
-            hold_s,
+            max_hold_s,
             lifted,
         } => {
             let options = commands::tune::Options {
@@ -152,7 +152,7 @@ fn dispatch(command: Command) -> Result<()> {
                 out,
                 sweep,
                 tau_c_per_dead_time,
-                hold_s,
+                max_hold_s,
                 lifted,
             };
             finish(&commands::tune::run(&options, &mut say)?)

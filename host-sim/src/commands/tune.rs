@@ -2,9 +2,12 @@
 //! on the ground or lifted (the scenario's `[plant] load`, or `--lifted`): the identified
 //! model against the linearised plant, the tuned gains as robot-file sections, a
 //! 0 → 15 rad/s step at 6 V tuned vs the scenario's gains (`tune_step.svg` in the output
-//! folder) and the scenario's settle time with both; with `--sweep`, the identification
-//! on 36 robots against their linearised truth. The command fails when the tune stopped
-//! without a result ([`verdict`]).
+//! folder) and the scenario's settle time with both; with `--sweep`, the spread matrix:
+//! the tune on 27 robots ([`tune::sweep_variations`]) against their linearised truth, each
+//! tuned loop's step, the tune's warnings and a summary line `tune spread: N of M robots
+//! identified within 10 %, worst overshoot X %`. The command fails when the tune stopped
+//! without a result, or with `--sweep` when a robot was not identified within 10 %
+//! ([`verdict`], [`sweep_verdict`]).
 
 use std::fmt;
 use std::path::PathBuf;
@@ -32,12 +35,12 @@ pub struct Options {
     pub scenario: String,
     /// The output folder of the plot (`None`: `host-sim-out/<scenario>/tune`).
     pub out: Option<PathBuf>,
-    /// Also the identification sweep on 36 robots.
+    /// Also the identification sweep on 27 robots ([`tune::sweep_variations`]).
     pub sweep: bool,
     /// SIMC's τ_c over the loop's effective dead time (`None`: the core's).
     pub tau_c_per_dead_time: Option<f32>,
-    /// Length of the tune's hold and step, s (`None`: the core's).
-    pub hold_s: Option<f32>,
+    /// The longest hold and step of the tune, s (`None`: the core's).
+    pub max_hold_s: Option<f32>,
     /// Tune with the wheels lifted (the plant's load set to lifted).
     pub lifted: bool,
 }
@@ -142,6 +145,9 @@ impl fmt::Display for Tuned {
                 m.dead_time_s * 1e3,
                 m.design_time_constant_s * 1e3
             )?;
+        }
+        if self.result.warnings.any() {
+            writeln!(f, "  warning: {}", self.result.warnings)?;
         }
         writeln!(
             f,
@@ -259,7 +265,26 @@ fn warnings_text(outcome: &Result<TuneResult, TuneAbort>) -> String {
 
 impl Report for TuneReport {
     fn verdict(&self) -> Result<(), Failed> {
-        verdict(&self.run.outcome)
+        verdict(&self.run.outcome)?;
+        match self.tuned.as_ref().and_then(|t| t.sweep.as_ref()) {
+            Some((_, cases)) => sweep_verdict(cases),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The sweep's rule: every robot identified within [`tune::SWEEP_AIM_PCT`]; otherwise
+/// how many were not.
+pub fn sweep_verdict(cases: &[SweepCase]) -> Result<(), Failed> {
+    let missed = cases.iter().filter(|c| !c.identified()).count();
+    if missed == 0 {
+        Ok(())
+    } else {
+        Err(Failed(format!(
+            "{missed} of {} robots were not identified within {} %",
+            cases.len(),
+            tune::SWEEP_AIM_PCT
+        )))
     }
 }
 
@@ -282,7 +307,7 @@ pub fn run(options: &Options, progress: &mut Progress<'_>) -> Result<TuneReport>
     if let Some(x) = options.tau_c_per_dead_time {
         config.tau_c_per_dead_time = x;
     }
-    if let Some(x) = options.hold_s {
+    if let Some(x) = options.max_hold_s {
         config.max_hold_s = x;
     }
     config.validate(&scenario.params()?)?;

@@ -388,6 +388,92 @@ mod tests {
         assert!(run.max_wheel_speed_rad_s < f64::from(config_for(&s).max_speed_rad_s));
     }
 
+    /// The tune on `variation` of paper-circle: the sweep's one case.
+    fn sweep_case(variation: Variation) -> SweepCase {
+        let s = scenario();
+        identification_sweep(&s, config_for(&s), &[variation])
+            .unwrap()
+            .remove(0)
+    }
+
+    #[test]
+    fn a_weak_motor_is_identified_within_its_leash() {
+        // K_t −40 %: τ 228 ms and 9.8 rad/s per V. Holds and steps of fixed length left
+        // the allowed distance; planned from the hold, the tune finishes, settled.
+        let case = sweep_case(Variation {
+            torque_constant_pct: -SWEEP_SPREAD_PCT,
+            ..Variation::default()
+        });
+        let result = case.run.outcome.unwrap();
+        assert!(!result.warnings.any(), "{:?}", result.warnings);
+        let e = case.errors_pct().unwrap();
+        assert!(e.worst_pct() <= SWEEP_AIM_PCT, "{e:?}");
+        assert!(case.run.max_distance_m < 1.5, "{:?}", case.run);
+    }
+
+    #[test]
+    fn a_slow_motor_with_three_times_the_friction_breaks_away_and_is_identified() {
+        // R_a +40 %, K_t −40 %, inertia +40 %, friction ×3: it needs 2.5 V to turn, more
+        // than the 2.4 V step of fixed level the tune had.
+        let case = sweep_case(Variation {
+            supply_v: None,
+            resistance_pct: SWEEP_SPREAD_PCT,
+            torque_constant_pct: -SWEEP_SPREAD_PCT,
+            friction_pct: SWEEP_HIGH_FRICTION_PCT,
+            inertia_pct: SWEEP_SPREAD_PCT,
+        });
+        assert!(case.truth.ks_v > 2.4, "{:?}", case.truth);
+        let e = case.errors_pct().expect("a model");
+        assert!(e.worst_pct() <= SWEEP_AIM_PCT, "{e:?}");
+    }
+
+    #[test]
+    fn the_fastest_motor_is_tuned_without_overshoot() {
+        // R_a −40 %, K_t +40 %, inertia −40 %: τ 18 ms, under twice the loop's delay.
+        // SIMC's T_i = τ overshot 0 → 15 rad/s by 22 %.
+        let case = sweep_case(Variation {
+            supply_v: None,
+            resistance_pct: -SWEEP_SPREAD_PCT,
+            torque_constant_pct: SWEEP_SPREAD_PCT,
+            friction_pct: 0.0,
+            inertia_pct: -SWEEP_SPREAD_PCT,
+        });
+        assert!(case.identified(), "{:?}", case.errors_pct());
+        let step = case.tuned_step.unwrap();
+        assert!(step.overshoot_pct <= 5.0, "{step:?}");
+        assert!(step.settling_time_s.is_some_and(|t| t < 0.1), "{step:?}");
+    }
+
+    #[test]
+    fn the_sweep_covers_the_spread_and_its_corners() {
+        let rows = sweep_variations();
+        assert_eq!(rows.len(), 27);
+        let has = |f: &dyn Fn(&Variation) -> bool| rows.iter().any(f);
+        for p in [-SWEEP_SPREAD_PCT, SWEEP_SPREAD_PCT] {
+            assert!(has(
+                &|v| v.resistance_pct == p && v.torque_constant_pct == 0.0
+            ));
+            assert!(has(&|v| v.torque_constant_pct == p && v.inertia_pct == 0.0));
+            assert!(has(&|v| v.inertia_pct == p && v.resistance_pct == 0.0));
+        }
+        // Every corner of R_a, K_t, inertia, with the nominal friction and with it ×3.
+        let corners = rows
+            .iter()
+            .filter(|v| {
+                [v.resistance_pct, v.torque_constant_pct, v.inertia_pct]
+                    .iter()
+                    .all(|p| p.abs() == SWEEP_SPREAD_PCT)
+            })
+            .count();
+        assert_eq!(corners, 16);
+        assert!(has(
+            &|v| v.friction_pct == SWEEP_HIGH_FRICTION_PCT && v.resistance_pct == 0.0
+        ));
+        for supply in SWEEP_SUPPLIES_V {
+            assert!(has(&|v| v.supply_v == Some(supply)));
+        }
+    }
+
     #[test]
     fn lifted_the_tune_designs_for_the_ground() {
         let mut s = scenario();

@@ -17,7 +17,7 @@
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
 //! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt, the steering task and the link USART's interrupt reach no panic and no indirect call; then bounds the firmware's worst-case stack from the same call graph |
 //! | `panic-check ELF [--root NAME:IRQ]…` | the same proof on a given ELF (no build), from the given interrupts (default `TIM5:50`, `EXTI3:9`, `USART2:38`) |
-//! | `long` | the checks too long for CI: a 1 000-run sweep, mutation testing and 10 minutes of each fuzz target (`long.rs`) |
+//! | `long` | the checks too long for CI: a 1 000-run sweep, the tune's spread matrix, mutation testing and 10 minutes of each fuzz target (`long.rs`) |
 //! | `fuzz [SECONDS]` | every fuzz target of `fuzz/` (cargo-fuzz on nightly: the link's frames and messages, the parameter record, scenarios, robot files) for SECONDS each (default 60), one at a time, then a table of executions, coverage and corpus per target; fails on a crash, a broken property or a hang. Installs nightly and cargo-fuzz when missing (`fuzz.rs`). CI replays the committed corpus instead (`fuzz-checks`' tests) |
 //! | `mutants [ARGS…]` | mutation testing of `controller-core` (and `link`) with cargo-mutants: score, missed list, wall time. Slow; not part of `ci` |
 //!
@@ -82,8 +82,9 @@ commands:
   panic-check ELF [--root NAME:IRQ]...
           the same proof on an ELF (no build), from the given interrupts (default TIM5:50,
           EXTI3:9, USART2:38)
-  long    the checks too long for CI: a 1 000-run sweep of paper-circle, mutation
-          testing (cargo xtask mutants) and every fuzz target for 10 minutes
+  long    the checks too long for CI: a 1 000-run sweep of paper-circle, the tune's
+          spread matrix (host-sim tune --sweep), mutation testing (cargo xtask
+          mutants) and every fuzz target for 10 minutes
   fuzz [SECONDS]
           run every fuzz target of fuzz/ (cargo-fuzz, libFuzzer) for SECONDS each
           (default 60), one at a time, and print executions, coverage and corpus per

@@ -58,7 +58,7 @@ pub(crate) enum Command {
         #[arg(long, default_value_t = 10)]
         hz: u8,
     },
-    /// Tune the wheel loops: the robot, on the floor with about a metre free ahead and
+    /// Tune the wheel loops: the robot, on the floor with 1.5 m free ahead and
     /// behind, drives its wheels open loop forward and back, identifies them and computes
     /// their PI; prints the model and the gains as robot-file sections (for `params set`).
     Tune {

@@ -9,36 +9,43 @@
 //! then backward:
 //!
 //! 1. **Breakaway**: the voltage rises slowly from 0 until both wheels turn; the larger
-//!    breakaway voltage u_b sets the low level u_lo = u_b + 0.3 (u_hi − u_b), so every
-//!    experiment stays well above static friction. u_hi is
-//!    [`TuneConfig::experiment_volts_v`].
-//! 2. **Hold** u_lo until steady (the pre-step speed ω₁).
-//! 3. **Step** to u_hi and hold: a first-order-plus-dead-time model (K, τ, θ) per wheel
-//!    from the response's Laplace transform (the `identify` submodule). θ counts from
-//!    the step in which the tune asks for u_hi, one control period before the controller
-//!    applies it; the wheel loop acts in its own step, so its PI is set for that period
-//!    more dead time than it has.
-//! 4. **Ramp** down from u_hi to u_lo over 12 τ: a straight line u = c + k_V ω̂ through
-//!    the samples after the first 4 τ gives k_V, and with τ and θ from the step, k_S.
-//! 5. **Brake** (0 V, a short brake) until both wheels are at rest.
+//!    breakaway voltage u_b sets the low level u_lo = u_b + 0.1 (u_max − u_b), u_max
+//!    being [`TuneConfig::experiment_volts_v`], the largest voltage the tune applies.
+//! 2. **Hold** u_lo until steady. The hold is itself a step, from the breakaway to u_lo:
+//!    it is fitted (the `identify` submodule) at checkpoints, 0.1 s and then every 3/2
+//!    of that, until its response lasted 5 of its own τ + θ (or reached
+//!    [`TuneConfig::max_hold_s`]). Its τ + θ and gain are the first estimate, and its
+//!    settled tail the pre-step speed ω₁.
+//! 3. **The plan**, from what the hold measured: the step lasts 8 of the hold's τ + θ
+//!    (at most [`TuneConfig::max_hold_s`]), and its level u_hi is the highest (up to
+//!    u_max) whose step, shortest ramp (6 τ) and brake keep this direction's travel
+//!    within 80 % of [`TuneConfig::max_distance_m`] and its speed within half of
+//!    [`TuneConfig::max_speed_rad_s`], with the hold's gain. The step is at least as
+//!    large as the hold's own; when even that does not fit, the step is shortened to fit.
+//! 4. **Step** to u_hi and hold: a first-order-plus-dead-time model (K, τ, θ) per wheel
+//!    from the response's Laplace transform. θ counts from the step in which the tune
+//!    asks for u_hi, one control period before the controller applies it; the wheel loop
+//!    acts in its own step, so its PI is set for that period more dead time than it has.
+//!    A step that lasted under 5 of its own τ + θ is reported
+//!    ([`TuneWarnings::step_not_settled`]): its τ is likely low.
+//! 5. **Ramp** down from u_hi to u_lo over 12 τ, or what the distance budget leaves (at
+//!    least 6 τ): a straight line u = c + k_V ω̂ through the samples after its first
+//!    third gives k_V, and with τ and θ from the step, k_S.
+//! 6. **Brake** (0 V, a short brake) until both wheels are at rest.
 //!
-//! The voltage never leaves [0, u_hi] in the direction of the experiment and only goes to
-//! 0 to stop, so a wheel never crosses zero speed; the ramp down is slow enough to keep the
-//! gearbox motoring as long as the motor's static friction is worth more than 1/12 of
+//! The voltage never leaves [0, u_max] in the direction of the experiment and only goes
+//! to 0 to stop, so a wheel never crosses zero speed; the ramp down is slow enough to keep
+//! the gearbox motoring as long as the motor's static friction is worth more than 1/6 of
 //! u_hi − u_lo (the decelerating torque it asks for).
 //!
 //! The result, per wheel, averages the two directions ([`TuneResult`]); the PI comes from
 //! the SIMC rule with τ_c = [`TuneConfig::tau_c_per_dead_time`] × the loop's effective
-//! dead time (the plant's θ, the speed estimate's window W T/2 and the sampling T/2). The
-//! default 1.2 is a little looser than Skogestad's "tight" τ_c = θ_e: on the reference
-//! robot the tight setting gives K_p ≈ 0.61 V/(rad/s), T_i ≈ 89 ms, the hand-tuned loop,
-//! whose margins (`host-sim margins`) meet gain margin ≥ 2.5 and phase margin ≥ 45° on the
-//! ground driving straight and turning, motoring and braking (turning on the spot has a
-//! quarter less inertia, braking a gearbox multiplies its torque per volt by 1/η²); 1.2
-//! lowers K_p by a tenth for the identification's errors. A looser loop is not better
-//! for a large step: the saturated start leaves the integral a larger share and the 0 →
-//! 15 rad/s step overshoots more (`host-sim tune --tau-c-per-dead-time`, at 6 V: 1.0 →
-//! 5.0 %, 1.5 → 5.3 %, 2.0 → 5.9 %; 1.2 gives 4.7 %).
+//! dead time θ_e (the plant's θ, the speed estimate's window W T/2 and the sampling T/2),
+//! and T_i never below 4 (τ_c + θ_e) (the `identify` submodule). The default τ_c = 2 θ_e
+//! with that T_i keeps a 0 → 15 rad/s step within 5 % overshoot over the fast motors of
+//! the spread (R_a −40 %, inertia −40 %, K_t +40 %, τ down to 18 ms, under twice θ_e),
+//! where Skogestad's "tight" τ_c = θ_e with T_i = τ overshoots by over 20 %: the
+//! integral, behind the feed-forward, is what overshoots (`host-sim tune --sweep`).
 //!
 //! ## Lifted wheels
 //!

@@ -33,7 +33,8 @@ impl Side {
 )]
 pub enum TuneLoad {
     /// The robot on the floor: the identified plant is the driving plant. The tune drives
-    /// up to 80 % of [`TuneConfig::max_distance_m`] forward and back (about 0.7 m, the reference robot).
+    /// up to 80 % of [`TuneConfig::max_distance_m`] forward and back (about 0.7 m, the
+    /// reference robot).
     Ground,
     /// The robot on a stand: the identified τ is multiplied by `ground_inertia_factor`
     /// (the driving inertia over the lifted one, ≥ 1 and < 1 000) before the PI is set.

@@ -9,7 +9,7 @@
 //! ## Load cases
 //!
 //! - **On the ground** (`[plant] load = "ground"`, the default): the robot drives about
-//!   0.7 m forward and back (up to 1.2 m for slow motors); the identified plant is the
+//!   0.7 m forward and back (up to 1.35 m for slow motors); the identified plant is the
 //!   driving-straight plant.
 //! - **Lifted** (`load = "lifted"`): the wheels turn their own inertia only; the tune is
 //!   told the factor (J_w + m R²/2) / J_w from the plant's own mass and inertia (what a

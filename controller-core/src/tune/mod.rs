@@ -9,17 +9,20 @@
 //! then backward:
 //!
 //! 1. **Breakaway**: the voltage rises slowly from 0 until both wheels turn; the larger
-//!    breakaway voltage u_b sets the low level u_lo = u_b + 0.1 (u_max − u_b), u_max
+//!    breakaway voltage u_b sets the low level u_lo = u_b + 0.07 (u_max − u_b), u_max
 //!    being [`TuneConfig::experiment_volts_v`], the largest voltage the tune applies.
 //! 2. **Hold** u_lo until steady. The hold is itself a step, from the breakaway to u_lo:
 //!    it is fitted (the `identify` submodule) at checkpoints, 0.1 s and then every 3/2
 //!    of that, until its response lasted 5 of its own τ + θ (or reached
 //!    [`TuneConfig::max_hold_s`]). Its τ + θ and gain are the first estimate, and its
-//!    settled tail the pre-step speed ω₁.
-//! 3. **The plan**, from what the hold measured: the step lasts 8 of the hold's τ + θ
+//!    settled tail the pre-step speed ω₁. A change too small to fit (a fast motor's, a
+//!    few quanta of the speed estimate) counts as settled once its tail moves by under
+//!    2 % between checkpoints; it then bounds τ + θ by a fifth of the hold and gives K
+//!    from its tails.
+//! 3. **The plan**, from what the hold measured: the step lasts 7 of the hold's τ + θ
 //!    (at most [`TuneConfig::max_hold_s`]), and its level u_hi is the highest (up to
-//!    u_max) whose step, shortest ramp (6 τ) and brake keep this direction's travel
-//!    within 80 % of [`TuneConfig::max_distance_m`] and its speed within half of
+//!    u_max) whose step, shortest ramp (5 τ) and brake keep this direction's travel
+//!    within 90 % of [`TuneConfig::max_distance_m`] and its speed within half of
 //!    [`TuneConfig::max_speed_rad_s`], with the hold's gain. The step is at least as
 //!    large as the hold's own; when even that does not fit, the step is shortened to fit.
 //! 4. **Step** to u_hi and hold: a first-order-plus-dead-time model (K, τ, θ) per wheel
@@ -28,14 +31,15 @@
 //!    acts in its own step, so its PI is set for that period more dead time than it has.
 //!    A step that lasted under 5 of its own τ + θ is reported
 //!    ([`TuneWarnings::step_not_settled`]): its τ is likely low.
-//! 5. **Ramp** down from u_hi to u_lo over 12 τ, or what the distance budget leaves (at
-//!    least 6 τ): a straight line u = c + k_V ω̂ through the samples after its first
-//!    third gives k_V, and with τ and θ from the step, k_S.
+//! 5. **Ramp** down from u_hi to u_lo over 12 τ (at least 1 s: k_S is corrected by the
+//!    ramp's rate × lag), or what the distance budget leaves (at least 5 τ): a straight
+//!    line u = c + k_V ω̂ through the samples after its first third gives k_V, and with
+//!    τ and θ from the step, k_S.
 //! 6. **Brake** (0 V, a short brake) until both wheels are at rest.
 //!
 //! The voltage never leaves [0, u_max] in the direction of the experiment and only goes
 //! to 0 to stop, so a wheel never crosses zero speed; the ramp down is slow enough to keep
-//! the gearbox motoring as long as the motor's static friction is worth more than 1/6 of
+//! the gearbox motoring as long as the motor's static friction is worth more than 1/5 of
 //! u_hi − u_lo (the decelerating torque it asks for).
 //!
 //! The result, per wheel, averages the two directions ([`TuneResult`]); the PI comes from
@@ -88,7 +92,7 @@ pub const MOVING_RAD_S: f32 = 1.0;
 pub const STALLED_RAD_S: f32 = 0.3;
 /// The hold's level: u_lo lies this fraction of the way from the breakaway voltage to
 /// the largest voltage allowed ([`TuneConfig::experiment_volts_v`]), a gentle speed.
-const LOW_FRACTION: f32 = 0.1;
+const LOW_FRACTION: f32 = 0.07;
 /// The larger breakaway voltage may be at most this fraction of the largest voltage.
 const MAX_BREAKAWAY_FRACTION: f32 = 0.7;
 /// The hold's and the step's tail, their last fifth, gives their settled speed.
@@ -102,7 +106,7 @@ const STEADY_RAD_S: f32 = 0.1;
 const SETTLE_TAUS: f32 = 5.0;
 /// The step is planned for this many of the hold's τ + θ (the hold's estimate is rough:
 /// the margin keeps the step settled by [`SETTLE_TAUS`] of its own).
-const STEP_TAUS: f32 = 8.0;
+const STEP_TAUS: f32 = 7.0;
 /// The hold is fitted first after this long, s, then at every 3/2 of its length until
 /// its response has settled.
 const HOLD_FIRST_S: f32 = 0.1;
@@ -110,11 +114,15 @@ const HOLD_FIRST_S: f32 = 0.1;
 /// [`RAMP_MIN_TAUS`] (identified) time constants; its first [`RAMP_SKIP_FRACTION`] is its
 /// transient and not fitted.
 const RAMP_TAUS: f32 = 12.0;
-const RAMP_MIN_TAUS: f32 = 6.0;
+const RAMP_MIN_TAUS: f32 = 5.0;
 const RAMP_SKIP_FRACTION: f32 = 1.0 / 3.0;
+/// The ramp lasts at least this long, s, budget allowing: k_S is its intercept corrected
+/// by rate × lag, and a fast motor's 12 τ would make the rate, and the correction's
+/// error, several times larger.
+const RAMP_LEAST_S: f32 = 1.0;
 /// The plan keeps each direction's travel within this fraction of
 /// [`TuneConfig::max_distance_m`].
-const DISTANCE_BUDGET_FRACTION: f32 = 0.8;
+const DISTANCE_BUDGET_FRACTION: f32 = 0.9;
 /// The step's speed stays within this fraction of [`TuneConfig::max_speed_rad_s`].
 const STEP_SPEED_FRACTION: f32 = 0.5;
 /// Steps both wheels must read 0 rad/s before the next direction.
@@ -561,25 +569,39 @@ impl Tuner {
             self.hold_n = 0;
             return Ok(());
         }
+        // The first estimate: τ + θ and K of each wheel's fit, or, for a steady response
+        // that did not fit (too small a change for the speed estimate's quanta), the
+        // bounds it proved: τ + θ at most 1/5 of the hold, K = Δω/Δu of its tails.
         let mut scale_s = 0.0f32;
         let mut gain = 0.0f32;
-        for (i, (side, model)) in Side::BOTH.iter().zip(models).enumerate() {
-            let ok = settled.get(i).copied().unwrap_or(false);
-            match model {
-                Some(m) => {
-                    scale_s = scale_s.max(settle_scale_s(&m));
-                    gain = gain.max(m.gain);
-                }
-                None if ok => {}
+        let wheels = Side::BOTH
+            .iter()
+            .zip(models)
+            .zip(settled)
+            .zip(self.step_sums.iter().zip(self.entry_volts))
+            .zip(
+                self.hold_volts
+                    .iter()
+                    .zip(self.warnings.hold_not_settled.iter_mut()),
+            );
+        for ((((side, model), ok), (sums, entry)), (tail_volts, unsettled)) in wheels {
+            let (wheel_scale, wheel_gain) = match model {
+                Some(m) => (settle_scale_s(&m), m.gain),
+                None if ok => (
+                    length_s / SETTLE_TAUS,
+                    sums.delta() / (per * tail_volts - entry),
+                ),
                 None => return Err(TuneAbort::NoFit(*side)),
-            }
+            };
+            scale_s = scale_s.max(wheel_scale);
+            gain = gain.max(wheel_gain);
             if !ok {
-                if let Some(w) = self.warnings.hold_not_settled.get_mut(i) {
-                    *w = true;
-                }
+                *unsettled = true;
             }
         }
-        if !(scale_s > 0.0 && gain > 0.0) {
+        // Written so that a NaN estimate stops the tune too.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        if !(scale_s > 0.0 && gain > 0.0 && gain < f32::MAX) {
             return Err(TuneAbort::NoFit(Side::Left));
         }
         for ((steady, sums), entry) in self
@@ -697,10 +719,11 @@ impl Tuner {
             slowest = slowest.max(model.tau);
             high_speed = high_speed.max(hold_speed + sums.delta());
         }
-        // The ramp: as long as the budget left allows, between the shortest and the
-        // longest, from ω_hi down to ω_lo (the brake about one τ at ω_lo after it).
+        // The ramp: 12 τ (at least [`RAMP_LEAST_S`]), or as long as the budget left
+        // allows but at least 5 τ, from ω_hi down to ω_lo (the brake about one τ at ω_lo
+        // after it).
         let low_speed = self.hold_speed[0].max(self.hold_speed[1]);
-        let mut ramp_s = RAMP_TAUS * slowest;
+        let mut ramp_s = (RAMP_TAUS * slowest).max(RAMP_LEAST_S);
         if self.config.load == TuneLoad::Ground && self.wheel_radius_m > 0.0 {
             let angle = self.budget_left_m() / self.wheel_radius_m;
             let fits_in = (angle - low_speed * slowest) / (0.5 * (high_speed + low_speed));

@@ -33,7 +33,7 @@ impl Side {
 )]
 pub enum TuneLoad {
     /// The robot on the floor: the identified plant is the driving plant. The tune drives
-    /// up to 80 % of [`TuneConfig::max_distance_m`] forward and back (about 0.7 m, the
+    /// up to 90 % of [`TuneConfig::max_distance_m`] forward and back (about 0.7 m, the
     /// reference robot).
     Ground,
     /// The robot on a stand: the identified τ is multiplied by `ground_inertia_factor`

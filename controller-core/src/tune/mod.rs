@@ -496,7 +496,7 @@ impl Tuner {
     fn hold(&mut self, speed: [f32; 2], volts: [f32; 2]) -> Result<(), TuneAbort> {
         let grace = self.steps_of(HOLD_FIRST_S);
         self.check_turning(speed, grace)?;
-        if self.steps < grace && speed.iter().any(|w| *w == 0.0) {
+        if self.steps < grace && speed.contains(&0.0) {
             // A wheel stuck for a moment early in the hold (its estimate reads exactly 0,
             // no tick in the window): its response is no step any more, so the hold's
             // fit starts again from rest, with the next sample.
@@ -713,6 +713,8 @@ impl Tuner {
                 .filter(|m| m.gain > 0.0 && m.tau > 0.0)
                 .ok_or(TuneAbort::NoFit(*side))?;
             fit.model = model;
+            // Written so that a NaN time scale counts as unsettled.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
             if !(length_s >= SETTLE_TAUS * settle_scale_s(&model)) {
                 *unsettled = true;
             }

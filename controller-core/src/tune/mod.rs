@@ -628,7 +628,8 @@ impl Tuner {
     fn plan_step(&mut self, scale_s: f32, gain: f32) {
         let mut step_steps = self
             .steps_of(STEP_TAUS * scale_s)
-            .clamp(self.steps_of(HOLD_FIRST_S), self.max_hold_steps());
+            .max(self.steps_of(HOLD_FIRST_S))
+            .min(self.max_hold_steps());
         let step_s = step_steps as f32 * self.period_s;
         let low = self.hold_speed[0].max(self.hold_speed[1]);
         let mut top = STEP_SPEED_FRACTION * self.config.max_speed_rad_s;

@@ -56,20 +56,16 @@
 #![no_std]
 #![no_main]
 
-mod board;
 mod link_task;
 mod link_uart;
 #[cfg(feature = "panic-canary")]
 mod panic_canary;
 mod panic_record;
 mod persistence;
-mod robot;
-mod stats;
+
+use firmware_board::{board, robot, stats};
 
 use defmt_rtt as _;
-
-#[cfg(all(feature = "qemu", any(feature = "nucleo", feature = "drv8833")))]
-compile_error!("the `qemu` board has no button, LED or motor driver: drop `nucleo` / `drv8833`");
 
 #[rtic::app(device = stm32f4xx_hal::pac, peripherals = true)]
 mod app {

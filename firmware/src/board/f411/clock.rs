@@ -200,7 +200,7 @@ pub fn configure(
 
 /// SYSCLK as RCC_CFGR and RCC_PLLCFGR give it now, for the board's [`HSE`]
 /// (`robot_app::stm32f4::clock_read_back`): what the chip runs on, read independently of
-/// the plan [`configure`] checked.
+/// the plan `configure` checked.
 pub fn read_back() -> SysclkReadBack {
     // SAFETY: two reads of RCC registers, which have no side effects; the HAL's `Rcc`
     // owns RCC for writing and never relies on the values read here.

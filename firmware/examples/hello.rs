@@ -63,7 +63,7 @@ fn run(board: board::Board) -> ! {
         let now = bench.periods();
         match (sensors.button_pressed, pressed_at) {
             (true, None) => {
-                presses += 1;
+                presses = presses.wrapping_add(1);
                 pressed_at = Some(now);
                 defmt::info!("button pressed ({=u32})", presses);
             }
@@ -71,7 +71,8 @@ fn run(board: board::Board) -> ! {
                 pressed_at = None;
                 defmt::info!(
                     "button released after {=u32} ms",
-                    now.wrapping_sub(at) * 1000 / firmware_board::robot::ROBOT.control_rate_hz
+                    now.wrapping_sub(at).saturating_mul(1000)
+                        / firmware_board::robot::ROBOT.control_rate_hz
                 );
             }
             _ => {}

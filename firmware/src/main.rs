@@ -8,7 +8,9 @@
 //!   plant in lockstep: processor in the loop.
 //!
 //! Everything that differs between the two is in [`board`]; this file is the same for
-//! both. The story, top to bottom:
+//! both. The board layer, [`robot`] and [`stats`] are the crate's library
+//! (`firmware_board`), which the first-flash programs (`examples/`) share. The story,
+//! top to bottom:
 //!
 //! 1. [`app::init`] reads a previous run's panic record ([`panic_record`]), brings the
 //!    board up ([`board`]: on the F411 the watchdog with a long timeout first, the

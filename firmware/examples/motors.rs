@@ -3,8 +3,8 @@
 //!
 //! Brings the board up with the firmware's own set-up (pin map, 20 kHz PWM, the bridge
 //! sequence of `board::ControlIo`, encoders, supply ADC) and waits, the driver in
-//! standby, for a press and release of the button. Then, for the left motor forward, the
-//! left backward, the right forward and the right backward:
+//! standby, for a press and release of the button, and half a second more. Then, for the
+//! left motor forward, the left backward, the right forward and the right backward:
 //!
 //! 1. the duty that puts [`PULSE_MAX_V`] (2 V) across the motor on the supply measured
 //!    just before (`robot_app::first_flash::pulse_duty`; refused on an unmeasured supply,
@@ -36,6 +36,8 @@ compile_error!("`motors` needs the F411 board's motor driver: build it without `
 
 /// Control periods the wheel coasts down after a pulse, still counted (400 ms at 1 kHz).
 const COAST_PERIODS: u32 = ROBOT.control_rate_hz * 2 / 5;
+/// Control periods between the button's release and the first pulse (500 ms at 1 kHz).
+const SETTLE_PERIODS: u32 = ROBOT.control_rate_hz / 2;
 
 /// Which wheel a test pulses, and which way.
 #[derive(Clone, Copy)]
@@ -112,6 +114,7 @@ fn main() -> ! {
             PULSE_MAX_MS
         );
         wait_for_press(&mut bench);
+        settle(&mut bench);
         for test in Test::ROUND {
             match run(&mut bench, test) {
                 Ok(()) => {}
@@ -144,6 +147,16 @@ fn wait_for_press(bench: &mut first_flash::Bench) {
             (true, false) => return,
             _ => {}
         }
+    }
+}
+
+/// Steps with the driver in standby for [`SETTLE_PERIODS`], the button ignored: the
+/// hand leaves the robot and the button's contacts stop bouncing before the first pulse.
+fn settle(bench: &mut first_flash::Bench) {
+    let mut elapsed = 0u32;
+    while elapsed < SETTLE_PERIODS {
+        elapsed += bench.next_step().periods.get();
+        bench.io.apply_outputs(MotorCommand::STOP, false, false);
     }
 }
 

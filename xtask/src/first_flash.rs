@@ -89,6 +89,27 @@ mod tests {
     }
 
     #[test]
+    fn the_page_shows_how_to_flash_every_program() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let page = std::fs::read_to_string(root.join("docs/first-flash.md")).unwrap();
+        let config = std::fs::read_to_string(root.join(".cargo/config.toml")).unwrap();
+        assert!(
+            config.contains("\nfw-example = \"run --profile firmware --package firmware"),
+            ".cargo/config.toml has no `fw-example` alias"
+        );
+        for program in PROGRAMS {
+            assert!(
+                page.contains(&format!("\n## `{program}`")),
+                "docs/first-flash.md has no section for `{program}`"
+            );
+            assert!(
+                page.contains(&format!("cargo fw-example {program}\n")),
+                "docs/first-flash.md does not show `cargo fw-example {program}`"
+            );
+        }
+    }
+
+    #[test]
     fn every_program_has_its_example_target() {
         let manifest = std::fs::read_to_string(
             Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware/Cargo.toml"),

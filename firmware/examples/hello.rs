@@ -8,7 +8,8 @@
 //!   `pin` after the reset button or the probe, `watchdog` after a stall);
 //! - SYSCLK read back from RCC_CFGR and RCC_PLLCFGR (100 MHz from the PLL, fed by the
 //!   HSE: the Black Pill's 25 MHz crystal or the Nucleo's 8 MHz ST-LINK clock) and what
-//!   the clock set-up reports; `PLL from the HSI` means the HSE did not start;
+//!   the clock set-up reports; `PLL from the HSI` means the HSE did not start; a warning
+//!   when the registers disagree with what the set-up meant to write;
 //! - the brown-out reset level.
 //!
 //! Then the LED blinks at 1 Hz; while the button is held it stays lit, and each press and
@@ -38,7 +39,7 @@ fn main() -> ! {
 /// The F411: the report over defmt, then the LED and the button.
 #[cfg(not(feature = "qemu"))]
 fn run(board: board::Board) -> ! {
-    use robot_app::stm32f4::clock_read_back::SysclkReadBack;
+    use robot_app::stm32f4::clock_read_back::{SysclkReadBack, SysclkSource};
 
     /// Half the LED's blink period, control periods (500 ms at 1 kHz).
     const BLINK_HALF_PERIOD: u32 = firmware_board::robot::ROBOT.control_rate_hz / 2;
@@ -53,6 +54,16 @@ fn run(board: board::Board) -> ! {
         defmt::Display2Format(&board.clock),
         defmt::Display2Format(&board.brown_out_reset),
     );
+    let from_hse = matches!(sysclk.source, SysclkSource::Pll { from_hse: true });
+    if sysclk.hz != board::SYSCLK_HZ || from_hse == board.clock.is_fallback() {
+        defmt::warn!(
+            "the clock set-up meant {=u32} Hz from the PLL fed by the {=str}, but RCC reads {=u32} Hz from the {=str}",
+            board::SYSCLK_HZ,
+            if board.clock.is_fallback() { "HSI" } else { "HSE" },
+            sysclk.hz,
+            sysclk.source.name(),
+        );
+    }
     defmt::info!("the LED blinks at 1 Hz; hold the button to keep it lit");
 
     let mut bench = first_flash::Bench::start(board);

@@ -2,11 +2,12 @@
 //!
 //! | command | what it does |
 //! |---|---|
-//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, Miri on the lock-free channels, the station end to end, firmware build and size budget, the panic check, the core and the link on an emulated Cortex-M4F, the firmware in the loop (`pil`), the docs, the protocol page and its client, the figures. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
+//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, Miri on the lock-free channels, the station end to end, firmware build and size budget, the first-flash programs (hello under QEMU), the panic check, the core and the link on an emulated Cortex-M4F, the firmware in the loop (`pil`), the docs, the protocol page and its client, the figures. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
 //! | `e2e` | the station against the virtual robot: in process, and the binary over TCP (same result as `host-sim run`, link loss, corruption, refusals) |
 //! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` (the `miri` step sets up its own toolchain) |
 //! | `miri` | `robot-app`'s lock-free channels (`robot_app::channel`, its only `unsafe` code) under Miri: the channel modules' unit tests (including every interleaving of the mailbox's handshake and of the ring) and the integration tests that take the channels through the robot cheaply; each must run and pass. Sets itself up: installs the nightly toolchain with its `miri` and `rust-src` components when missing (rustup), then `cargo +nightly miri setup`; without a network, fails naming what is missing. Prints its times; under two minutes from a fresh clone on 2 cores |
 //! | `size` | builds the firmware and checks it against the flash and RAM budget |
+//! | `first-flash` | builds the first-flash programs (`firmware/examples/`: hello, encoders, motors, supply) for the F411 and prints their sizes; runs `hello` on the emulated board under QEMU and prints its report, `hello under QEMU: reset cause …, clock …` |
 //! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
 //! | `link-qemu` | runs the link crate under QEMU and talks to it over its USART: replies, corrupted frames, counters |
 //! | `docs` | `cargo doc --no-deps` with warnings denied, for the host crates and the firmware |
@@ -29,6 +30,7 @@ mod elf_size;
 mod figures;
 #[cfg(test)]
 mod firmware_logger;
+mod first_flash;
 mod fuzz;
 mod link_qemu;
 mod long;
@@ -60,6 +62,9 @@ commands:
           of the mailbox and the ring, cheap integration tests); installs the nightly
           toolchain with miri when missing and runs `cargo +nightly miri setup`
   size    build the firmware and check its flash / static RAM budget
+  first-flash
+          build the first-flash programs (hello, encoders, motors, supply) for the F411;
+          run hello on the emulated board under QEMU and print its report
   qemu    run the core on an emulated Cortex-M4F and compare with the host
   link-qemu
           run the link on an emulated Cortex-M4F and talk to it over its USART
@@ -122,6 +127,7 @@ fn run() -> Result<bool> {
         ["ci"] => steps::ci(),
         ["setup"] => vec![steps::setup()],
         ["size"] => vec![steps::setup(), steps::firmware_size()],
+        ["first-flash"] => vec![steps::setup(), steps::first_flash()],
         ["qemu"] => vec![steps::setup(), steps::qemu()],
         ["e2e"] => vec![steps::end_to_end()],
         ["miri"] => vec![steps::miri()],

@@ -33,6 +33,10 @@ pub enum Command {
         /// 24 h soak is `--duration-s 86400`).
         #[arg(long)]
         duration_s: Option<f64>,
+        /// Also write the run as an MCAP file (Foxglove: poses, path, telemetry, events;
+        /// the trace's samples at simulated time).
+        #[arg(long)]
+        mcap: Option<PathBuf>,
     },
     /// Reproduce the paper: its circle and line experiments with every law, Figs. 5–7 and
     /// summary.json for each run, an overlay per experiment, a table and the verdict.

@@ -53,7 +53,7 @@ use m4f_scenario::{Digest, Fnv1a64};
 use robot_app::metrics::{ErrorSample, ErrorStats};
 use robot_files::metrics::{ErrorReport, HourlyRms, Summary, SupervisorReport};
 use robot_files::scenario::{Scenario, ScenarioError};
-use robot_files::trace::TraceRow;
+use robot_files::trace::{SampleDetail, TraceRow};
 use robot_files::truth::{tracking_error_f64, TrueReference};
 
 use crate::hardware::{Actuation, SimHardware};
@@ -375,6 +375,11 @@ pub fn run_with_logic<L: RobotLogic>(
                 duty: out.duty,
                 supply_v: tel.supply_v,
                 state: out.state,
+                detail: SampleDetail {
+                    lyapunov_rate: tel.law.lyapunov_rate,
+                    pid: decision.pid_parts.unwrap_or_default(),
+                    faults: out.faults,
+                },
             });
         }
         let [il, ir] = hardware.plant().currents_a();

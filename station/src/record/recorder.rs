@@ -7,7 +7,7 @@ use controller_core::supervisor::{DisarmReason, Event, Faults, RunMode, State};
 use link::{GroundTruth, ParamSet, RunReport, TelemetryFrame, TrueRunReport, Uplink};
 use robot_files::metrics::{ErrorReport, Summary, SupervisorReport};
 use robot_files::scenario::Scenario;
-use robot_files::trace::TraceRow;
+use robot_files::trace::{SampleDetail, TraceRow};
 use robot_files::truth::{tracking_error_f64, true_error, TruePose, TrueReference};
 
 use crate::client::StationError;
@@ -228,6 +228,11 @@ impl<'a> Recorder<'a> {
             duty: f.duty,
             supply_v: f.supply_v,
             state: f.state,
+            detail: SampleDetail {
+                lyapunov_rate: f.lyapunov_rate,
+                pid: [pid_parts(&f.pid_left), pid_parts(&f.pid_right)],
+                faults: f.faults,
+            },
         }
     }
 
@@ -350,5 +355,15 @@ pub(super) fn final_state(last_sampled: State, ended_by: Option<Event>) -> State
         Some(Event::Disarmed(_)) => State::Disarmed,
         Some(Event::Faulted) => State::Faulted,
         _ => last_sampled,
+    }
+}
+
+/// A wheel PID's parts as the link carries them, in the core's type (V).
+fn pid_parts(parts: &link::PidParts) -> controller_core::pid::PidParts {
+    controller_core::pid::PidParts {
+        p: parts.p_v,
+        i: parts.i_v,
+        d: parts.d_v,
+        ff: parts.ff_v,
     }
 }

@@ -19,7 +19,7 @@ pub fn write_run_mcap(
     robot_foxglove::write_run_mcap(
         file,
         &RunRecord {
-            path: &scenario.path,
+            path: Some(&scenario.path),
             trace: &result.trace,
             end: Some(&end),
         },

@@ -62,8 +62,8 @@ impl RobotChannels {
             .log_with_time(&path_scene(path, t_s), log_time_ns(t_s));
     }
 
-    /// Logs one sample at its own time `row.t_s`: the transforms and poses (the true
-    /// ones only when known), the telemetry channels, and an event when the supervisor's
+    /// Logs one sample at its own time `row.t_s`: the transforms and poses (the true and
+    /// the reference ones only when known, i.e. finite), the telemetry channels, and an event when the supervisor's
     /// state or faults changed since the last sample.
     pub fn log_sample(&mut self, row: &TraceRow) {
         let t = row.t_s;
@@ -75,14 +75,16 @@ impl RobotChannels {
             &convert::frame_transform(t, topics::ESTIMATE_FRAME, estimate),
             ns,
         );
-        self.tf.log_with_time(
-            &convert::frame_transform(t, topics::REFERENCE_FRAME, reference),
-            ns,
-        );
         self.pose_estimate
             .log_with_time(&convert::pose_in_frame(t, estimate), ns);
-        self.pose_reference
-            .log_with_time(&convert::pose_in_frame(t, reference), ns);
+        if reference.is_finite() {
+            self.tf.log_with_time(
+                &convert::frame_transform(t, topics::REFERENCE_FRAME, reference),
+                ns,
+            );
+            self.pose_reference
+                .log_with_time(&convert::pose_in_frame(t, reference), ns);
+        }
         if truth.is_finite() {
             self.tf
                 .log_with_time(&convert::frame_transform(t, topics::TRUE_FRAME, truth), ns);

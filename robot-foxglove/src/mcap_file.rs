@@ -17,8 +17,9 @@ use crate::topics;
 /// What a run's file is written from.
 #[derive(Clone, Copy, Debug)]
 pub struct RunRecord<'a> {
-    /// The path the robot followed, world frame.
-    pub path: &'a Path,
+    /// The path the robot followed, world frame (`None` when not known: a recording of
+    /// whatever the robot does).
+    pub path: Option<&'a Path>,
     /// The run's samples in time order (`trace.csv`'s rows).
     pub trace: &'a [TraceRow],
     /// How the run ended, logged on `/events` after the last sample (e.g. `run ended:
@@ -60,7 +61,7 @@ pub enum McapError {
     },
 }
 
-/// Writes `run` to `file` (replacing it): the path at the first sample's time, then every
+/// Writes `run` to `file` (replacing it): the path (if known) at the first sample's time, then every
 /// sample ([`RobotChannels::log_sample`]), then the end of the run at the last sample's
 /// time. Uncompressed: a 30 s run at 100 Hz is well under 10 MB, and no compression
 /// library is built.
@@ -82,7 +83,9 @@ pub fn write_run_mcap(file: &FilePath, run: &RunRecord<'_>) -> Result<McapWritte
     let mut channels = RobotChannels::new(&context);
     let start_s = run.trace.first().map_or(0.0, |r| r.t_s);
     let end_s = run.trace.last().map_or(0.0, |r| r.t_s);
-    channels.log_path(run.path, start_s);
+    if let Some(path) = run.path {
+        channels.log_path(path, start_s);
+    }
     for row in run.trace {
         channels.log_sample(row);
     }

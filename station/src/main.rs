@@ -226,13 +226,15 @@ fn main() -> ExitCode {
             out,
             hz,
             duration_s,
-        } => recording::cmd_record(link, &out, hz, duration_s),
+            mcap,
+        } => recording::cmd_record(link, &out, hz, duration_s, mcap.as_deref()),
         Command::Run {
             scenario,
             law,
             out,
             hz,
-        } => recording::cmd_run(link, &scenario, law, &out, hz),
+            mcap,
+        } => recording::cmd_run(link, &scenario, law, &out, hz, mcap.as_deref()),
         Command::Calibrate(args) => calibrate::command(link_open(link), &args),
     };
     match result {

@@ -96,12 +96,13 @@ impl LiveServer {
     }
 
     /// Streams one sample ([`RobotChannels::log_sample`]) and, every 2 s of the run, the
-    /// path; the parameter set follows the sample's state (read-only while armed).
-    pub fn log_sample(&mut self, row: &TraceRow, path: &Path) {
+    /// path (when known); the parameter set follows the sample's state (read-only while
+    /// armed).
+    pub fn log_sample(&mut self, row: &TraceRow, path: Option<&Path>) {
         let due = self
             .path_logged_at_s
             .is_none_or(|t| !(row.t_s - t < PATH_EVERY_S && row.t_s >= t));
-        if due {
+        if let (true, Some(path)) = (due, path) {
             self.channels.log_path(path, row.t_s);
             self.path_logged_at_s = Some(row.t_s);
         }

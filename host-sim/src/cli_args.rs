@@ -172,6 +172,14 @@ pub enum Command {
         /// Simulated time per wall-clock time (1 = real time).
         #[arg(long, default_value_t = 1.0)]
         speed: f64,
+        /// Also stream the robot live to Foxglove (WebSocket, subprotocol
+        /// foxglove.sdk.v1) on this address, with its parameters as a parameter set
+        /// (read-only while armed).
+        #[arg(long, num_args = 0..=1, default_missing_value = "127.0.0.1:8765", value_name = "ADDR")]
+        foxglove: Option<String>,
+        /// Samples per second of robot time on the Foxglove stream, Hz.
+        #[arg(long, default_value_t = 100)]
+        foxglove_hz: u32,
     },
     /// The core's wheel-loop tune on the simulated robot (ground or lifted, the scenario's
     /// `[plant] load`): the identified model against the linearised plant, the gains (as

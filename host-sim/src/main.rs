@@ -125,7 +125,13 @@ fn dispatch(command: Command) -> Result<()> {
             scenario,
             listen,
             speed,
+            foxglove,
+            foxglove_hz,
         } => {
+            let foxglove = foxglove.map(|address| commands::serve::FoxgloveOptions {
+                address,
+                hz: foxglove_hz,
+            });
             // An event line that cannot be written is dropped: the robot keeps serving.
             let mut event = |line: &commands::serve::EventLine| {
                 let mut out = std::io::stdout().lock();
@@ -137,6 +143,7 @@ fn dispatch(command: Command) -> Result<()> {
                 &scenario,
                 &listen,
                 speed,
+                foxglove.as_ref(),
                 &mut listening,
                 &mut event,
             )?)

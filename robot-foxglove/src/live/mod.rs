@@ -6,7 +6,7 @@
 use std::sync::Arc;
 
 use controller_core::path::Path;
-use foxglove::websocket::{Capability, Status};
+use foxglove::websocket::Capability;
 use foxglove::{Context, WebSocketServer, WebSocketServerHandle};
 use robot_files::trace::TraceRow;
 
@@ -15,6 +15,8 @@ use crate::channels::RobotChannels;
 pub mod parameters;
 
 pub use self::parameters::{ParameterChange, RobotParameters};
+/// A status message to the clients (level and text).
+pub use foxglove::websocket::Status;
 
 /// Where the live server listens unless told otherwise (Foxglove's own default).
 pub const DEFAULT_ADDRESS: &str = "127.0.0.1:8765";

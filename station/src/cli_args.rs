@@ -94,6 +94,11 @@ pub(crate) enum Command {
         /// Telemetry rate, Hz.
         #[arg(long, default_value_t = 10)]
         hz: u8,
+        /// Also stream the telemetry live to Foxglove (WebSocket, subprotocol
+        /// foxglove.sdk.v1) on this address, at the telemetry rate, with the robot's
+        /// parameters as a parameter set (read-only while armed).
+        #[arg(long, num_args = 0..=1, default_missing_value = "127.0.0.1:8765", value_name = "ADDR")]
+        foxglove: Option<String>,
     },
     /// Record telemetry (and the virtual robot's ground truth) to DIR/telemetry.csv until
     /// Ctrl-C or --duration-s.

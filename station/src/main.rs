@@ -221,7 +221,7 @@ fn main() -> ExitCode {
         Command::Estop => cmd_simple(link, Request::EmergencyStop, "emergency stop latched"),
         Command::ClearFaults => cmd_simple(link, Request::ClearFaults, "faults cleared"),
         Command::Stats => cmd_stats(link),
-        Command::Watch { hz } => live::cmd_watch(link, hz),
+        Command::Watch { hz, foxglove } => live::cmd_watch(link, hz, foxglove.as_deref()),
         Command::Record {
             out,
             hz,

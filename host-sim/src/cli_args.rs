@@ -69,6 +69,10 @@ pub enum Command {
         /// Also write sweep.json (every run's draws and results) into this directory.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Also write each run as an MCAP file (Foxglove), run-NNNN.mcap, into this
+        /// directory.
+        #[arg(long)]
+        mcap_dir: Option<PathBuf>,
     },
     /// Wheel-speed loop alone: a set-point step from rest, to tune the wheel PID.
     StepResponse {
@@ -97,6 +101,10 @@ pub enum Command {
         /// Output directory for faults.json [default: host-sim-out/<scenario>/faults].
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Also write each case's run as an MCAP file (Foxglove), named after the case,
+        /// into this directory.
+        #[arg(long)]
+        mcap_dir: Option<PathBuf>,
     },
     /// Processor in the loop: the firmware, built for the Cortex-M4F with its `qemu` board,
     /// runs under qemu-system-arm against this simulator's plant in lockstep, and a ground

@@ -57,12 +57,14 @@ fn dispatch(command: Command) -> Result<()> {
             law,
             seed,
             out,
+            mcap_dir,
         } => finish(&commands::sweep::run(&commands::sweep::Options {
             scenario,
             runs,
             law: LawKind::from(law),
             seed,
             out,
+            mcap_dir,
         })?),
         Command::StepResponse {
             scenario,
@@ -77,9 +79,17 @@ fn dispatch(command: Command) -> Result<()> {
                 out,
             },
         )?),
-        Command::Faults { scenario, law, out } => {
-            finish(&commands::faults::run(&scenario, LawKind::from(law), out)?)
-        }
+        Command::Faults {
+            scenario,
+            law,
+            out,
+            mcap_dir,
+        } => finish(&commands::faults::run(
+            &scenario,
+            LawKind::from(law),
+            out,
+            mcap_dir,
+        )?),
         Command::Pil {
             scenario,
             law,

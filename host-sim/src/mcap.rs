@@ -26,6 +26,20 @@ pub fn write_run_mcap(
     )
 }
 
+/// `name` as a file stem: every character other than ASCII letters, digits, `-` and `_`
+/// replaced by `_` (a case named `encoder disconnected` is `encoder_disconnected`).
+pub fn file_stem(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
 /// The run's end as `/events` says it: `run ended after T s: STATE` and the latched
 /// faults, if any.
 fn end_text(result: &RunResult) -> String {
@@ -38,4 +52,15 @@ fn end_text(result: &RunResult) -> String {
         text += &format!(" ({})", s.supervisor.faults.join(", "));
     }
     text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_case_name_becomes_a_safe_file_stem() {
+        assert_eq!(file_stem("encoder disconnected"), "encoder_disconnected");
+        assert_eq!(file_stem("a/b: c-d_e"), "a_b__c-d_e");
+    }
 }

@@ -106,6 +106,9 @@ pub enum RunError {
     /// answering).
     #[error("robot logic: {0}")]
     Logic(String),
+    /// The run's MCAP file (asked for with it) could not be written.
+    #[error(transparent)]
+    Mcap(#[from] robot_foxglove::McapError),
     /// An argument of a run function is out of range.
     #[error("{name} {rule}, got {value}")]
     Argument {

@@ -101,9 +101,11 @@ impl LiveServer {
     /// path (when known); the parameter set follows the sample's state (read-only while
     /// armed).
     pub fn log_sample(&mut self, row: &TraceRow, path: Option<&Path>) {
+        // Due first, every PATH_EVERY_S after, and at once when the robot's clock went
+        // back (a rebooted robot).
         let due = self
             .path_logged_at_s
-            .is_none_or(|t| !(row.t_s - t < PATH_EVERY_S && row.t_s >= t));
+            .is_none_or(|t| row.t_s < t || row.t_s - t >= PATH_EVERY_S);
         if let (true, Some(path)) = (due, path) {
             self.channels.log_path(path, row.t_s);
             self.path_logged_at_s = Some(row.t_s);

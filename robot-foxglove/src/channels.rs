@@ -62,9 +62,9 @@ impl RobotChannels {
             .log_with_time(&path_scene(path, t_s), log_time_ns(t_s));
     }
 
-    /// Logs one sample at its own time `row.t_s`: the transforms and poses (the true and
-    /// the reference ones only when known, i.e. finite), the telemetry channels, and an event when the supervisor's
-    /// state or faults changed since the last sample.
+    /// Logs one sample at its own time `row.t_s`: the transforms and poses (the true
+    /// and the reference ones only when known, i.e. finite), the telemetry channels,
+    /// and an event when the supervisor's state or faults changed since the last sample.
     pub fn log_sample(&mut self, row: &TraceRow) {
         let t = row.t_s;
         let ns = log_time_ns(t);

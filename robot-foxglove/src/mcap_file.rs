@@ -61,10 +61,10 @@ pub enum McapError {
     },
 }
 
-/// Writes `run` to `file` (replacing it): the path (if known) at the first sample's time, then every
-/// sample ([`RobotChannels::log_sample`]), then the end of the run at the last sample's
-/// time. Uncompressed: a 30 s run at 100 Hz is well under 10 MB, and no compression
-/// library is built.
+/// Writes `run` to `file` (replacing it): the path (if known) at the first sample's time,
+/// then every sample ([`RobotChannels::log_sample`]), then the end of the run at the last
+/// sample's time. Uncompressed, so no compression library is built; `cargo xtask
+/// foxglove-file` holds a 30 s run at 100 Hz to its size budget.
 pub fn write_run_mcap(file: &FilePath, run: &RunRecord<'_>) -> Result<McapWritten, McapError> {
     let created = File::create(file).map_err(|source| McapError::Create {
         file: file.to_path_buf(),

@@ -1,6 +1,7 @@
 //! `host-sim serve`: the virtual robot ([`crate::serve`]) — the robot's own application
 //! logic against the simulated hardware, speaking the runtime link on a TCP port, with
-//! ground truth. Says where it listens, then prints every supervisor event as it comes,
+//! ground truth. Says where it listens (and, with `--foxglove`, where its Foxglove stream
+//! does: [`crate::serve::LiveStream`]), then prints every supervisor event as it comes,
 //! until killed.
 
 use std::fmt;
@@ -206,6 +207,26 @@ mod tests {
             .expect("a socket address");
         assert_eq!(address.ip().to_string(), "127.0.0.1");
         assert_ne!(address.port(), 0);
+    }
+
+    #[test]
+    fn the_foxglove_rate_must_be_within_the_control_rate() {
+        for hz in [0, 1001] {
+            let options = FoxgloveOptions {
+                address: "127.0.0.1:0".into(),
+                hz,
+            };
+            let error = run(
+                "paper-circle",
+                "127.0.0.1:0",
+                1.0,
+                Some(&options),
+                &mut |_| Ok(()),
+                &mut |_| {},
+            )
+            .expect_err("refused before anything starts");
+            assert!(error.to_string().contains("--foxglove-hz"), "{error}");
+        }
     }
 
     #[test]

@@ -38,6 +38,13 @@
 //!   plant then starts exactly where `host-sim run` starts it.
 //!
 //! After a run the plant goes on (braking, coasting) until the next path is committed.
+//!
+//! # In Foxglove
+//!
+//! With a [`LiveStream`] (`serve --foxglove`), every step may be sampled as a trace row
+//! ([`VirtualRobot::trace_row`]) and streamed; the stream's parameter changes reach the
+//! link side as the robot's own requests ([`VirtualRobot::request_locally`]), whose
+//! replies go to no host.
 
 mod hosts;
 mod live;

@@ -14,6 +14,8 @@
 //! | `figures` | regenerates `docs/figures.md` and the README's headline rows from what the simulator writes (`ci` fails when either is stale) |
 //! | `protocol-page` | checks `docs/protocol.md` against the `link` crate: every type, field and variant of the messages in wire order, the constants (the schema hash among them) and the example frame; names each difference with the row or section to write |
 //! | `protocol-client` | runs the Python client written from `docs/protocol.md` (`tools/protocol-client/`) against `host-sim serve` on an ephemeral port: handshake, `Info`, the configuration and telemetry decoded and checked; needs `python3` (installed with apt-get as root, otherwise named) |
+//! | `foxglove-file` | `host-sim run --mcap` and `station run --mcap` (against the virtual robot) read by PyPI's `mcap` and `mcap-protobuf-support` in a venv: every channel and schema, the poses equal to `trace.csv` within 1e-6 m and rad, the 30 s run at 100 Hz at most 10 MB; prints `mcap: N channels, M messages, poses equal trace.csv` |
+//! | `foxglove-live` | npm's `@foxglove/ws-protocol` 0.8 on a `ws` socket (subprotocol `foxglove.sdk.v1`) subscribed to `host-sim serve --foxglove` while a station runs paper-circle: every channel, the rates, the arrival delays, the parameter set (changed while disarmed, read-only while armed); prints `foxglove live: N channels, M messages in S s` |
 //! | `pil` | processor in the loop: the firmware (emulated `qemu` board) under QEMU against host-sim's plant, driven over its link: `paper-circle` and `longest-path` identical to `host-sim run`, the control interrupt's instructions and the stack, an encoder disconnect and a link loss stopping the motors in time |
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
 //! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt, the steering task and the link USART's interrupt reach no panic and no indirect call; then bounds the firmware's worst-case stack from the same call graph |
@@ -31,6 +33,7 @@ mod figures;
 #[cfg(test)]
 mod firmware_logger;
 mod first_flash;
+mod foxglove_check;
 mod fuzz;
 mod link_qemu;
 mod long;
@@ -40,6 +43,7 @@ mod panic_check;
 mod pil;
 mod protocol_client;
 mod protocol_page;
+mod python_venv;
 mod qemu;
 mod setup;
 mod steps;
@@ -76,6 +80,12 @@ commands:
           hash, example frame); names each difference
   protocol-client
           the Python client written from docs/protocol.md against host-sim serve
+  foxglove-file
+          host-sim's and the station's MCAP files read by PyPI's mcap: every channel,
+          the poses equal trace.csv, the 30 s run within 10 MB
+  foxglove-live
+          npm's Foxglove client subscribed to host-sim serve --foxglove during a run:
+          every channel, the rates and delays, the parameter set
   pil     the firmware on an emulated Cortex-M4F against host-sim's plant (processor in
           the loop): paper-circle vs host-sim, instructions, stack, a fault, a link loss
   size-of ELF
@@ -151,6 +161,8 @@ fn run() -> Result<bool> {
         )],
         ["protocol-page"] => vec![steps::protocol_page()],
         ["protocol-client"] => vec![steps::protocol_client()],
+        ["foxglove-file"] => vec![steps::foxglove_file()],
+        ["foxglove-live"] => vec![steps::foxglove_live()],
         ["figures", "--check"] => vec![Step::new(
             "figures: docs/figures.md and the README's headline rows up to date",
             |ctx| figures::run(ctx, true),

@@ -295,6 +295,8 @@ pub fn ci() -> Vec<Step> {
         docs(),
         protocol_page(),
         protocol_client(),
+        foxglove_file(),
+        foxglove_live(),
         Step::new(
             "figures: docs/figures.md and the README's headline rows up to date with the simulator",
             |ctx| crate::figures::run(ctx, true),
@@ -335,6 +337,23 @@ pub fn protocol_page() -> Step {
     Step::new(
         "protocol page: docs/protocol.md against the link crate (types, constants, schema hash, example frame)",
         crate::protocol_page::check,
+    )
+}
+
+/// A run's MCAP files, host-sim's and the station's, read by PyPI's `mcap` (see
+/// `crate::foxglove_check`).
+pub fn foxglove_file() -> Step {
+    Step::new(
+        "foxglove file: host-sim and station MCAP files read by PyPI mcap, poses equal trace.csv",
+        crate::foxglove_check::check_file,
+    )
+}
+
+/// The live stream read by npm's Foxglove client (see `crate::foxglove_check`).
+pub fn foxglove_live() -> Step {
+    Step::new(
+        "foxglove live: npm @foxglove/ws-protocol subscribed to host-sim serve --foxglove",
+        crate::foxglove_check::check_live,
     )
 }
 

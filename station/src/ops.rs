@@ -3,7 +3,6 @@
 
 use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::law::LawKind;
-use controller_core::params::Params;
 use controller_core::supervisor::{DisarmReason, Event};
 use std::time::Duration;
 
@@ -12,9 +11,7 @@ use link::{
     PathCommit, Reply, Request, RobotInfo, TuneReport, Uplink, PERSIST_REPLY_TIMEOUT_MS,
 };
 use robot_app::stm32f4::option_bytes::BorLevel;
-use robot_files::robot_file::{
-    tuned_wheel_sections, DivergenceSetting, Keyword, NumberOr, RobotFile, SectionError,
-};
+use robot_files::robot_file::{tuned_wheel_sections, RobotFile, SectionError};
 use robot_files::scenario::Scenario;
 
 use crate::client::{Client, StationError};
@@ -104,28 +101,10 @@ pub fn params_from_toml(
         error,
     };
     let parsed = RobotFile::from_toml(text).map_err(named)?;
-    let params: Params = parsed.robot.params(current.robot, "robot").map_err(named)?;
-    let mut supervisor = parsed
-        .supervisor
-        .config(&params, None, "supervisor")
+    let (robot, supervisor) = parsed
+        .over(&current.robot, &current.supervisor)
         .map_err(named)?;
-    supervisor.start_pose = current.supervisor.start_pose;
-    if matches!(
-        parsed.supervisor.divergence,
-        None | Some(DivergenceSetting::Keyword(Keyword::Auto))
-    ) {
-        supervisor.divergence = current.supervisor.divergence;
-    }
-    if matches!(
-        parsed.supervisor.geofence_radius_m,
-        None | Some(NumberOr::Keyword(Keyword::Auto))
-    ) {
-        supervisor.geofence_radius_m = current.supervisor.geofence_radius_m;
-    }
-    Ok(ParamSet {
-        robot: *params.config(),
-        supervisor,
-    })
+    Ok(ParamSet { robot, supervisor })
 }
 
 /// Sends `set`; returns the robot's hash of the configuration it now runs.

@@ -93,7 +93,7 @@ impl TuneConfig {
     /// of a motor with three times the reference's friction, 40 % less torque constant
     /// and 40 % more resistance is 2.5 V), breakaway ramp 0.5 V/s, holds and steps of
     /// at most 4 s (8 τ of that motor with 40 % more inertia), 75 % of the rated top
-    /// speed, 1.5 m, τ_c = 1.2 θ_e, on the ground.
+    /// speed, 1.5 m, τ_c = 2 θ_e, on the ground.
     pub fn for_robot(robot: &RobotConfig) -> Self {
         let rated = robot.motor.rated_voltage_v;
         let top = robot.left_wheel.speed_at_volts(rated);

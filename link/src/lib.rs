@@ -59,7 +59,7 @@
 //! |---|---|---|
 //! | `SetParams` (reference robot, 1 kHz supervisor) | 222 B | 233 B |
 //! | reply `Params` (the same configuration) | 224 B | 235 B |
-//! | `Telemetry` | 117 B | 128 B |
+//! | `Telemetry` | 135 B | 146 B |
 //! | `PathChunk`, 4 arcs ([`SEGMENTS_PER_CHUNK`]) | 93 B | 104 B |
 //! | `PathChunk`, 1 arc | 30 B | 41 B |
 //! | `PathBegin` | 30 B | 41 B |

@@ -40,12 +40,14 @@ fn dispatch(command: Command) -> Result<()> {
             out,
             trace_every,
             duration_s,
+            mcap,
         } => finish(&commands::run::run(&commands::run::Options {
             scenario,
             law: LawKind::from(law),
             out,
             trace_every,
             duration_s,
+            mcap,
         })?),
         Command::Paper { out } => finish(&commands::paper::run(out)?),
         Command::Compare { scenario, out } => finish(&commands::compare::run(&scenario, out)?),
@@ -55,6 +57,7 @@ fn dispatch(command: Command) -> Result<()> {
             law,
             seed,
             out,
+            mcap_dir,
             heading,
         } => finish(&commands::sweep::run(&commands::sweep::Options {
             scenario,
@@ -62,6 +65,7 @@ fn dispatch(command: Command) -> Result<()> {
             law: LawKind::from(law),
             seed,
             out,
+            mcap_dir,
             heading: heading.map(Into::into),
         })?),
         Command::StepResponse {
@@ -77,9 +81,17 @@ fn dispatch(command: Command) -> Result<()> {
                 out,
             },
         )?),
-        Command::Faults { scenario, law, out } => {
-            finish(&commands::faults::run(&scenario, LawKind::from(law), out)?)
-        }
+        Command::Faults {
+            scenario,
+            law,
+            out,
+            mcap_dir,
+        } => finish(&commands::faults::run(
+            &scenario,
+            LawKind::from(law),
+            out,
+            mcap_dir,
+        )?),
         Command::Pil {
             scenario,
             law,
@@ -125,7 +137,13 @@ fn dispatch(command: Command) -> Result<()> {
             scenario,
             listen,
             speed,
+            foxglove,
+            foxglove_hz,
         } => {
+            let foxglove = foxglove.map(|address| commands::serve::FoxgloveOptions {
+                address,
+                hz: foxglove_hz,
+            });
             // An event line that cannot be written is dropped: the robot keeps serving.
             let mut event = |line: &commands::serve::EventLine| {
                 let mut out = std::io::stdout().lock();
@@ -137,6 +155,7 @@ fn dispatch(command: Command) -> Result<()> {
                 &scenario,
                 &listen,
                 speed,
+                foxglove.as_ref(),
                 &mut listening,
                 &mut event,
             )?)
@@ -146,7 +165,7 @@ fn dispatch(command: Command) -> Result<()> {
             out,
             sweep,
             tau_c_per_dead_time,
-            hold_s,
+            max_hold_s,
             lifted,
         } => {
             let options = commands::tune::Options {
@@ -154,7 +173,7 @@ fn dispatch(command: Command) -> Result<()> {
                 out,
                 sweep,
                 tau_c_per_dead_time,
-                hold_s,
+                max_hold_s,
                 lifted,
             };
             finish(&commands::tune::run(&options, &mut say)?)

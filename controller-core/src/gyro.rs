@@ -485,10 +485,13 @@ mod tests {
         );
     }
 
+    /// The k-th reading of a test's gyro.
+    type Reading = fn(u32) -> Option<GyroSample>;
+
     #[test]
     fn a_failed_gyro_hands_the_heading_back_to_odometry() {
         let turn = AngleDelta::from_rad(1e-4);
-        let cases: [(GyroFailure, fn(u32) -> Option<GyroSample>); 4] = [
+        let cases: [(GyroFailure, Reading); 4] = [
             (GyroFailure::NonFinite, |_| sample(f32::NAN)),
             (GyroFailure::Saturated, |_| sample(40.0)),
             (GyroFailure::Stuck, |_| sample(0.3)),

@@ -59,7 +59,7 @@
 //! |---|---|---|
 //! | `SetParams` (reference robot, 1 kHz supervisor) | 222 B | 233 B |
 //! | reply `Params` (the same configuration) | 224 B | 235 B |
-//! | `Telemetry` | 117 B | 128 B |
+//! | `Telemetry` | 135 B | 146 B |
 //! | `PathChunk`, 4 arcs ([`SEGMENTS_PER_CHUNK`]) | 93 B | 104 B |
 //! | `PathChunk`, 1 arc | 30 B | 41 B |
 //! | `PathBegin` | 30 B | 41 B |
@@ -140,16 +140,16 @@
 //!
 //! A UART with 8N1 framing carries `baud / 10` bytes per second. Keeping 30 %
 //! ([`bandwidth::DEFAULT_RESERVED_PERCENT`]) free for replies, heartbeats and path chunks,
-//! the largest telemetry frame (128 bytes on the wire) allows ([`max_telemetry_rate_hz`];
+//! the largest telemetry frame (146 bytes on the wire) allows ([`max_telemetry_rate_hz`];
 //! printed by `cargo run -p link --example sizes`; the unit tests of [`bandwidth`] check
 //! the arithmetic):
 //!
 //! | baud | bytes/s | telemetry at most | rate accepted |
 //! |---|---|---|---|
-//! | 115 200 | 11 520 | 63 Hz | 63 Hz |
-//! | 230 400 | 23 040 | 126 Hz | 100 Hz |
-//! | 460 800 | 46 080 | 252 Hz | 100 Hz |
-//! | 921 600 | 92 160 | 504 Hz | 100 Hz |
+//! | 115 200 | 11 520 | 55 Hz | 55 Hz |
+//! | 230 400 | 23 040 | 110 Hz | 100 Hz |
+//! | 460 800 | 46 080 | 220 Hz | 100 Hz |
+//! | 921 600 | 92 160 | 441 Hz | 100 Hz |
 //!
 //! Rates are capped at 100 Hz ([`TELEMETRY_RATE_HZ`]). A `SetParams` frame (233 bytes)
 //! takes 20.2 ms at 115 200 baud.

@@ -121,11 +121,11 @@ fn the_longest_encoding_bound_is_reached() {
 }
 
 #[test]
-fn telemetry_stays_near_120_bytes() {
-    // 117 bytes measured; a change of more than a few fields shows here and in the
+fn telemetry_stays_near_135_bytes() {
+    // 135 bytes measured; a change of more than a few fields shows here and in the
     // bandwidth table of the crate doc.
     let body = postcard::to_allocvec(&largest_telemetry()).unwrap().len();
-    assert!((110..=125).contains(&body), "telemetry body {body} bytes");
+    assert!((128..=142).contains(&body), "telemetry body {body} bytes");
 }
 
 #[test]

@@ -521,6 +521,11 @@ fn telemetry_frame(
         pid_right: pid_parts(right),
         supply_v: t.supply_v,
         missed_ticks: out.missed_ticks_total,
+        gyro_yaw_rate_radps: t.gyro.yaw_rate_radps,
+        gyro_bias_radps: t.gyro.bias_radps,
+        fused_heading_rad: controller.fused_heading_rad(),
+        odometry_heading_rad: controller.odometry_heading_rad(),
+        gyro_health: t.gyro.health,
     }
 }
 

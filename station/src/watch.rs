@@ -137,6 +137,11 @@ mod tests {
             pid_right: Default::default(),
             supply_v: 6.0,
             missed_ticks: 0,
+            gyro_yaw_rate_radps: 0.0,
+            gyro_bias_radps: 0.0,
+            fused_heading_rad: 0.0,
+            odometry_heading_rad: 0.0,
+            gyro_health: Default::default(),
         };
         let text = screen(&frame, None, 1000);
         assert!(text.contains("t      2.50 s"), "{text}");
@@ -177,6 +182,11 @@ mod tests {
             },
             supply_v: 6.0,
             missed_ticks: 0,
+            gyro_yaw_rate_radps: 0.0,
+            gyro_bias_radps: 0.0,
+            fused_heading_rad: 0.0,
+            odometry_heading_rad: 0.0,
+            gyro_health: Default::default(),
         };
         let text = screen(&frame, None, 1000);
         assert!(text.contains("motors            off (Disarmed)"), "{text}");

@@ -518,6 +518,17 @@ impl<S: OuterLoopHolder> Controller<S> {
         self.reference_afresh = true;
     }
 
+    /// The fused heading, world frame, wrapped to (−π, π], rad (odometry's while no gyro
+    /// has read).
+    pub fn fused_heading_rad(&self) -> f32 {
+        self.fusion.fused_heading_rad()
+    }
+
+    /// The heading from the encoders alone, world frame, wrapped to (−π, π], rad.
+    pub fn odometry_heading_rad(&self) -> f32 {
+        self.fusion.odometry_heading_rad()
+    }
+
     /// The gyro's configuration in use.
     pub const fn gyro_config(&self) -> &GyroConfig {
         self.fusion.config()

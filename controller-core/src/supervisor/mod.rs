@@ -94,7 +94,9 @@
 //! start pose, or a wheel whose motor and encoder are *both* inverted leave odometry
 //! self-consistent, and the controller converges in its own frame while the robot is
 //! elsewhere. Only an independent sensor (a gyro's yaw rate against odometry's, an
-//! absolute position fix) would see them.
+//! absolute position fix) would see them: a robot with a gyro reports the running
+//! disagreement of the two yaw rates in its telemetry ([`crate::gyro::GyroReport`]); it
+//! does not latch a fault.
 //!
 //! ## The watchdog-feeding rule
 //!

@@ -1,6 +1,7 @@
 //! What the robot streams: telemetry samples, the simulator's ground truth, statistics.
 
 use controller_core::controller::MotorCommand;
+use controller_core::gyro::GyroHealth;
 use controller_core::kinematics::{BodyVelocity, Pose, TrackingError, WheelSpeeds};
 use controller_core::supervisor::{Faults, RunMode, State};
 use postcard_schema::Schema;
@@ -8,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::decoder::RxCounters;
 
-/// One telemetry sample, taken at the end of control step `step`. About 110 bytes of
+/// One telemetry sample, taken at the end of control step `step`. About 130 bytes of
 /// postcard (see the crate doc for the measured size).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
 pub struct TelemetryFrame {
@@ -42,6 +43,18 @@ pub struct TelemetryFrame {
     pub supply_v: f32,
     /// Control ticks missed since boot (the loop was late).
     pub missed_ticks: u32,
+    /// The gyro's yaw rate, robot frame, counter-clockwise positive, bias removed, rad/s
+    /// (0 without a gyro).
+    pub gyro_yaw_rate_radps: f32,
+    /// The gyro's bias estimate, robot frame, rad/s.
+    pub gyro_bias_radps: f32,
+    /// The fused heading, world frame, wrapped to (−π, π], rad (odometry's without a
+    /// gyro).
+    pub fused_heading_rad: f32,
+    /// The heading from the encoders alone, world frame, wrapped to (−π, π], rad.
+    pub odometry_heading_rad: f32,
+    /// The gyro's state (none, reading, failed and why).
+    pub gyro_health: GyroHealth,
 }
 
 /// One wheel PID's output split into its parts, V. Their sum is the voltage asked of the

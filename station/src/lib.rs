@@ -42,6 +42,7 @@ pub mod calibrate;
 pub mod client;
 pub mod ops;
 pub mod record;
+pub mod ros2;
 pub mod transport;
 pub mod watch;
 

@@ -1,0 +1,3 @@
+//! `station ros2`: the robot as a ROS 2 node, on RustDDS (no ROS installation).
+
+pub mod messages;

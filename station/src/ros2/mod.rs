@@ -1,4 +1,34 @@
 //! `station ros2`: the robot as a ROS 2 node, on RustDDS (no ROS installation).
 
+pub mod diagnostics;
 pub mod messages;
+pub mod odometry;
 pub mod path_simplify;
+
+#[cfg(test)]
+pub(crate) mod test_frames {
+    use controller_core::kinematics::Pose;
+    use controller_core::supervisor::{RunMode, State};
+    use link::TelemetryFrame;
+
+    /// A disarmed robot at rest at the origin, at control step `step`.
+    pub fn still(step: u32) -> TelemetryFrame {
+        TelemetryFrame {
+            step,
+            state: State::Disarmed,
+            run_mode: RunMode::FollowPath,
+            faults: Default::default(),
+            pose: Pose::new(0.0, 0.0, 0.0),
+            tracking_error: Default::default(),
+            lyapunov: 0.0,
+            lyapunov_rate: 0.0,
+            wheel_setpoint: Default::default(),
+            wheel_speed: Default::default(),
+            duty: controller_core::controller::MotorCommand::STOP,
+            pid_left: Default::default(),
+            pid_right: Default::default(),
+            supply_v: 6.0,
+            missed_ticks: 0,
+        }
+    }
+}

@@ -13,6 +13,7 @@
 //! | `figures` | regenerates `docs/figures.md` and the README's headline rows from what the simulator writes (`ci` fails when either is stale) |
 //! | `protocol-page` | checks `docs/protocol.md` against the `link` crate: every type, field and variant of the messages in wire order, the constants (the schema hash among them) and the example frame; names each difference with the row or section to write |
 //! | `protocol-client` | runs the Python client written from `docs/protocol.md` (`tools/protocol-client/`) against `host-sim serve` on an ephemeral port: handshake, `Info`, the configuration and telemetry decoded and checked; needs `python3` (installed with apt-get as root, otherwise named) |
+//! | `ros2` | `station ros2 --arm` against a Cyclone DDS peer from Python (`tools/ros2-peer/`, in a virtual environment under `target/` made on first use with PyPI's `cyclonedds`) and the virtual robot: `cmd_vel` at 20 Hz drives it, it stops after the last command within its timeout, an L-shaped `nav_msgs/Path` is followed and settles like the same path uploaded by `station run` |
 //! | `pil` | processor in the loop: the firmware (emulated `qemu` board) under QEMU against host-sim's plant, driven over its link: `paper-circle` and `longest-path` identical to `host-sim run`, the control interrupt's instructions and the stack, an encoder disconnect and a link loss stopping the motors in time |
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
 //! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt, the steering task and the link USART's interrupt reach no panic and no indirect call; then bounds the firmware's worst-case stack from the same call graph |
@@ -39,6 +40,7 @@ mod pil;
 mod protocol_client;
 mod protocol_page;
 mod qemu;
+mod ros2_peer;
 mod setup;
 mod steps;
 mod task_priorities;
@@ -71,6 +73,8 @@ commands:
           hash, example frame); names each difference
   protocol-client
           the Python client written from docs/protocol.md against host-sim serve
+  ros2    station ros2 against a Cyclone DDS peer (Python, venv under target/) and
+          host-sim serve: cmd_vel drives, the stop after the last command, a path followed
   pil     the firmware on an emulated Cortex-M4F against host-sim's plant (processor in
           the loop): paper-circle vs host-sim, instructions, stack, a fault, a link loss
   size-of ELF
@@ -144,6 +148,7 @@ fn run() -> Result<bool> {
         )],
         ["protocol-page"] => vec![steps::protocol_page()],
         ["protocol-client"] => vec![steps::protocol_client()],
+        ["ros2"] => vec![steps::ros2_peer()],
         ["figures", "--check"] => vec![Step::new(
             "figures: docs/figures.md and the README's headline rows up to date",
             |ctx| figures::run(ctx, true),

@@ -25,7 +25,7 @@ pub const CLIENT: &str = "tools/protocol-client/protocol_client.py";
 const LISTEN_TIMEOUT: Duration = Duration::from_secs(30);
 
 /// The server, killed and reaped when dropped.
-struct Server(Child);
+pub(crate) struct Server(Child);
 
 impl Drop for Server {
     fn drop(&mut self) {
@@ -66,7 +66,7 @@ pub fn check(ctx: &Context) -> Result<()> {
 }
 
 /// Starts `host-sim serve` on an ephemeral port of 127.0.0.1; the server and its address.
-fn start_server(host_sim: &Path) -> Result<(Server, String)> {
+pub(crate) fn start_server(host_sim: &Path) -> Result<(Server, String)> {
     let mut cmd = Command::new(host_sim);
     cmd.args(["serve", "--listen", "127.0.0.1:0"])
         .stdin(Stdio::null())

@@ -272,6 +272,7 @@ pub fn ci() -> Vec<Step> {
         docs(),
         protocol_page(),
         protocol_client(),
+        ros2_peer(),
         Step::new(
             "figures: docs/figures.md and the README's headline rows up to date with the simulator",
             |ctx| crate::figures::run(ctx, true),
@@ -322,6 +323,15 @@ pub fn protocol_client() -> Step {
     Step::new(
         "protocol client: tools/protocol-client (Python, from docs/protocol.md) against host-sim serve",
         crate::protocol_client::check,
+    )
+}
+
+/// `station ros2` against a Cyclone DDS peer from Python and the virtual robot (see
+/// `crate::ros2_peer`).
+pub fn ros2_peer() -> Step {
+    Step::new(
+        "ros2: station ros2 against a Cyclone DDS peer (Python) and host-sim serve",
+        crate::ros2_peer::check,
     )
 }
 

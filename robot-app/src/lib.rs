@@ -154,6 +154,6 @@ pub use crate::start::{start, AppConfig, StartError};
 /// below the host's, whose pointers are 8 bytes).
 const _: () = {
     assert!(core::mem::size_of::<ControlSide<'static>>() <= 2_880);
-    assert!(core::mem::size_of::<LinkService<'static>>() <= 1_664);
+    assert!(core::mem::size_of::<LinkService<'static>>() <= 1_728);
     assert!(core::mem::size_of::<Channels>() <= 2_880);
 };

@@ -23,7 +23,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use controller_core::kinematics::Pose;
-use controller_core::supervisor::{Event, State};
+use controller_core::supervisor::{DisarmReason, Event, State};
 use link::RunReport;
 use ros2_client::builtin_interfaces::Time;
 use ros2_client::ParameterValue;
@@ -144,6 +144,7 @@ pub fn run(options: BridgeOptions) -> Result<BridgeCounts, BridgeError> {
         }
     }
     let link_up = Arc::new(AtomicBool::new(false));
+    let checking = Arc::new(AtomicBool::new(false));
     let mut declared: Vec<(String, ParameterValue)> = settings
         .values()
         .into_iter()
@@ -159,9 +160,10 @@ pub fn run(options: BridgeOptions) -> Result<BridgeCounts, BridgeError> {
         options.domain_id,
         &options.node_name,
         &declared,
-        validator(settings.clone(), link_up.clone()),
+        validator(settings.clone(), link_up.clone(), checking.clone()),
         settings.use_stamped_vel,
     )?;
+    checking.store(true, Ordering::Relaxed);
     let status = BridgeStatus {
         link: options.robot.describe(),
         link_down: Some("not connected yet".into()),
@@ -199,14 +201,19 @@ pub fn run(options: BridgeOptions) -> Result<BridgeCounts, BridgeError> {
     Ok(bridge.counts)
 }
 
-/// The check every parameter change passes before it is accepted: the value's type and
-/// range, the robot's parameters only while the link is up.
+/// The check every parameter change passes before it is accepted, once `checking` is set
+/// (the declarations of the node's creation pass unchecked): the value's type and range,
+/// the robot's parameters only while the link is up.
 fn validator(
     settings: BridgeParameters,
     link_up: Arc<AtomicBool>,
+    checking: Arc<AtomicBool>,
 ) -> Box<dyn Fn(&str, &ParameterValue) -> Result<(), String> + Send + Sync> {
     let settings = Mutex::new(settings);
     Box::new(move |name, value| {
+        if !checking.load(Ordering::Relaxed) {
+            return Ok(());
+        }
         if ROBOT_PARAMETERS.contains(&name) {
             if !link_up.load(Ordering::Relaxed) {
                 return Err(format!("{name} is the robot's, and the link to it is down"));
@@ -409,6 +416,9 @@ impl Bridge {
                 self.set_activity(Activity::Idle);
                 self.publish_diagnostics();
             }
+            // A disarm a host asked for (the bridge itself, around a path, a pose or a
+            // parameter write) is already accounted for.
+            FromRobot::Event(_, Event::Disarmed(DisarmReason::Link)) => {}
             FromRobot::Event(_, Event::Disarmed(reason)) => {
                 if self.activity == Activity::Velocity {
                     eprintln!("ros2 bridge: the robot disarmed ({reason:?})");

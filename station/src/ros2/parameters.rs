@@ -182,7 +182,7 @@ pub fn with_robot_parameter(
     let robot = &mut set.robot;
     let separation = f64::from(robot.track_width_m) / m.wheel_separation;
     let radius = f64::from(robot.wheel_radius_left_m) / m.left_wheel_radius;
-    let mut geometry = |separation: f64, radius: f64, m: &Multipliers, robot: &mut RobotConfig| {
+    let geometry = |separation: f64, radius: f64, m: &Multipliers, robot: &mut RobotConfig| {
         robot.track_width_m = (separation * m.wheel_separation) as f32;
         robot.wheel_radius_left_m = (radius * m.left_wheel_radius) as f32;
         robot.wheel_radius_right_m = (radius * m.right_wheel_radius) as f32;

@@ -37,7 +37,7 @@ use super::parameters::{
     ROBOT_PARAMETERS,
 };
 use super::path_simplify::simplify;
-use super::topics::{create_node, BridgeNode, NodeError};
+use super::topics::{create_node, BridgeNode, NodeError, ParameterCheck};
 
 /// A path run lasts its length at `path_speed`, plus this long to settle, s.
 pub const PATH_SETTLE_S: f64 = 5.0;
@@ -208,7 +208,7 @@ fn validator(
     settings: BridgeParameters,
     link_up: Arc<AtomicBool>,
     checking: Arc<AtomicBool>,
-) -> Box<dyn Fn(&str, &ParameterValue) -> Result<(), String> + Send + Sync> {
+) -> Box<ParameterCheck> {
     let settings = Mutex::new(settings);
     Box::new(move |name, value| {
         if !checking.load(Ordering::Relaxed) {

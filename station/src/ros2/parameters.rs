@@ -458,7 +458,11 @@ mod tests {
         robot.wheel_radius_right_m = 0.0340;
         ParamSet {
             robot,
-            supervisor: SupervisorConfig::default(),
+            supervisor: SupervisorConfig::at_rate(
+                robot.control_rate_hz,
+                Default::default(),
+                Default::default(),
+            ),
         }
     }
 

@@ -98,6 +98,10 @@ fn default_qos() -> QosProfile {
         .history(History::KeepLast { depth: 10 })
 }
 
+/// The check a parameter change passes before it is accepted: `Err` is the answer to
+/// whoever set it.
+pub type ParameterCheck = dyn Fn(&str, &ParameterValue) -> Result<(), String> + Send + Sync;
+
 /// A parameter set through the node (its services, or the bridge itself).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ParameterChange {
@@ -124,7 +128,7 @@ pub fn create_node(
     domain_id: u16,
     name: &str,
     parameters: &[(String, ParameterValue)],
-    validate: Box<dyn Fn(&str, &ParameterValue) -> Result<(), String> + Send + Sync>,
+    validate: Box<ParameterCheck>,
     stamped_cmd_vel: bool,
 ) -> Result<BridgeNode, NodeError> {
     let participant = DomainParticipantBuilder::new(domain_id)

@@ -77,11 +77,14 @@ class Peer:
         self.statuses = []
 
     def pump(self):
+        # A writer that goes away leaves samples that carry no data: skipped.
         now = time.monotonic()
         for sample in self.odom_reader.take(N=1000):
-            self.odom.append((now, sample))
+            if isinstance(sample, Odometry):
+                self.odom.append((now, sample))
         for sample in self.diagnostics_reader.take(N=100):
-            self.statuses.append((now, sample))
+            if isinstance(sample, DiagnosticArray):
+                self.statuses.append((now, sample))
 
     def wait(self, seconds):
         end = time.monotonic() + seconds

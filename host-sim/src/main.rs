@@ -62,6 +62,7 @@ fn dispatch(command: Command) -> Result<()> {
             seed,
             out,
         })?),
+        Command::VelocityCheck { scenario } => finish(&commands::velocity_check::run(&scenario)?),
         Command::StepResponse {
             scenario,
             setpoint_rad_s,

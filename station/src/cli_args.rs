@@ -58,6 +58,11 @@ pub(crate) enum Command {
         #[arg(long, default_value_t = 10)]
         hz: u8,
     },
+    /// Drive the robot from the keyboard in its velocity mode: ↑↓ or w/s change the speed,
+    /// ←→ or a/d the turn, space stops, q (or Esc, Ctrl-C) stops, disarms and quits. The
+    /// command is sent every 50 ms; the robot stops by its own timeout 0.5 s after the
+    /// last. Needs a terminal on stdin.
+    Drive,
     /// Tune the wheel loops: the robot, on the floor with about a metre free ahead and
     /// behind, drives its wheels open loop forward and back, identifies them and computes
     /// their PI; prints the model and the gains as robot-file sections (for `params set`).

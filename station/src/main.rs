@@ -24,6 +24,7 @@ macro_rules! say {
 }
 
 mod cli_args;
+mod drive;
 mod live;
 mod recording;
 
@@ -241,6 +242,7 @@ fn main() -> ExitCode {
         Command::Params(c) => cmd_params(link, c),
         Command::Path(PathCommand::Upload { scenario, law }) => cmd_upload(link, &scenario, law),
         Command::Arm { hz } => live::cmd_arm(link, hz),
+        Command::Drive => drive::cmd_drive(link),
         Command::Tune { timeout_s } => cmd_tune(link, timeout_s),
         Command::Pose {
             x_m,

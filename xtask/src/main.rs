@@ -2,7 +2,7 @@
 //!
 //! | command | what it does |
 //! |---|---|
-//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, Miri on the lock-free channels, the station end to end, firmware build and size budget, the panic check, the core and the link on an emulated Cortex-M4F, the firmware in the loop (`pil`), the docs, the protocol page and its client, the figures. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
+//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, Miri on the lock-free channels, the station end to end, firmware build and size budget, the panic check, the core and the link on an emulated Cortex-M4F, the firmware in the loop (`pil`), the docs, the protocol page and its client, the velocity mode's figures, the figures. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
 //! | `e2e` | the station against the virtual robot: in process, and the binary over TCP (same result as `host-sim run`, link loss, corruption, refusals) |
 //! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` (the `miri` step sets up its own toolchain) |
 //! | `miri` | `robot-app`'s lock-free channels (`robot_app::channel`, its only `unsafe` code) under Miri: the channel modules' unit tests (including every interleaving of the mailbox's handshake and of the ring) and the integration tests that take the channels through the robot cheaply; each must run and pass. Sets itself up: installs the nightly toolchain with its `miri` and `rust-src` components when missing (rustup), then `cargo +nightly miri setup`; without a network, fails naming what is missing. Prints its times; under two minutes from a fresh clone on 2 cores |
@@ -13,6 +13,7 @@
 //! | `figures` | regenerates `docs/figures.md` and the README's headline rows from what the simulator writes (`ci` fails when either is stale) |
 //! | `protocol-page` | checks `docs/protocol.md` against the `link` crate: every type, field and variant of the messages in wire order, the constants (the schema hash among them) and the example frame; names each difference with the row or section to write |
 //! | `protocol-client` | runs the Python client written from `docs/protocol.md` (`tools/protocol-client/`) against `host-sim serve` on an ephemeral port: handshake, `Info`, the configuration and telemetry decoded and checked; needs `python3` (installed with apt-get as root, otherwise named) |
+//! | `velocity-check` | `host-sim velocity-check` on `velocity-steps`: how soon a step in the command moves the limited command, when the ramp to zero starts after the last command, the largest velocity, acceleration and jerk against the limits; one line, fails when the mode's contract is broken |
 //! | `ros2` | `station ros2 --arm` against a Cyclone DDS peer from Python (`tools/ros2-peer/`, in a virtual environment under `target/` made on first use with PyPI's `cyclonedds`) and the virtual robot: `cmd_vel` at 20 Hz drives it, it stops after the last command within its timeout, an L-shaped `nav_msgs/Path` is followed and settles like the same path uploaded by `station run` |
 //! | `pil` | processor in the loop: the firmware (emulated `qemu` board) under QEMU against host-sim's plant, driven over its link: `paper-circle` and `longest-path` identical to `host-sim run`, the control interrupt's instructions and the stack, an encoder disconnect and a link loss stopping the motors in time |
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
@@ -73,6 +74,9 @@ commands:
           hash, example frame); names each difference
   protocol-client
           the Python client written from docs/protocol.md against host-sim serve
+  velocity-check
+          the velocity mode's figures on host-sim's velocity-steps: latency of a step,
+          the ramp after the command timeout, the limits held (one line)
   ros2    station ros2 against a Cyclone DDS peer (Python, venv under target/) and
           host-sim serve: cmd_vel drives, the stop after the last command, a path followed
   pil     the firmware on an emulated Cortex-M4F against host-sim's plant (processor in
@@ -148,6 +152,7 @@ fn run() -> Result<bool> {
         )],
         ["protocol-page"] => vec![steps::protocol_page()],
         ["protocol-client"] => vec![steps::protocol_client()],
+        ["velocity-check"] => vec![steps::velocity_check()],
         ["ros2"] => vec![steps::ros2_peer()],
         ["figures", "--check"] => vec![Step::new(
             "figures: docs/figures.md and the README's headline rows up to date",

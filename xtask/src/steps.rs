@@ -272,6 +272,7 @@ pub fn ci() -> Vec<Step> {
         docs(),
         protocol_page(),
         protocol_client(),
+        velocity_check(),
         ros2_peer(),
         Step::new(
             "figures: docs/figures.md and the README's headline rows up to date with the simulator",
@@ -313,6 +314,26 @@ pub fn protocol_page() -> Step {
     Step::new(
         "protocol page: docs/protocol.md against the link crate (types, constants, schema hash, example frame)",
         crate::protocol_page::check,
+    )
+}
+
+/// The velocity mode's figures: `host-sim velocity-check` on the built-in `velocity-steps`
+/// (a step in the command reaching the limited command, the ramp to zero 0.5 s after the
+/// last command, the limits held), printed as one line; fails when they break the mode's
+/// contract.
+pub fn velocity_check() -> Step {
+    Step::new(
+        "velocity check: host-sim velocity-check (latency, timeout, limits of the velocity mode)",
+        |ctx| {
+            run_command(&mut ctx.cargo(&[
+                "run",
+                "--quiet",
+                "--package",
+                "host-sim",
+                "--",
+                "velocity-check",
+            ]))
+        },
     )
 }
 

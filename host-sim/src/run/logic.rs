@@ -9,7 +9,9 @@
 
 use controller_core::controller::Telemetry;
 use controller_core::prelude::*;
-use controller_core::supervisor::{ArmRequest, Bridge, Inputs, Supervisor, SupervisorOutput};
+use controller_core::supervisor::{
+    ArmRequest, Bridge, Command, Inputs, Supervisor, SupervisorOutput,
+};
 use robot_files::faults::Fault;
 use robot_files::scenario::Scenario;
 
@@ -49,6 +51,10 @@ pub trait RobotLogic {
     /// the operator at the robot would (the pose command; `false` if this logic takes it
     /// over the link instead, or refused).
     fn set_pose_locally(&mut self, pose: Pose) -> bool;
+    /// A velocity command (v m/s, ω rad/s, robot frame) arrives for the next step, as a
+    /// host's `Velocity` request would (the scenario's `[velocity]` timeline); `false` if
+    /// this logic cannot take one.
+    fn command_velocity(&mut self, command: BodyVelocity) -> bool;
     /// One control step on what the firmware reads, `sensors`.
     fn step(&mut self, sensors: &Sensors) -> Result<Decision<'_>, RunError>;
 }
@@ -58,6 +64,8 @@ pub struct LocalRobot {
     controller: Controller,
     supervisor: Supervisor,
     heartbeat: u32,
+    /// The command the next step takes (a velocity command of the timeline).
+    command: Option<Command>,
 }
 
 impl LocalRobot {
@@ -82,6 +90,7 @@ impl LocalRobot {
             )
             .map_err(RunError::Supervisor)?,
             heartbeat: 0,
+            command: None,
         })
     }
 }
@@ -97,12 +106,18 @@ impl RobotLogic for LocalRobot {
         self.supervisor.set_pose(&mut self.controller, pose).is_ok()
     }
 
+    fn command_velocity(&mut self, command: BodyVelocity) -> bool {
+        self.command = Some(Command::Velocity(command));
+        true
+    }
+
     fn step(&mut self, sensors: &Sensors) -> Result<Decision<'_>, RunError> {
         let out = supervise(
             &mut self.supervisor,
             &mut self.controller,
             &mut self.heartbeat,
             sensors,
+            self.command.take(),
         );
         let t = self.controller.telemetry();
         Ok(Decision {
@@ -118,12 +133,14 @@ impl RobotLogic for LocalRobot {
 }
 
 /// One step of `supervisor` around `controller` on what the firmware reads, `sensors`,
-/// with the background heartbeat advanced as the firmware's idle loop would.
+/// and the operator's `command`, with the background heartbeat advanced as the
+/// firmware's idle loop would.
 fn supervise(
     supervisor: &mut Supervisor,
     controller: &mut Controller,
     heartbeat: &mut u32,
     sensors: &Sensors,
+    command: Option<Command>,
 ) -> SupervisorOutput {
     *heartbeat = heartbeat.wrapping_add(1);
     supervisor.step(
@@ -136,7 +153,7 @@ fn supervise(
             button_pressed: sensors.button_pressed,
             overrun: false,
             background_heartbeat: *heartbeat,
-            command: None,
+            command,
         },
     )
 }
@@ -161,6 +178,7 @@ impl Robot {
             controller,
             supervisor,
             heartbeat,
+            command: _,
         } = LocalRobot::new(scenario, law)?;
         Ok(Self {
             controller,
@@ -186,6 +204,7 @@ impl Robot {
             &mut self.controller,
             &mut self.heartbeat,
             &sensors,
+            None,
         );
         let mut duty = out.duty;
         if added_v != [0.0; 2] && out.bridge == Bridge::Drive {

@@ -483,5 +483,9 @@ pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, 
             .collect::<Result<_, _>>()
             .map_err(|e| ScenarioError::invalid(e.key, e.problem))?,
         sweep: build_sweep(&file.sweep)?,
+        velocity: match &file.velocity {
+            Some(v) => Some(super::velocity::build(v, control)?),
+            None => None,
+        },
     })
 }

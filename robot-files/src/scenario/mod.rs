@@ -57,6 +57,11 @@
 //! [plant.slip]               # left, right (slip ratios in [0, 1))
 //!
 //! [sweep]                    # Monte-Carlo spreads for `host-sim sweep` (see SweepSpec)
+//!
+//! [velocity]                 # a run in the velocity mode instead of path following
+//! commands = [[0.5, 0.3, 0.0], [2.5, 0.3, 1.5]]   # [t_s, v_m_s, omega_rad_s], streamed
+//! command_period_s = 0.05    # every this long from each entry on
+//! stop_sending_s = 6.5       # then silence: the robot's timeout stops it
 //! ```
 //!
 //! The plant's bridge runs in slow decay like the firmware's (duty 0 = short brake; coasting
@@ -85,6 +90,7 @@ mod build;
 mod checks;
 mod raw_value;
 mod schema;
+mod velocity;
 
 use std::fmt;
 use std::path::Path as FsPath;
@@ -99,8 +105,10 @@ use crate::plant::{BodyParams, DriverParams, Load, MotorParams};
 use crate::robot_file::{param_error, SectionError};
 use schema::ScenarioFile;
 
+pub use velocity::{VelocityEntry, VelocityTimeline};
+
 /// The built-in scenarios: (name, TOML text).
-pub const BUILTIN: [(&str, &str); 5] = [
+pub const BUILTIN: [(&str, &str); 6] = [
     (
         "paper-circle",
         include_str!("../../scenarios/paper-circle.toml"),
@@ -120,6 +128,10 @@ pub const BUILTIN: [(&str, &str); 5] = [
     (
         "longest-path",
         include_str!("../../scenarios/longest-path.toml"),
+    ),
+    (
+        "velocity-steps",
+        include_str!("../../scenarios/velocity-steps.toml"),
     ),
 ];
 
@@ -157,7 +169,7 @@ pub enum ScenarioError {
     #[error(transparent)]
     Section(#[from] SectionError),
     /// Neither a file nor a built-in scenario.
-    #[error("no scenario file or built-in scenario named `{0}` (built in: paper-circle, paper-line, square-waypoints, figure-eight, longest-path)")]
+    #[error("no scenario file or built-in scenario named `{0}` (built in: paper-circle, paper-line, square-waypoints, figure-eight, longest-path, velocity-steps)")]
     Unknown(String),
 }
 
@@ -310,6 +322,8 @@ pub struct Scenario {
     pub arm_at_start: bool,
     /// Faults injected on the run's timeline (`[[faults]]`).
     pub faults: Vec<Fault>,
+    /// A run in the velocity mode: its commands (`[velocity]`; `None`: path following).
+    pub velocity: Option<VelocityTimeline>,
 }
 
 impl Scenario {

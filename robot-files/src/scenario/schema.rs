@@ -189,4 +189,14 @@ pub(super) struct ScenarioFile {
     pub(super) sweep: FileSweep,
     #[serde(default)]
     pub(super) faults: Vec<FaultEntry>,
+    pub(super) velocity: Option<FileVelocity>,
+}
+
+/// `[velocity]` (see the `velocity` module).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct FileVelocity {
+    pub(super) commands: RawValue,
+    pub(super) command_period_s: Option<f64>,
+    pub(super) stop_sending_s: Option<f64>,
 }

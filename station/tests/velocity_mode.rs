@@ -66,7 +66,7 @@ fn last_with_truth(
     samples
         .iter()
         .rev()
-        .find_map(|(f, t)| t.map(|t| (f.clone(), t)))
+        .find_map(|(f, t)| t.map(|t| (*f, t)))
         .expect("the virtual robot sends its ground truth")
 }
 

@@ -11,8 +11,9 @@
 //! `ros2 (Cyclone DDS peer): cmd_vel N, odom M at F Hz, stopped S s after the last
 //! command, path followed`. The step then runs the same path (its three waypoints, the
 //! same fillet, speed and run length) with `station run` on a fresh virtual robot and
-//! requires both runs to settle within [`SETTLE_MATCH_S`] of each other. Every process
-//! it started is stopped whatever happened.
+//! requires both runs to settle within [`SETTLE_MATCH_S`] of each other (that reference
+//! run is tried twice: at real time, a loaded machine can starve its heartbeats). Every
+//! process it started is stopped whatever happened.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -109,7 +110,16 @@ pub fn check(ctx: &Context) -> Result<()> {
     let ros2_settle = number_after(&stdout, "path: settle_s=")
         .context("the peer printed no settle time of the path")?;
 
-    let station_settle = station_run(ctx, &host_sim, &station)?;
+    // The reference run is `station run` at real time: on a machine loaded enough to
+    // starve its heartbeats it ends early, which says nothing of the bridge; it is run
+    // once more then.
+    let station_settle = match station_run(ctx, &host_sim, &station) {
+        Ok(settle) => settle,
+        Err(e) => {
+            println!("the station's run failed ({e:#}); once more");
+            station_run(ctx, &host_sim, &station)?
+        }
+    };
     println!(
         "the same path uploaded by the station: settled at {station_settle:.2} s; through \
          ROS 2: {ros2_settle:.2} s"

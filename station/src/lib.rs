@@ -12,6 +12,7 @@
 //! | [`record`] | a scenario run: heartbeats paced by the robot's step counter, trace rows, the robot's run report as the simulator's summary |
 //! | [`watch`] | the live terminal view of the telemetry |
 //! | [`teleop`] | `station drive`'s keys and the velocity command they set |
+//! | [`foxglove`] | the live telemetry streamed to Foxglove, the parameters as its parameter set |
 //! | [`calibrate`] | UMBmark odometry calibration: the squares, the fit for filleted corners, the corrected geometry |
 //! | [`ros2`] | `station ros2`: the robot as a ROS 2 node on RustDDS (topics, parameters, paths, diagnostics) |
 //!
@@ -42,6 +43,7 @@
 
 pub mod calibrate;
 pub mod client;
+pub mod foxglove;
 pub mod ops;
 pub mod record;
 pub mod ros2;

@@ -40,7 +40,7 @@ fn virtual_robot(scenario: &str, max_s: f64) -> (String, Receiver<StepReport>) {
         let mut log = |r: &StepReport| {
             let _ = events.send(*r);
         };
-        let _ = serve(&mut robot, &listener, options, &mut log);
+        let _ = serve(&mut robot, &listener, options, &mut log, None);
     });
     (address, received)
 }

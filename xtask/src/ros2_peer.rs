@@ -1,7 +1,7 @@
 //! `station ros2` against a DDS peer this project does not write: Cyclone DDS from Python
 //! (`tools/ros2-peer/peer.py`), and the virtual robot.
 //!
-//! The step makes a virtual environment in `target/ros2-venv` with PyPI's `cyclonedds`
+//! The step makes a virtual environment in `target/venvs/ros2` with PyPI's `cyclonedds`
 //! (once; it bundles its C library), builds `host-sim` and `station`, starts `host-sim
 //! serve` on an ephemeral port of 127.0.0.1, then `station ros2 --arm` against it on a
 //! DDS domain of its own, then the peer, with Cyclone on the loopback interface with a
@@ -57,10 +57,10 @@ impl Drop for Running {
 
 /// Runs the peer against the bridge and the virtual robot.
 pub fn check(ctx: &Context) -> Result<()> {
-    let python = venv(ctx)?;
+    let python = crate::python_venv::venv_python(ctx, "ros2", &[CYCLONEDDS])?;
     let host_sim = crate::pil::build_host_sim(ctx)?;
     let station = build_station(ctx)?;
-    let (server, address) = crate::protocol_client::start_server(&host_sim)?;
+    let (server, address, _) = crate::protocol_client::start_server(&host_sim, &[])?;
 
     let mut bridge_cmd = Command::new(&station);
     bridge_cmd
@@ -133,32 +133,6 @@ pub fn check(ctx: &Context) -> Result<()> {
     Ok(())
 }
 
-/// `target/ros2-venv`'s Python, with `cyclonedds` installed (made on first use).
-fn venv(ctx: &Context) -> Result<PathBuf> {
-    let dir = crate::pil::target_dir(ctx).join("ros2-venv");
-    let python = dir.join("bin").join("python");
-    let has_cyclone = python.is_file()
-        && Command::new(&python)
-            .args(["-c", "import cyclonedds.domain"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .status()
-            .is_ok_and(|s| s.success());
-    if has_cyclone {
-        println!("{CYCLONEDDS}: in {}", dir.display());
-        return Ok(python);
-    }
-    let system = crate::setup::ensure_python3()?;
-    run_command(Command::new(system).args(["-m", "venv"]).arg(&dir))
-        .context("making the virtual environment (Debian: apt-get install python3-venv)")?;
-    run_command(
-        Command::new(&python)
-            .args(["-m", "pip", "install", "--quiet", CYCLONEDDS])
-            .stdin(Stdio::null()),
-    )?;
-    Ok(python)
-}
-
 fn build_station(ctx: &Context) -> Result<PathBuf> {
     run_command(&mut ctx.cargo(&["build", "--package", "station", "--bin", "station"]))?;
     let exe = crate::pil::target_dir(ctx).join("debug").join("station");
@@ -173,7 +147,7 @@ fn station_run(ctx: &Context, host_sim: &Path, station: &Path) -> Result<f64> {
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let scenario = out.join("ros2-path.toml");
     std::fs::write(&scenario, scenario_text()).context("writing the scenario")?;
-    let (server, address) = crate::protocol_client::start_server(host_sim)?;
+    let (server, address, _) = crate::protocol_client::start_server(host_sim, &[])?;
     let mut cmd = Command::new(station);
     cmd.args(["--connect", &address, "run"])
         .arg(&scenario)

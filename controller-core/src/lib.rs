@@ -97,6 +97,7 @@ pub mod reference;
 pub mod supervisor;
 pub mod time;
 pub mod tune;
+pub mod velocity;
 
 /// The types needed to build and run a controller.
 pub mod prelude {

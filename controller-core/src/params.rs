@@ -13,6 +13,7 @@ use crate::kinematics::DiffDrive;
 use crate::law::{KanayamaGains, LawGains, PaperGains, TrackingGains};
 use crate::limits::Limits;
 use crate::pid::PidGains;
+use crate::velocity::VelocityModeConfig;
 
 /// Upper bound of [`Params::max_ticks_per_step`]: 2²⁴, exact in `f32`, and 64 of them fit
 /// an `i32` sum.
@@ -120,6 +121,9 @@ pub struct RobotConfig {
     pub right_wheel: WheelLoopConfig,
     /// Steering-law gains.
     pub law: LawGains,
+    /// The velocity mode's limits and command timeout (`diff_drive_controller`'s
+    /// `linear.x.*`, `angular.z.*` and `cmd_vel_timeout`).
+    pub velocity: VelocityModeConfig,
 }
 
 /// The wheel loop of the reference robot's motors (see [`RobotConfig::REFERENCE_ROBOT`]).
@@ -192,6 +196,7 @@ impl RobotConfig {
                 k_theta: 16.0,
             },
         },
+        velocity: VelocityModeConfig::at_rate(1000),
     };
 }
 
@@ -486,6 +491,7 @@ impl Params {
         config.left_wheel.validate(&LEFT_WHEEL_FIELDS)?;
         config.right_wheel.validate(&RIGHT_WHEEL_FIELDS)?;
         config.law.validate()?;
+        config.velocity.validate()?;
 
         let ticks_per_rev = config.encoder_lines_per_motor_rev as f32 * 4.0 * config.gear_ratio;
         let rad_per_tick = TAU / ticks_per_rev;

@@ -147,6 +147,15 @@ fn downlinks() -> Vec<Downlink> {
         Request::Heartbeat,
         Request::SetTelemetryRate { hz: 50 },
         Request::GetTuneReport,
+        Request::Arm {
+            mode: ArmMode::FollowVelocity,
+            initial_motion: None,
+            run_time_limit_steps: None,
+        },
+        Request::Velocity {
+            v_m_s: 0.3,
+            omega_rad_s: -0.5,
+        },
     ];
     requests.extend(upload::chunks(7, segments).map(Request::PathChunk));
     requests

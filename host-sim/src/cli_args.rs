@@ -99,6 +99,14 @@ pub enum Command {
         #[arg(long)]
         mcap_dir: Option<PathBuf>,
     },
+    /// The velocity mode's figures: a step in the command reaching the limited command,
+    /// the ramp to zero after the last command, and the limits held; one line, and a
+    /// failure when they break the mode's contract.
+    VelocityCheck {
+        /// Built-in scenario name or a path to a .toml file with a [velocity] timeline.
+        #[arg(default_value = "velocity-steps")]
+        scenario: String,
+    },
     /// Wheel-speed loop alone: a set-point step from rest, to tune the wheel PID.
     StepResponse {
         /// Built-in scenario name or a path to a .toml file (its robot and plant are used).

@@ -71,5 +71,6 @@ pub mod run;
 pub mod serve;
 pub mod sweep;
 pub mod tune;
+pub mod velocity_check;
 
 pub use run::{run_scenario, run_scenario_with, RunError, RunOptions, RunResult};

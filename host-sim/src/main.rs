@@ -68,6 +68,7 @@ fn dispatch(command: Command) -> Result<()> {
             heading: heading.map(Into::into),
             mcap_dir,
         })?),
+        Command::VelocityCheck { scenario } => finish(&commands::velocity_check::run(&scenario)?),
         Command::StepResponse {
             scenario,
             setpoint_rad_s,

@@ -25,11 +25,11 @@ use crate::protocol::{ProtocolId, HEADER_LEN};
 
 /// Largest postcard body a frame may carry, bytes. The largest messages,
 /// [`Request::SetParams`](crate::Request) and its twin [`Reply::Params`](crate::Reply),
-/// take at most 305 and 307 bytes with *any* configuration (every varint at its longest,
-/// every option present; a test derives these bounds from the message schema), 222 and
-/// 224 with the core's defaults. 320 leaves room for three more `f32` fields; each byte
+/// take at most 334 and 336 bytes with *any* configuration (every varint at its longest,
+/// every option present; a test derives these bounds from the message schema), 248 and
+/// 250 with the core's defaults. 352 leaves room for four more `f32` fields; each byte
 /// here costs two of RAM on the robot (the receive and the transmit buffer).
-pub const MAX_BODY_LEN: usize = 320;
+pub const MAX_BODY_LEN: usize = 352;
 
 /// Bytes of CRC after the payload.
 pub const CRC_LEN: usize = 4;

@@ -336,6 +336,7 @@ const fn run_mode_code(mode: RunMode) -> u8 {
         RunMode::FollowPath => 0,
         RunMode::HoldWheelSpeeds => 1,
         RunMode::Tune => 2,
+        RunMode::FollowVelocity => 3,
     }
 }
 
@@ -344,6 +345,7 @@ const fn run_mode_from(code: u8) -> Option<RunMode> {
         0 => Some(RunMode::FollowPath),
         1 => Some(RunMode::HoldWheelSpeeds),
         2 => Some(RunMode::Tune),
+        3 => Some(RunMode::FollowVelocity),
         _ => None,
     }
 }
@@ -369,13 +371,16 @@ const fn disarm_from(code: u8) -> Option<DisarmReason> {
     }
 }
 
-/// A refusal as one byte: 0–3 wrong state (its state's code), then the others.
+/// A refusal as one byte: 0–3 wrong state (its state's code), then the others; 8 on a
+/// wrong mode (plus the mode's code).
 const fn refusal_code(refusal: CommandRefusal) -> u8 {
     match refusal {
         CommandRefusal::WrongState(state) => state_code(state),
         CommandRefusal::ButtonHeld => 4,
         CommandRefusal::WheelsTurning => 5,
         CommandRefusal::NonFinitePose => 6,
+        CommandRefusal::NonFiniteVelocity => 7,
+        CommandRefusal::WrongMode(mode) => 8 + run_mode_code(mode),
     }
 }
 
@@ -384,6 +389,11 @@ const fn refusal_from(code: u8) -> Option<CommandRefusal> {
         4 => Some(CommandRefusal::ButtonHeld),
         5 => Some(CommandRefusal::WheelsTurning),
         6 => Some(CommandRefusal::NonFinitePose),
+        7 => Some(CommandRefusal::NonFiniteVelocity),
+        8.. => match run_mode_from(code - 8) {
+            Some(mode) => Some(CommandRefusal::WrongMode(mode)),
+            None => None,
+        },
         _ => match state_from(code) {
             Some(state) => Some(CommandRefusal::WrongState(state)),
             None => None,

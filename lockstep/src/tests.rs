@@ -199,6 +199,9 @@ fn every_event_and_fault_crosses() {
         Some(Event::ArmRefused(CommandRefusal::WrongState(
             State::Faulted,
         ))),
+        Some(Event::Armed(RunMode::FollowVelocity)),
+        Some(Event::ArmRefused(CommandRefusal::NonFiniteVelocity)),
+        Some(Event::ArmRefused(CommandRefusal::WrongMode(RunMode::Tune))),
     ];
     let mut encoder = BoardEncoder::new();
     let mut out = [0u8; BOARD_STEP_MAX_LEN];

@@ -624,8 +624,18 @@ fn command_outcome(
         None | Some(Ok(())) => Ok(()),
         Some(Err(CommandRefusal::ButtonHeld)) => Err(ControlRefusal::ButtonHeld),
         Some(Err(CommandRefusal::WheelsTurning)) => Err(ControlRefusal::WheelsTurning),
-        // The link side refuses a non-finite pose by its field before forwarding it.
-        Some(Err(CommandRefusal::NonFinitePose)) => Err(ControlRefusal::Invalid),
+        // The link side refuses a non-finite pose or velocity by its field before
+        // forwarding it.
+        Some(Err(CommandRefusal::NonFinitePose | CommandRefusal::NonFiniteVelocity)) => {
+            Err(ControlRefusal::Invalid)
+        }
+        Some(Err(CommandRefusal::WrongMode(_))) => Err(ControlRefusal::NotInVelocityMode),
+        Some(Err(CommandRefusal::WrongState(State::Faulted))) => Err(ControlRefusal::Faulted),
+        Some(Err(CommandRefusal::WrongState(_)))
+            if matches!(command, Some(Command::Velocity(_))) =>
+        {
+            Err(ControlRefusal::NotInVelocityMode)
+        }
         Some(Err(CommandRefusal::WrongState(State::Disarmed))) => match command {
             Some(Command::ClearFaults | Command::EndPersist) => Ok(()),
             _ => Err(ControlRefusal::Busy),

@@ -58,6 +58,11 @@ pub(crate) enum Command {
         #[arg(long, default_value_t = 10)]
         hz: u8,
     },
+    /// Drive the robot from the keyboard in its velocity mode: ↑↓ or w/s change the speed,
+    /// ←→ or a/d the turn, space stops, q (or Esc, Ctrl-C) stops, disarms and quits. The
+    /// command is sent every 50 ms; the robot stops by its own timeout 0.5 s after the
+    /// last. Needs a terminal on stdin.
+    Drive,
     /// Tune the wheel loops: the robot, on the floor with 1.5 m free ahead and
     /// behind, drives its wheels open loop forward and back, identifies them and computes
     /// their PI; prints the model and the gains as robot-file sections (for `params set`).
@@ -140,6 +145,35 @@ pub(crate) enum Command {
     /// end points, the corrected wheel radii and track width; then a straight run against
     /// a tape for the common scale.
     Calibrate(calibrate::CalibrateArgs),
+    /// Bridge the robot to ROS 2 (no ROS installation needed): subscribes cmd_vel, path and
+    /// set_pose, publishes odom, tf, joint_states and diagnostics, serves the parameters
+    /// (named as diff_drive_controller's). Until Ctrl-C, which disarms first.
+    Ros2(Ros2Args),
+}
+
+#[derive(Args)]
+pub(crate) struct Ros2Args {
+    /// The robot: a serial port (/dev/ttyACM0, at --baud) or the TCP address of a virtual
+    /// robot (127.0.0.1:5760). Without it, --port or --connect.
+    #[arg(long)]
+    pub(crate) robot: Option<String>,
+    /// Arm the velocity mode at start, keep it armed (heartbeats), disarm on exit: what
+    /// cmd_vel needs.
+    #[arg(long)]
+    pub(crate) arm: bool,
+    /// DDS domain (ROS_DOMAIN_ID); the environment's ROS_DOMAIN_ID, else 0.
+    #[arg(long, env = "ROS_DOMAIN_ID", default_value_t = 0)]
+    pub(crate) domain: u16,
+    /// The node's name.
+    #[arg(long, default_value = "station")]
+    pub(crate) node_name: String,
+    /// A bridge parameter at start, NAME=VALUE (repeatable): publish_rate=20,
+    /// use_stamped_vel=true, pose_covariance_diagonal=[…], path_tolerance=0.05, …
+    #[arg(long = "param", short = 'p', value_name = "NAME=VALUE")]
+    pub(crate) params: Vec<String>,
+    /// Stop after this many seconds (default: until Ctrl-C).
+    #[arg(long)]
+    pub(crate) duration_s: Option<f64>,
 }
 
 #[derive(Subcommand)]

@@ -11,8 +11,10 @@
 //! | [`ops`] | one function per request: info, parameters (the robot-file code of `robot_files`), path upload, arming |
 //! | [`record`] | a scenario run: heartbeats paced by the robot's step counter, trace rows, the robot's run report as the simulator's summary |
 //! | [`watch`] | the live terminal view of the telemetry |
+//! | [`teleop`] | `station drive`'s keys and the velocity command they set |
 //! | [`foxglove`] | the live telemetry streamed to Foxglove, the parameters as its parameter set |
 //! | [`calibrate`] | UMBmark odometry calibration: the squares, the fit for filleted corners, the corrected geometry |
+//! | [`ros2`] | `station ros2`: the robot as a ROS 2 node on RustDDS (topics, parameters, paths, diagnostics) |
 //!
 //! A run recorded through the station is written with the simulator's own output code,
 //! `robot_files` (`trace.csv`, `summary.json`, and Figs. 5–7 with the `figures` feature,
@@ -44,6 +46,8 @@ pub mod client;
 pub mod foxglove;
 pub mod ops;
 pub mod record;
+pub mod ros2;
+pub mod teleop;
 pub mod transport;
 pub mod watch;
 

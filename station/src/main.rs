@@ -24,10 +24,11 @@ macro_rules! say {
 }
 
 mod cli_args;
+mod drive;
 mod live;
 mod recording;
 
-use crate::cli_args::{Cli, Command, LinkArgs, ParamsCommand, PathCommand};
+use crate::cli_args::{Cli, Command, LinkArgs, ParamsCommand, PathCommand, Ros2Args};
 
 fn open(link: &LinkArgs) -> Result<Client<Box<dyn Transport>>> {
     let transport: Box<dyn Transport> = match (&link.port, &link.connect) {
@@ -70,6 +71,44 @@ fn cmd_info(link: &LinkArgs) -> Result<()> {
     if failure.is_some() {
         ops::clear_panic_record(&mut client)?;
     }
+    Ok(())
+}
+
+fn cmd_ros2(link: &LinkArgs, args: &Ros2Args) -> Result<()> {
+    use station::ros2::bridge::{run, BridgeOptions};
+    use station::ros2::connection::RobotAddress;
+    let robot = match (&args.robot, &link.port, &link.connect) {
+        (Some(text), _, _) => RobotAddress::parse(text, link.baud),
+        (None, Some(port), _) => RobotAddress::Serial {
+            port: port.clone(),
+            baud: link.baud,
+        },
+        (None, None, Some(address)) => RobotAddress::Tcp(address.clone()),
+        (None, None, None) => bail!(
+            "no robot given: --robot /dev/ttyACM0 (serial) or --robot 127.0.0.1:5760 (the \
+virtual robot of `host-sim serve`)"
+        ),
+    };
+    let parameters = args
+        .params
+        .iter()
+        .map(|text| station::ros2::parameters::parse_assignment(text))
+        .collect::<Result<Vec<_>, String>>()
+        .map_err(|e| anyhow::anyhow!("--param: {e}"))?;
+    let duration = match args.duration_s {
+        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
+        Some(s) => bail!("--duration-s {s}: must be > 0"),
+        None => None,
+    };
+    run(BridgeOptions {
+        robot,
+        arm: args.arm,
+        domain_id: args.domain,
+        node_name: args.node_name.clone(),
+        parameters,
+        interrupt: interrupt_flag(),
+        duration,
+    })?;
     Ok(())
 }
 
@@ -203,6 +242,7 @@ fn main() -> ExitCode {
         Command::Params(c) => cmd_params(link, c),
         Command::Path(PathCommand::Upload { scenario, law }) => cmd_upload(link, &scenario, law),
         Command::Arm { hz } => live::cmd_arm(link, hz),
+        Command::Drive => drive::cmd_drive(link),
         Command::Tune { timeout_s } => cmd_tune(link, timeout_s),
         Command::Pose {
             x_m,
@@ -236,6 +276,7 @@ fn main() -> ExitCode {
             mcap,
         } => recording::cmd_run(link, &scenario, law, &out, hz, mcap.as_deref()),
         Command::Calibrate(args) => calibrate::command(link_open(link), &args),
+        Command::Ros2(args) => cmd_ros2(link, &args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

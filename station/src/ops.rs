@@ -3,6 +3,8 @@
 
 use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::law::LawKind;
+use controller_core::path::Path;
+use controller_core::reference::ReferenceMode;
 use controller_core::supervisor::{DisarmReason, Event};
 use std::time::Duration;
 
@@ -216,15 +218,48 @@ pub fn upload_path<T: Transport>(
     upload_id: u16,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<CommitSummary, StationError> {
-    let segments = scenario.path.segments();
-    let count = u8::try_from(segments.len()).unwrap_or(u8::MAX);
-    let begin = PathBegin {
-        upload_id,
-        segment_count: count,
+    let plan = PathPlan {
+        path: &scenario.path,
         speed_m_s: scenario.reference_speed_m_s,
         mode: scenario.reference_mode,
         law,
         start_pose: start_pose(scenario),
+    };
+    upload(client, &plan, upload_id, progress)
+}
+
+/// A path and how it is to be followed: what a path upload carries.
+#[derive(Clone, Copy, Debug)]
+pub struct PathPlan<'a> {
+    /// The path, world frame.
+    pub path: &'a Path,
+    /// Reference speed along it, m/s.
+    pub speed_m_s: f32,
+    /// How the reference moves.
+    pub mode: ReferenceMode,
+    /// The steering law.
+    pub law: LawKind,
+    /// The path's start pose (world frame; m, m, rad): what the button's long press sets.
+    pub start_pose: Pose,
+}
+
+/// Uploads `plan` under `upload_id` and commits it. `progress(sent, total)` after each
+/// chunk.
+pub fn upload<T: Transport>(
+    client: &mut Client<T>,
+    plan: &PathPlan<'_>,
+    upload_id: u16,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<CommitSummary, StationError> {
+    let segments = plan.path.segments();
+    let count = u8::try_from(segments.len()).unwrap_or(u8::MAX);
+    let begin = PathBegin {
+        upload_id,
+        segment_count: count,
+        speed_m_s: plan.speed_m_s,
+        mode: plan.mode,
+        law: plan.law,
+        start_pose: plan.start_pose,
     };
     client.request(Request::PathBegin(begin))?;
     let chunks: Vec<_> = upload::chunks(upload_id, segments).collect();

@@ -2,7 +2,7 @@
 //!
 //! | command | what it does |
 //! |---|---|
-//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, Miri on the lock-free channels, the station end to end, firmware build and size budget, the first-flash programs (hello under QEMU), the panic check, the core and the link on an emulated Cortex-M4F, the firmware in the loop (`pil`), the docs, the protocol page and its client, the figures. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
+//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, Miri on the lock-free channels, the station end to end, firmware build and size budget, the first-flash programs (hello under QEMU), the panic check, the core and the link on an emulated Cortex-M4F, the firmware in the loop (`pil`), the docs, the protocol page and its client, the velocity mode's figures, the Foxglove file and live stream, the ROS 2 bridge against a Cyclone DDS peer, the figures. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
 //! | `e2e` | the station against the virtual robot: in process, and the binary over TCP (same result as `host-sim run`, link loss, corruption, refusals) |
 //! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` (the `miri` step sets up its own toolchain) |
 //! | `miri` | `robot-app`'s lock-free channels (`robot_app::channel`, its only `unsafe` code) under Miri: the channel modules' unit tests (including every interleaving of the mailbox's handshake and of the ring) and the integration tests that take the channels through the robot cheaply; each must run and pass. Sets itself up: installs the nightly toolchain with its `miri` and `rust-src` components when missing (rustup), then `cargo +nightly miri setup`; without a network, fails naming what is missing. Prints its times; under two minutes from a fresh clone on 2 cores |
@@ -14,8 +14,10 @@
 //! | `figures` | regenerates `docs/figures.md` and the README's headline rows from what the simulator writes (`ci` fails when either is stale) |
 //! | `protocol-page` | checks `docs/protocol.md` against the `link` crate: every type, field and variant of the messages in wire order, the constants (the schema hash among them) and the example frame; names each difference with the row or section to write |
 //! | `protocol-client` | runs the Python client written from `docs/protocol.md` (`tools/protocol-client/`) against `host-sim serve` on an ephemeral port: handshake, `Info`, the configuration and telemetry decoded and checked; needs `python3` (installed with apt-get as root, otherwise named) |
+//! | `velocity-check` | `host-sim velocity-check` on `velocity-steps`: how soon a step in the command moves the limited command, when the ramp to zero starts after the last command, the largest velocity, acceleration and jerk against the limits; one line, fails when the mode's contract is broken |
 //! | `foxglove-file` | `host-sim run --mcap` and `station run --mcap` (against the virtual robot) read by PyPI's `mcap` and `mcap-protobuf-support` in a venv: every channel and schema, the poses equal to `trace.csv` within 1e-6 m and rad, the 30 s run at 100 Hz at most 10 MB; prints `mcap: N channels, M messages, poses equal trace.csv` |
 //! | `foxglove-live` | npm's `@foxglove/ws-protocol` 0.8 on a `ws` socket (subprotocol `foxglove.sdk.v1`) subscribed to `host-sim serve --foxglove` while a station runs paper-circle: every channel, the rates, the arrival delays, the parameter set (changed while disarmed, read-only while armed); prints `foxglove live: N channels, M messages in S s` |
+//! | `ros2` | `station ros2 --arm` against a Cyclone DDS peer from Python (`tools/ros2-peer/`, in a virtual environment under `target/venvs/` made on first use with PyPI's `cyclonedds`) and the virtual robot: `cmd_vel` at 20 Hz drives it, it stops after the last command within its timeout, an L-shaped `nav_msgs/Path` is followed and settles like the same path uploaded by `station run` |
 //! | `pil` | processor in the loop: the firmware (emulated `qemu` board) under QEMU against host-sim's plant, driven over its link: `paper-circle` and `longest-path` identical to `host-sim run`, the control interrupt's instructions and the stack, an encoder disconnect and a link loss stopping the motors in time |
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
 //! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt, the steering task and the link USART's interrupt reach no panic and no indirect call; then bounds the firmware's worst-case stack from the same call graph |
@@ -45,6 +47,7 @@ mod protocol_client;
 mod protocol_page;
 mod python_venv;
 mod qemu;
+mod ros2_peer;
 mod setup;
 mod steps;
 mod task_priorities;
@@ -80,12 +83,17 @@ commands:
           hash, example frame); names each difference
   protocol-client
           the Python client written from docs/protocol.md against host-sim serve
+  velocity-check
+          the velocity mode's figures on host-sim's velocity-steps: latency of a step,
+          the ramp after the command timeout, the limits held (one line)
   foxglove-file
           host-sim's and the station's MCAP files read by PyPI's mcap: every channel,
           the poses equal trace.csv, the 30 s run within 10 MB
   foxglove-live
           npm's Foxglove client subscribed to host-sim serve --foxglove during a run:
           every channel, the rates and delays, the parameter set
+  ros2    station ros2 against a Cyclone DDS peer (Python, venv under target/) and
+          host-sim serve: cmd_vel drives, the stop after the last command, a path followed
   pil     the firmware on an emulated Cortex-M4F against host-sim's plant (processor in
           the loop): paper-circle vs host-sim, instructions, stack, a fault, a link loss
   size-of ELF
@@ -161,8 +169,10 @@ fn run() -> Result<bool> {
         )],
         ["protocol-page"] => vec![steps::protocol_page()],
         ["protocol-client"] => vec![steps::protocol_client()],
+        ["velocity-check"] => vec![steps::velocity_check()],
         ["foxglove-file"] => vec![steps::foxglove_file()],
         ["foxglove-live"] => vec![steps::foxglove_live()],
+        ["ros2"] => vec![steps::ros2_peer()],
         ["figures", "--check"] => vec![Step::new(
             "figures: docs/figures.md and the README's headline rows up to date",
             |ctx| figures::run(ctx, true),

@@ -295,8 +295,10 @@ pub fn ci() -> Vec<Step> {
         docs(),
         protocol_page(),
         protocol_client(),
+        velocity_check(),
         foxglove_file(),
         foxglove_live(),
+        ros2_peer(),
         Step::new(
             "figures: docs/figures.md and the README's headline rows up to date with the simulator",
             |ctx| crate::figures::run(ctx, true),
@@ -340,6 +342,26 @@ pub fn protocol_page() -> Step {
     )
 }
 
+/// The velocity mode's figures: `host-sim velocity-check` on the built-in `velocity-steps`
+/// (a step in the command reaching the limited command, the ramp to zero 0.5 s after the
+/// last command, the limits held), printed as one line; fails when they break the mode's
+/// contract.
+pub fn velocity_check() -> Step {
+    Step::new(
+        "velocity check: host-sim velocity-check (latency, timeout, limits of the velocity mode)",
+        |ctx| {
+            run_command(&mut ctx.cargo(&[
+                "run",
+                "--quiet",
+                "--package",
+                "host-sim",
+                "--",
+                "velocity-check",
+            ]))
+        },
+    )
+}
+
 /// A run's MCAP files, host-sim's and the station's, read by PyPI's `mcap` (see
 /// `crate::foxglove_check`).
 pub fn foxglove_file() -> Step {
@@ -364,6 +386,15 @@ pub fn protocol_client() -> Step {
     Step::new(
         "protocol client: tools/protocol-client (Python, from docs/protocol.md) against host-sim serve",
         crate::protocol_client::check,
+    )
+}
+
+/// `station ros2` against a Cyclone DDS peer from Python and the virtual robot (see
+/// `crate::ros2_peer`).
+pub fn ros2_peer() -> Step {
+    Step::new(
+        "ros2: station ros2 against a Cyclone DDS peer (Python) and host-sim serve",
+        crate::ros2_peer::check,
     )
 }
 

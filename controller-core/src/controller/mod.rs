@@ -43,6 +43,7 @@ use crate::outer_loop::{
 use crate::params::Params;
 use crate::pid::PidParts;
 use crate::reference::{Reference, ReferenceState};
+use crate::velocity::VelocitySource;
 
 /// Signed encoder ticks counted during one step, forward positive.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -130,6 +131,11 @@ pub enum Mode {
     /// Apply these voltages open loop (V, within the voltage cap and the current limit,
     /// no slew limit): identification of the motor constants.
     ApplyVolts(WheelVolts),
+    /// Follow the body-velocity commands of [`Controller::command_velocity`] through the
+    /// velocity mode's limits and timeout ([`crate::velocity`]) instead of the reference
+    /// and the steering law; the rim-speed cap, the wheel loops and their limits as in
+    /// path following.
+    FollowVelocity,
 }
 
 /// Latched fault flags. Any flag set means both motors are commanded to 0.
@@ -249,6 +255,8 @@ pub struct Controller<S = OuterLoop> {
     /// The wheel loops restarted at this body velocity: the next job restarts the
     /// command limiter from it.
     restart_limiter_from: Option<BodyVelocity>,
+    /// The velocity mode's command source (the body command in [`Mode::FollowVelocity`]).
+    velocity: VelocitySource,
     speed: [SpeedEstimator; 2],
     /// The heading fusion: the gyro's bias, the fused heading, the gyro's health.
     fusion: HeadingFusion,
@@ -305,6 +313,7 @@ impl<S: OuterLoopHolder> Controller<S> {
             reference_restart: ReferenceRestart::None,
             reference_afresh: true,
             restart_limiter_from: None,
+            velocity: VelocitySource::new(params.config().velocity),
             telemetry: Telemetry {
                 pose: odometry.pose(),
                 rim_speed_cap_m_s: params.config().limits.max_rim_speed_m_s,
@@ -370,6 +379,7 @@ impl<S: OuterLoopHolder> Controller<S> {
             ..Telemetry::default()
         };
         self.ramp = SetpointRamp::default();
+        self.velocity = VelocitySource::new(params.config().velocity);
         self.mode = Mode::Idle;
         self.steps = 0;
         self.schedule = Schedule {
@@ -585,11 +595,15 @@ impl<S: OuterLoopHolder> Controller<S> {
         self.outcome_ready = false;
         self.epoch = self.epoch.wrapping_add(1);
         let measured = self.telemetry.wheel_speed;
-        self.restart_limiter_from = Some(self.params.geometry().forward(measured));
+        let measured_body = self.params.geometry().forward(measured);
+        self.restart_limiter_from = Some(measured_body);
+        // The velocity mode starts from the measured motion with no command in force.
+        self.velocity.restart(measured_body);
         self.telemetry.wheel_setpoint = match self.mode {
             Mode::HoldWheelSpeeds(speeds) => self.capped_wheel_speeds(speeds),
-            // Until the first steering step, hold the wheels where they are.
-            Mode::FollowPath => measured,
+            // Until the first steering step, hold the wheels where they are; the velocity
+            // source's first step moves on from there.
+            Mode::FollowPath | Mode::FollowVelocity => measured,
             Mode::Idle | Mode::ApplyVolts(_) => WheelSpeeds::default(),
         };
         // The ramp holds the set-points at its target until the first steering outcome
@@ -671,6 +685,7 @@ impl<S: OuterLoopHolder> Controller<S> {
             );
             match self.mode {
                 Mode::FollowPath => self.follow_path(periods),
+                Mode::FollowVelocity => self.follow_velocity(periods),
                 Mode::HoldWheelSpeeds(speeds) => {
                     self.telemetry.wheel_setpoint = self.capped_wheel_speeds(speeds);
                 }
@@ -690,7 +705,7 @@ impl<S: OuterLoopHolder> Controller<S> {
                         self.drive
                             .apply_volts(volts, t.wheel_speed, t.supply_v, &mut t.wheel_loop);
                 }
-                Mode::FollowPath | Mode::HoldWheelSpeeds(_) => {
+                Mode::FollowPath | Mode::FollowVelocity | Mode::HoldWheelSpeeds(_) => {
                     t.duty = self.drive.step(
                         t.wheel_setpoint,
                         t.wheel_speed,
@@ -745,6 +760,37 @@ impl<S: OuterLoopHolder> Controller<S> {
         }
         self.ramp
             .advance(periods.get(), &mut self.telemetry.wheel_setpoint);
+    }
+
+    /// The inner loop's part of one velocity-mode step: the velocity source's limited
+    /// command (after the rim-speed cap) as this step's body command and wheel
+    /// set-points. In telemetry, `law.command` is the command in force (before the
+    /// limits) and `command` the limited one.
+    fn follow_velocity(&mut self, periods: NonZeroU32) {
+        let cap = self.rim_speed_cap_m_s();
+        let t = &mut self.telemetry;
+        t.law.command = self.velocity.in_force();
+        (t.command, t.limit_flags) = self.velocity.step(
+            periods.get(),
+            self.params.period_s(),
+            self.params.geometry().track_width_m(),
+            cap,
+        );
+        t.rim_speed_cap_m_s = cap;
+        t.wheel_setpoint = self.params.geometry().inverse(t.command);
+    }
+
+    /// A body-velocity command (v m/s, ω rad/s, robot frame) for [`Mode::FollowVelocity`]:
+    /// in force from this step on, for the velocity mode's timeout (see
+    /// [`crate::velocity`]). In other modes it is kept but unused: entering the velocity
+    /// mode starts with no command in force.
+    pub fn command_velocity(&mut self, command: BodyVelocity) {
+        self.velocity.command(command);
+    }
+
+    /// The velocity mode's command source: the command in force and the limited command.
+    pub const fn velocity_source(&self) -> &VelocitySource {
+        &self.velocity
     }
 
     /// The steering law's job, from the state of the step where it was due (still in

@@ -170,7 +170,7 @@ use core::num::NonZeroU32;
 
 use crate::controller::{Controller, Mode, MotorCommand, StepInput};
 use crate::drive::WheelVolts;
-use crate::kinematics::Pose;
+use crate::kinematics::{BodyVelocity, Pose};
 use crate::math;
 use crate::outer_loop::OuterLoopHolder;
 use crate::params::Params;
@@ -550,6 +550,9 @@ impl Supervisor {
                         self.faults.set(Fault::Divergence);
                     }
                 }
+            }
+            // The geofence is the operator's, whoever gives the body command.
+            if matches!(self.run_mode, RunMode::FollowPath | RunMode::FollowVelocity) {
                 if let Some(radius) = self.config.geofence_radius_m {
                     if outside_geofence(&t.pose, &self.config.start_pose, radius) {
                         self.faults.set(Fault::Geofence);
@@ -616,7 +619,7 @@ impl Supervisor {
                 None
             }
             (Press::Up(Length::Short), State::Disarmed) => {
-                let request = self.arm_request_for(self.run_mode);
+                let request = self.arm_request_for(self.run_mode.in_button_cycle());
                 Some(
                     self.arm_if_at_rest(controller, request, false)
                         .unwrap_or_else(Event::ArmRefused),
@@ -659,6 +662,9 @@ impl Supervisor {
                 Ok(event) => (Ok(()), Some(event)),
                 Err(refusal) => (Err(refusal), None),
             },
+            (Command::Velocity(command), State::Armed) => {
+                (self.command_velocity(controller, command), None)
+            }
             (Command::Disarm, State::Armed) => {
                 self.disarm(controller);
                 (Ok(()), Some(Event::Disarmed(DisarmReason::Link)))
@@ -677,8 +683,25 @@ impl Supervisor {
                 (Ok(()), Some(Event::PersistEnded))
             }
             (Command::Arm(_) | Command::ClearFaults | Command::BeginPersist, _)
-            | (Command::EndPersist, _) => (wrong_state, None),
+            | (Command::EndPersist | Command::Velocity(_), _) => (wrong_state, None),
         }
+    }
+
+    /// A velocity command while Armed: taken in [`RunMode::FollowVelocity`] only, and only
+    /// finite.
+    fn command_velocity<S: OuterLoopHolder>(
+        &self,
+        controller: &mut Controller<S>,
+        command: BodyVelocity,
+    ) -> Result<(), CommandRefusal> {
+        if self.run_mode != RunMode::FollowVelocity {
+            return Err(CommandRefusal::WrongMode(self.run_mode));
+        }
+        if !(command.v_m_s.is_finite() && command.omega_rad_s.is_finite()) {
+            return Err(CommandRefusal::NonFiniteVelocity);
+        }
+        controller.command_velocity(command);
+        Ok(())
     }
 
     fn handle_timers<S: OuterLoopHolder>(
@@ -690,7 +713,7 @@ impl Supervisor {
                 let due = self.config.auto_arm_after_steps.unwrap_or(u32::MAX);
                 // Tried again at every step until it arms (the wheels may still turn).
                 if self.steps_since_boot >= due && !self.button.pressed() {
-                    let request = self.arm_request_for(self.run_mode);
+                    let request = self.arm_request_for(self.run_mode.in_button_cycle());
                     self.arm_if_at_rest(controller, request, false).ok()
                 } else {
                     None
@@ -789,6 +812,7 @@ impl Supervisor {
                 Mode::HoldWheelSpeeds(self.config.hold_speeds)
             }
             (State::Armed, RunMode::Tune) => Mode::ApplyVolts(self.tune_volts),
+            (State::Armed, RunMode::FollowVelocity) => Mode::FollowVelocity,
             (State::Disarmed | State::Faulted | State::Persisting, _) => Mode::Idle,
         }
     }

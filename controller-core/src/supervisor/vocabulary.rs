@@ -33,6 +33,12 @@ pub enum RunMode {
     /// when done ([`DisarmReason::TuneFinished`]), the outcome in
     /// [`Supervisor::tune_outcome`].
     Tune,
+    /// Follow body-velocity commands ([`Command::Velocity`]) through the velocity mode's
+    /// limits and timeout ([`crate::velocity`]): after the timeout the robot ramps to a
+    /// stop and stays armed. Armed by a request ([`Command::Arm`], [`Supervisor::arm_locally`])
+    /// only: not in the button's mode-select cycle, and the button and auto-arm arm
+    /// [`RunMode::FollowPath`] when this mode was the last one.
+    FollowVelocity,
 }
 
 impl RunMode {
@@ -40,10 +46,20 @@ impl RunMode {
     /// [`SupervisorConfig::long_press_steps`]): follow the path, hold wheel speeds, tune,
     /// and round again.
     pub const fn next(self) -> RunMode {
-        match self {
-            RunMode::FollowPath => RunMode::HoldWheelSpeeds,
+        match self.in_button_cycle() {
             RunMode::HoldWheelSpeeds => RunMode::Tune,
             RunMode::Tune => RunMode::FollowPath,
+            RunMode::FollowPath | RunMode::FollowVelocity => RunMode::HoldWheelSpeeds,
+        }
+    }
+
+    /// The mode the button and auto-arm arm when this one was the last: itself, except
+    /// [`RunMode::FollowVelocity`] (armed by request only), which gives
+    /// [`RunMode::FollowPath`].
+    pub const fn in_button_cycle(self) -> RunMode {
+        match self {
+            RunMode::FollowVelocity => RunMode::FollowPath,
+            mode => mode,
         }
     }
 }
@@ -237,6 +253,12 @@ pub enum Command {
     /// The robot is at this pose (world frame, the path's; from Disarmed only): see
     /// [`Supervisor::set_pose`].
     SetPose(Pose),
+    /// A body-velocity command (v m/s, ω rad/s, robot frame), only while Armed in
+    /// [`RunMode::FollowVelocity`] ([`CommandRefusal::WrongState`],
+    /// [`CommandRefusal::WrongMode`] otherwise) and only finite
+    /// ([`CommandRefusal::NonFiniteVelocity`]): in force from this step for the velocity
+    /// mode's timeout ([`Controller::command_velocity`]). Not a heartbeat.
+    Velocity(BodyVelocity),
 }
 
 /// Why a [`Command`] was refused.
@@ -257,6 +279,10 @@ pub enum CommandRefusal {
     WheelsTurning,
     /// A pose with a NaN or infinite field.
     NonFinitePose,
+    /// Armed, but in this mode: a velocity command needs [`RunMode::FollowVelocity`].
+    WrongMode(RunMode),
+    /// A velocity command with a NaN or infinite field.
+    NonFiniteVelocity,
 }
 
 impl core::fmt::Display for CommandRefusal {
@@ -268,6 +294,10 @@ impl core::fmt::Display for CommandRefusal {
                 "the wheels are still turning: arming waits until both have stood still",
             ),
             CommandRefusal::NonFinitePose => f.write_str("the pose must be finite"),
+            CommandRefusal::WrongMode(mode) => {
+                write!(f, "armed in {mode:?}, not in the velocity mode")
+            }
+            CommandRefusal::NonFiniteVelocity => f.write_str("the velocity command must be finite"),
         }
     }
 }

@@ -30,6 +30,7 @@ pub mod show;
 pub mod step_response;
 pub mod sweep;
 pub mod tune;
+pub mod velocity_check;
 
 /// A command's report: what it prints ([`fmt::Display`], every line ending in a newline)
 /// and whether the command failed.

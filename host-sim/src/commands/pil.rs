@@ -164,6 +164,15 @@ pub fn pil_json(outcome: &PilOutcome, lines: &[Line]) -> Value {
 /// run) and `pil.json`.
 pub fn run(options: &Options, progress: &mut Progress<'_>) -> Result<PilReport> {
     let mut scenario = load(&options.scenario)?;
+    // Its commands would reach the firmware over the link at wall-clock times, not at
+    // the timeline's control steps: the run could not be compared with host-sim's.
+    if scenario.velocity.is_some() {
+        return Err(Failed(format!(
+            "{}: a [velocity] timeline is not run under processor in the loop (its commands              would reach the firmware at wall-clock times); use host-sim run or velocity-check",
+            scenario.name
+        ))
+        .into());
+    }
     if let Some(duration_s) = options.duration_s {
         scenario = scenario.with_duration_s(duration_s)?;
     }

@@ -22,7 +22,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use controller_core::controller::MotorCommand;
-use controller_core::kinematics::Pose;
+use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::supervisor::{ArmRequest, Bridge, Event, State, SupervisorOutput};
 use lockstep::{
     BoardDecoder, BoardReport, BoardStep, FromBoard, PlantStep, FINISH, PLANT_STEP_MAX_LEN,
@@ -196,6 +196,12 @@ impl RobotLogic for Firmware {
 
     /// The station sends the pose command over the link (`SetPose`), before it arms.
     fn set_pose_locally(&mut self, _pose: Pose) -> bool {
+        false
+    }
+
+    /// Commands reach the firmware over the link only, from the station, which streams
+    /// none: a velocity timeline is not run under processor in the loop.
+    fn command_velocity(&mut self, _command: BodyVelocity) -> bool {
         false
     }
 

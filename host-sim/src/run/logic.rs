@@ -10,7 +10,9 @@
 use controller_core::controller::Telemetry;
 use controller_core::gyro::{GyroConfig, HeadingSource};
 use controller_core::prelude::*;
-use controller_core::supervisor::{ArmRequest, Bridge, Inputs, Supervisor, SupervisorOutput};
+use controller_core::supervisor::{
+    ArmRequest, Bridge, Command, Inputs, Supervisor, SupervisorOutput,
+};
 use robot_files::faults::Fault;
 use robot_files::scenario::{GyroSetup, HeadingChoice, Scenario};
 
@@ -53,6 +55,10 @@ pub trait RobotLogic {
     /// the operator at the robot would (the pose command; `false` if this logic takes it
     /// over the link instead, or refused).
     fn set_pose_locally(&mut self, pose: Pose) -> bool;
+    /// A velocity command (v m/s, ω rad/s, robot frame) arrives for the next step, as a
+    /// host's `Velocity` request would (the scenario's `[velocity]` timeline); `false` if
+    /// this logic cannot take one.
+    fn command_velocity(&mut self, command: BodyVelocity) -> bool;
     /// One control step on what the firmware reads, `sensors`.
     fn step(&mut self, sensors: &Sensors) -> Result<Decision<'_>, RunError>;
 }
@@ -62,6 +68,8 @@ pub struct LocalRobot {
     controller: Controller,
     supervisor: Supervisor,
     heartbeat: u32,
+    /// The command the next step takes (a velocity command of the timeline).
+    command: Option<Command>,
 }
 
 impl LocalRobot {
@@ -90,6 +98,7 @@ impl LocalRobot {
             )
             .map_err(RunError::Supervisor)?,
             heartbeat: 0,
+            command: None,
         })
     }
 }
@@ -105,12 +114,18 @@ impl RobotLogic for LocalRobot {
         self.supervisor.set_pose(&mut self.controller, pose).is_ok()
     }
 
+    fn command_velocity(&mut self, command: BodyVelocity) -> bool {
+        self.command = Some(Command::Velocity(command));
+        true
+    }
+
     fn step(&mut self, sensors: &Sensors) -> Result<Decision<'_>, RunError> {
         let out = supervise(
             &mut self.supervisor,
             &mut self.controller,
             &mut self.heartbeat,
             sensors,
+            self.command.take(),
         );
         let pid_parts = self.controller.wheel_pid_parts();
         let t = self.controller.telemetry();
@@ -141,12 +156,14 @@ pub fn gyro_config(setup: &GyroSetup) -> GyroConfig {
 }
 
 /// One step of `supervisor` around `controller` on what the firmware reads, `sensors`,
-/// with the background heartbeat advanced as the firmware's idle loop would.
+/// and the operator's `command`, with the background heartbeat advanced as the
+/// firmware's idle loop would.
 fn supervise(
     supervisor: &mut Supervisor,
     controller: &mut Controller,
     heartbeat: &mut u32,
     sensors: &Sensors,
+    command: Option<Command>,
 ) -> SupervisorOutput {
     *heartbeat = heartbeat.wrapping_add(1);
     supervisor.step(
@@ -159,7 +176,7 @@ fn supervise(
             button_pressed: sensors.button_pressed,
             overrun: false,
             background_heartbeat: *heartbeat,
-            command: None,
+            command,
             gyro: sensors.gyro,
         },
     )
@@ -185,6 +202,7 @@ impl Robot {
             controller,
             supervisor,
             heartbeat,
+            command: _,
         } = LocalRobot::new(scenario, law)?;
         Ok(Self {
             controller,
@@ -210,6 +228,7 @@ impl Robot {
             &mut self.controller,
             &mut self.heartbeat,
             &sensors,
+            None,
         );
         let mut duty = out.duty;
         if added_v != [0.0; 2] && out.bridge == Bridge::Drive {

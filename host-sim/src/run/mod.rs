@@ -279,7 +279,11 @@ pub fn run_with_logic<L: RobotLogic>(
     let motion = (s.v_m_s != 0.0 || s.omega_rad_s != 0.0)
         .then(|| BodyVelocity::new(s.v_m_s as f32, s.omega_rad_s as f32));
     let arm_request = ArmRequest {
-        mode: RunMode::FollowPath,
+        mode: if scenario.velocity.is_some() {
+            RunMode::FollowVelocity
+        } else {
+            RunMode::FollowPath
+        },
         hold_speeds: None,
         initial_motion: motion,
         max_armed_steps: None,
@@ -324,6 +328,9 @@ pub fn run_with_logic<L: RobotLogic>(
         let pose = hardware.plant().pose();
         let wheels = hardware.plant().wheel_speeds();
         let true_velocity = hardware.plant().body_velocity();
+        if let Some(command) = scenario.velocity.as_ref().and_then(|v| v.sent_at(period)) {
+            logic.command_velocity(command);
+        }
         let decision = step(logic, &mut hardware)?;
         let out = decision.out;
         let estimate = decision.estimate;
@@ -346,7 +353,7 @@ pub fn run_with_logic<L: RobotLogic>(
                 f64::from(estimate.pose.theta_rad) - pose.theta_rad,
             ));
         }
-        if let Some(Event::Armed(RunMode::FollowPath)) = out.event {
+        if let Some(Event::Armed(RunMode::FollowPath | RunMode::FollowVelocity)) = out.event {
             if armed_at.is_none() {
                 armed_at = Some(period);
             }

@@ -94,6 +94,9 @@ pub struct Downlink {
 }
 
 /// What the host asks the robot. See the module doc for the reply each one gets.
+// The configuration makes one variant large; there is no heap to box it on the robot,
+// which decodes a request out of line and handles it by reference.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Schema)]
 pub enum Request {
     /// Who are you: protocol, firmware, chip, robot and active parameters.
@@ -182,6 +185,37 @@ pub enum Request {
     GetPanicRecord,
     /// Forget the panic record (once a host has shown it). Always accepted.
     ClearPanicRecord,
+    /// A body-velocity command for the velocity mode ([`ArmMode::FollowVelocity`]), the
+    /// `cmd_vel` of ROS 2's `diff_drive_controller`: forward speed `v_m_s` (m/s) and yaw
+    /// rate `omega_rad_s` (rad/s, counter-clockwise positive), robot frame.
+    ///
+    /// **Streamed, not transacted.** The host sends one about every 50 ms while it wants
+    /// the robot to move, and never repeats one: each replaces the last, so a lost or late
+    /// one costs nothing but its 50 ms. The reply ([`Reply::Ack`], or why not) is there
+    /// for a host that wants to see refusals; nothing waits for it, and its `seq` matters
+    /// to no one. The robot takes each at the next control step and the limited command
+    /// starts moving towards it in that step.
+    ///
+    /// **Timeout.** A command holds for the robot's `cmd_vel_timeout`
+    /// (`RobotConfig::velocity.cmd_vel_timeout_steps`, 0.5 s by default) after it arrived;
+    /// then the robot ramps to a stop within its acceleration and jerk limits and stays
+    /// armed. The limits are `RobotConfig::velocity`'s `linear_x` and `angular_z`
+    /// (`diff_drive_controller`'s `linear.x.*`, `angular.z.*`: velocity, acceleration,
+    /// jerk), then the rim-speed cap, which keeps ω/v.
+    ///
+    /// **Not a heartbeat.** A host that armed the robot keeps sending
+    /// [`Request::Heartbeat`] as in every mode; a host that stops both sees the robot stop
+    /// by the timeout and then disarm when the heartbeat timeout runs out.
+    ///
+    /// Refused ([`NotPermitted::NotInVelocityMode`]) unless the robot is armed in the
+    /// velocity mode; a field that is not finite is refused by name
+    /// ([`Refusal::InvalidArgument`]).
+    Velocity {
+        /// Forward speed v, robot frame, m/s.
+        v_m_s: f32,
+        /// Yaw rate ω, rad/s, counter-clockwise positive.
+        omega_rad_s: f32,
+    },
 }
 
 impl Request {
@@ -208,6 +242,7 @@ impl Request {
             Request::SetPose { .. } => "SetPose",
             Request::GetPanicRecord => "GetPanicRecord",
             Request::ClearPanicRecord => "ClearPanicRecord",
+            Request::Velocity { .. } => "Velocity",
         }
     }
 }
@@ -225,6 +260,13 @@ pub enum ArmMode {
     /// wheels, the robot driving about a metre straight forward and back); the robot
     /// disarms by itself when done and sends [`Uplink::TuneReport`].
     Tune,
+    /// The velocity mode: follow [`Request::Velocity`] commands, with
+    /// `diff_drive_controller`'s semantics (a command timeout after which the robot ramps
+    /// to a stop and stays armed; velocity, acceleration and jerk limits per axis; the
+    /// rim-speed cap that keeps ω/v). Every fault check is in force and the robot's button
+    /// stops it. Armed only by this request: it is not in the button's mode-select cycle.
+    /// Until the first command arrives the robot holds still.
+    FollowVelocity,
 }
 
 /// The robot's whole configuration: what [`Request::SetParams`] sends and
@@ -238,6 +280,9 @@ pub struct ParamSet {
 }
 
 /// Robot → host.
+// The configuration in a reply makes one variant large; there is no heap to box it on
+// the robot, which wraps a reply into its message out of line.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Schema)]
 pub enum Uplink {
     /// The answer to the request that carried `seq`.

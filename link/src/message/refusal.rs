@@ -259,6 +259,10 @@ pub enum NotPermitted {
     /// running, and writing its flash, with its supply below the 2.7 V that needs. The
     /// firmware sets the level when it starts; it reports in `Info` which level is in force.
     BrownOutResetOff,
+    /// A velocity command ([`Request::Velocity`](crate::Request)) while the robot is not
+    /// armed in the velocity mode ([`ArmMode::FollowVelocity`](crate::ArmMode)):
+    /// disarmed, or armed in another mode.
+    NotInVelocityMode,
 }
 
 impl fmt::Display for NotPermitted {
@@ -279,6 +283,9 @@ impl fmt::Display for NotPermitted {
                 "the robot's brown-out reset is not at level 3, so its supply could sag \
                  below the 2.7 V a flash write needs (the firmware sets the level at boot: \
                  see its log)"
+            }
+            NotPermitted::NotInVelocityMode => {
+                "velocity commands are taken only while armed in the velocity mode"
             }
         })
     }

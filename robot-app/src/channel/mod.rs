@@ -128,6 +128,8 @@ pub enum ControlRefusal {
     /// Arming from rest while a wheel still turns (the supervisor's
     /// [`CommandRefusal::WheelsTurning`](controller_core::supervisor::CommandRefusal)).
     WheelsTurning,
+    /// A velocity command while not armed in the velocity mode.
+    NotInVelocityMode,
 }
 
 impl core::fmt::Display for ControlRefusal {
@@ -139,6 +141,7 @@ impl core::fmt::Display for ControlRefusal {
             ControlRefusal::ButtonHeld => "the robot's button is held (local stop)",
             ControlRefusal::Invalid => "the staged settings were rejected",
             ControlRefusal::WheelsTurning => "the wheels are still turning",
+            ControlRefusal::NotInVelocityMode => "not armed in the velocity mode",
         })
     }
 }

@@ -30,7 +30,7 @@ mod config;
 mod persisting;
 mod tx;
 
-use controller_core::kinematics::Pose;
+use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::path::{Segment, MAX_SEGMENTS};
 use controller_core::supervisor::{ArmRequest, Command, RunMode, State};
 use link::{
@@ -440,6 +440,12 @@ impl<'a> LinkService<'a> {
                 board.clear_panic_record();
                 Some(Ok(Reply::Ack))
             }
+            &Request::Velocity { v_m_s, omega_rad_s } => {
+                match finite_velocity(v_m_s, omega_rad_s) {
+                    Ok(body) => self.forward(seq, Op::Command(Command::Velocity(body))),
+                    Err(refused) => Some(Err(refused)),
+                }
+            }
         };
         if let Some(result) = now {
             self.reply(seq, result);
@@ -701,6 +707,21 @@ fn finite_pose(x_m: f32, y_m: f32, theta_rad: f32) -> Result<Pose, Refusal> {
     Ok(Pose::new(x_m, y_m, theta_rad))
 }
 
+/// The body velocity of a `Velocity`, or the refusal that names its first field that is
+/// not finite. Not inlined: see [`LinkService::handle`].
+#[inline(never)]
+fn finite_velocity(v_m_s: f32, omega_rad_s: f32) -> Result<BodyVelocity, Refusal> {
+    for (field, value) in [("v_m_s", v_m_s), ("omega_rad_s", omega_rad_s)] {
+        if !value.is_finite() {
+            return Err(Refusal::InvalidArgument(FieldProblem::new(
+                field,
+                "must be finite",
+            )));
+        }
+    }
+    Ok(BodyVelocity::new(v_m_s, omega_rad_s))
+}
+
 /// The reply to `GetPanicRecord`: what `board` keeps. Not inlined: see
 /// [`LinkService::handle`].
 #[inline(never)]
@@ -711,13 +732,14 @@ fn panic_record_reply<B: Board + ?Sized>(board: &B) -> Reply {
 /// The supervisor's arm request for the link's `Arm`.
 fn arm_request(
     mode: ArmMode,
-    initial_motion: Option<controller_core::kinematics::BodyVelocity>,
+    initial_motion: Option<BodyVelocity>,
     run_time_limit_steps: Option<u32>,
 ) -> ArmRequest {
     let (mode, hold_speeds) = match mode {
         ArmMode::FollowPath => (RunMode::FollowPath, None),
         ArmMode::HoldWheelSpeeds(speeds) => (RunMode::HoldWheelSpeeds, Some(speeds)),
         ArmMode::Tune => (RunMode::Tune, None),
+        ArmMode::FollowVelocity => (RunMode::FollowVelocity, None),
     };
     ArmRequest {
         mode,
@@ -735,6 +757,7 @@ fn refusal(refused: ControlRefusal) -> Refusal {
         ControlRefusal::Busy => Refusal::Busy,
         ControlRefusal::ButtonHeld => Refusal::NotPermitted(NotPermitted::ButtonHeld),
         ControlRefusal::WheelsTurning => Refusal::NotPermitted(NotPermitted::WheelsTurning),
+        ControlRefusal::NotInVelocityMode => Refusal::NotPermitted(NotPermitted::NotInVelocityMode),
         ControlRefusal::Invalid => Refusal::InvalidParams(FieldProblem {
             field: link::bounded("supervisor"),
             problem: link::bounded("is not valid"),

@@ -26,6 +26,9 @@
 //! [robot.law.paper]            # gamma, k, h, lambda
 //! [robot.law.tracking]         # lambda, k_x, k_theta
 //! [robot.law.kanayama]         # k_x, k_y, k_theta
+//! [robot.velocity]             # the velocity mode: cmd_vel_timeout_steps (500 at 1 kHz)
+//! [robot.velocity.linear_x]    # max_velocity, max_acceleration, max_jerk (m/s, m/s², m/s³)
+//! [robot.velocity.angular_z]   # max_velocity, max_acceleration, max_jerk (rad/s, rad/s², rad/s³)
 //!
 //! [supervisor]                 # times in seconds; the supervisor counts control steps
 //! run_time_limit_s = 120.0     # or "none" (the default: a soak can run for a day)
@@ -62,8 +65,8 @@ use controller_core::supervisor::{SupervisorConfig, SupervisorConfigError};
 use serde::{Deserialize, Serialize};
 
 pub use robot::{
-    tuned_wheel_sections, DriveSection, KanayamaSection, LawSection, LimitsSection, MotorSection,
-    PaperSection, RobotSection, TrackingSection, WheelSection,
+    tuned_wheel_sections, AxisSection, DriveSection, KanayamaSection, LawSection, LimitsSection,
+    MotorSection, PaperSection, RobotSection, TrackingSection, VelocitySection, WheelSection,
 };
 pub use supervisor::{
     DivergenceSection, DivergenceSetting, MissedTicksSection, PathContext, SaturationSection,

@@ -3,6 +3,7 @@
 use controller_core::law::{KanayamaGains, LawGains, PaperGains, TrackingGains};
 use controller_core::params::{DriveConfig, MotorConfig, Params, RobotConfig, WheelLoopConfig};
 use controller_core::tune::TuneResult;
+use controller_core::velocity::AxisLimits;
 use serde::{Deserialize, Serialize};
 
 use super::{param_error, set, SectionError};
@@ -127,6 +128,54 @@ pub struct KanayamaSection {
     pub k_theta: Option<f32>,
 }
 
+/// `[robot.velocity.linear_x]`, `[robot.velocity.angular_z]`: one axis of the velocity
+/// mode (`diff_drive_controller`'s `linear.x.*`, `angular.z.*`), in the axis's units
+/// (m/s, m/s², m/s³; rad/s, rad/s², rad/s³).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisSection {
+    /// Largest |velocity|.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_velocity: Option<f32>,
+    /// Largest |acceleration|.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_acceleration: Option<f32>,
+    /// Largest |jerk|.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_jerk: Option<f32>,
+}
+
+impl AxisSection {
+    fn apply(&self, axis: &mut AxisLimits) {
+        set(&mut axis.max_velocity, self.max_velocity);
+        set(&mut axis.max_acceleration, self.max_acceleration);
+        set(&mut axis.max_jerk, self.max_jerk);
+    }
+
+    fn of(axis: &AxisLimits) -> Self {
+        Self {
+            max_velocity: Some(axis.max_velocity),
+            max_acceleration: Some(axis.max_acceleration),
+            max_jerk: Some(axis.max_jerk),
+        }
+    }
+}
+
+/// `[robot.velocity]`: the velocity mode's limits and command timeout.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VelocitySection {
+    /// Forward speed's limits.
+    #[serde(default)]
+    pub linear_x: AxisSection,
+    /// Yaw rate's limits.
+    #[serde(default)]
+    pub angular_z: AxisSection,
+    /// `cmd_vel_timeout`, control steps.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cmd_vel_timeout_steps: Option<u32>,
+}
+
 /// `[robot.law]`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -197,6 +246,9 @@ pub struct RobotSection {
     /// Law gains.
     #[serde(default)]
     pub law: LawSection,
+    /// The velocity mode.
+    #[serde(default)]
+    pub velocity: VelocitySection,
 }
 
 /// True when `section` sets the wheel-loop field `name`.
@@ -299,6 +351,12 @@ impl RobotSection {
         set(k_x, law.kanayama.k_x);
         set(k_y, law.kanayama.k_y);
         set(k_theta, law.kanayama.k_theta);
+        self.velocity.linear_x.apply(&mut c.velocity.linear_x);
+        self.velocity.angular_z.apply(&mut c.velocity.angular_z);
+        set(
+            &mut c.velocity.cmd_vel_timeout_steps,
+            self.velocity.cmd_vel_timeout_steps,
+        );
         c
     }
 
@@ -359,6 +417,11 @@ impl RobotSection {
             left_wheel: WheelSection::of(&config.left_wheel),
             right_wheel: WheelSection::of(&config.right_wheel),
             law: law_section(&config.law),
+            velocity: VelocitySection {
+                linear_x: AxisSection::of(&config.velocity.linear_x),
+                angular_z: AxisSection::of(&config.velocity.angular_z),
+                cmd_vel_timeout_steps: Some(config.velocity.cmd_vel_timeout_steps),
+            },
         }
     }
 }

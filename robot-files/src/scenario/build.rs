@@ -484,5 +484,9 @@ pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, 
             .map_err(|e| ScenarioError::invalid(e.key, e.problem))?,
         sweep: build_sweep(&file.sweep)?,
         gyro: file.gyro.as_ref().map(|g| g.build()).transpose()?,
+        velocity: match &file.velocity {
+            Some(v) => Some(super::velocity::build(v, control)?),
+            None => None,
+        },
     })
 }

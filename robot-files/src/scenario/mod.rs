@@ -60,6 +60,10 @@
 //!
 //! [gyro]                     # the robot has a gyro (see `GyroSetup`; none without it)
 //! heading = "fused"          # fused | odometry | oracle
+//! [velocity]                 # a run in the velocity mode instead of path following
+//! commands = [[0.5, 0.3, 0.0], [2.5, 0.3, 1.5]]   # [t_s, v_m_s, omega_rad_s], streamed
+//! command_period_s = 0.05    # every this long from each entry on
+//! stop_sending_s = 6.5       # then silence: the robot's timeout stops it
 //! ```
 //!
 //! The plant's bridge runs in slow decay like the firmware's (duty 0 = short brake; coasting
@@ -89,6 +93,7 @@ mod checks;
 mod gyro;
 mod raw_value;
 mod schema;
+mod velocity;
 
 use std::fmt;
 use std::path::Path as FsPath;
@@ -104,8 +109,10 @@ use crate::robot_file::{param_error, SectionError};
 pub use gyro::{GyroSensor, GyroSetup, GyroSweep, HeadingChoice};
 use schema::ScenarioFile;
 
+pub use velocity::{VelocityEntry, VelocityTimeline};
+
 /// The built-in scenarios: (name, TOML text).
-pub const BUILTIN: [(&str, &str); 6] = [
+pub const BUILTIN: [(&str, &str); 7] = [
     (
         "paper-circle",
         include_str!("../../scenarios/paper-circle.toml"),
@@ -129,6 +136,10 @@ pub const BUILTIN: [(&str, &str); 6] = [
     (
         "paper-circle-gyro",
         include_str!("../../scenarios/paper-circle-gyro.toml"),
+    ),
+    (
+        "velocity-steps",
+        include_str!("../../scenarios/velocity-steps.toml"),
     ),
 ];
 
@@ -166,7 +177,7 @@ pub enum ScenarioError {
     #[error(transparent)]
     Section(#[from] SectionError),
     /// Neither a file nor a built-in scenario.
-    #[error("no scenario file or built-in scenario named `{0}` (built in: paper-circle, paper-line, square-waypoints, figure-eight, longest-path, paper-circle-gyro)")]
+    #[error("no scenario file or built-in scenario named `{0}` (built in: paper-circle, paper-line, square-waypoints, figure-eight, longest-path, paper-circle-gyro, velocity-steps)")]
     Unknown(String),
 }
 
@@ -321,6 +332,8 @@ pub struct Scenario {
     pub faults: Vec<Fault>,
     /// The gyro, if the robot has one (`[gyro]`, see `gyro`).
     pub gyro: Option<GyroSetup>,
+    /// A run in the velocity mode: its commands (`[velocity]`; `None`: path following).
+    pub velocity: Option<VelocityTimeline>,
 }
 
 impl Scenario {

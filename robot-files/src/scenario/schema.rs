@@ -190,4 +190,14 @@ pub(super) struct ScenarioFile {
     #[serde(default)]
     pub(super) faults: Vec<FaultEntry>,
     pub(super) gyro: Option<super::gyro::FileGyro>,
+    pub(super) velocity: Option<FileVelocity>,
+}
+
+/// `[velocity]` (see the `velocity` module).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct FileVelocity {
+    pub(super) commands: RawValue,
+    pub(super) command_period_s: Option<f64>,
+    pub(super) stop_sending_s: Option<f64>,
 }

@@ -1122,3 +1122,4 @@ fn a_refused_setting_says_why_and_keeps_its_cause() {
 }
 
 mod rearm;
+mod velocity;

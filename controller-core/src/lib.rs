@@ -96,6 +96,7 @@ pub mod reference;
 pub mod supervisor;
 pub mod time;
 pub mod tune;
+pub mod wiring;
 
 /// The types needed to build and run a controller.
 pub mod prelude {

@@ -57,9 +57,9 @@
 //!
 //! | message | postcard body | on the wire |
 //! |---|---|---|
-//! | `SetParams` (reference robot, 1 kHz supervisor) | 222 B | 233 B |
-//! | reply `Params` (the same configuration) | 224 B | 235 B |
-//! | `Telemetry` | 117 B | 128 B |
+//! | `SetParams` (reference robot, 1 kHz supervisor) | 232 B | 243 B |
+//! | reply `Params` (the same configuration) | 234 B | 245 B |
+//! | `Telemetry` | 127 B | 138 B |
 //! | `PathChunk`, 4 arcs ([`SEGMENTS_PER_CHUNK`]) | 93 B | 104 B |
 //! | `PathChunk`, 1 arc | 30 B | 41 B |
 //! | `PathBegin` | 30 B | 41 B |
@@ -69,9 +69,9 @@
 //! | `TuneReport` (a result) | 101 B | 112 B |
 //! | `Ping` / `Heartbeat` / reply `Ack` | 9 / 4 / 6 B | 20 / 15 / 17 B |
 //!
-//! The configuration's longest possible encoding (every varint at its longest) is 301 B,
-//! so `SetParams` never exceeds 305 B of body and reply `Params` 307 B: [`MAX_BODY_LEN`]
-//! leaves room for three more `f32` fields, and a test derived from the schema fails
+//! The configuration's longest possible encoding (every varint at its longest) is 311 B,
+//! so `SetParams` never exceeds 315 B of body and reply `Params` 317 B: [`MAX_BODY_LEN`]
+//! leaves room for three more bytes, and a test derived from the schema fails
 //! before a configuration that could not be sent is released.
 //!
 //! # Using it
@@ -140,19 +140,19 @@
 //!
 //! A UART with 8N1 framing carries `baud / 10` bytes per second. Keeping 30 %
 //! ([`bandwidth::DEFAULT_RESERVED_PERCENT`]) free for replies, heartbeats and path chunks,
-//! the largest telemetry frame (128 bytes on the wire) allows ([`max_telemetry_rate_hz`];
+//! the largest telemetry frame (138 bytes on the wire) allows ([`max_telemetry_rate_hz`];
 //! printed by `cargo run -p link --example sizes`; the unit tests of [`bandwidth`] check
 //! the arithmetic):
 //!
 //! | baud | bytes/s | telemetry at most | rate accepted |
 //! |---|---|---|---|
-//! | 115 200 | 11 520 | 63 Hz | 63 Hz |
-//! | 230 400 | 23 040 | 126 Hz | 100 Hz |
-//! | 460 800 | 46 080 | 252 Hz | 100 Hz |
-//! | 921 600 | 92 160 | 504 Hz | 100 Hz |
+//! | 115 200 | 11 520 | 58 Hz | 58 Hz |
+//! | 230 400 | 23 040 | 116 Hz | 100 Hz |
+//! | 460 800 | 46 080 | 233 Hz | 100 Hz |
+//! | 921 600 | 92 160 | 467 Hz | 100 Hz |
 //!
-//! Rates are capped at 100 Hz ([`TELEMETRY_RATE_HZ`]). A `SetParams` frame (233 bytes)
-//! takes 20.2 ms at 115 200 baud.
+//! Rates are capped at 100 Hz ([`TELEMETRY_RATE_HZ`]). A `SetParams` frame (243 bytes)
+//! takes 21.1 ms at 115 200 baud.
 //!
 //! # Cost on the target
 //!

@@ -336,6 +336,7 @@ const fn run_mode_code(mode: RunMode) -> u8 {
         RunMode::FollowPath => 0,
         RunMode::HoldWheelSpeeds => 1,
         RunMode::Tune => 2,
+        RunMode::MotorTest => 3,
     }
 }
 
@@ -344,6 +345,7 @@ const fn run_mode_from(code: u8) -> Option<RunMode> {
         0 => Some(RunMode::FollowPath),
         1 => Some(RunMode::HoldWheelSpeeds),
         2 => Some(RunMode::Tune),
+        3 => Some(RunMode::MotorTest),
         _ => None,
     }
 }
@@ -376,6 +378,7 @@ const fn refusal_code(refusal: CommandRefusal) -> u8 {
         CommandRefusal::ButtonHeld => 4,
         CommandRefusal::WheelsTurning => 5,
         CommandRefusal::NonFinitePose => 6,
+        CommandRefusal::MotorTestOutOfBounds => 7,
     }
 }
 
@@ -384,6 +387,7 @@ const fn refusal_from(code: u8) -> Option<CommandRefusal> {
         4 => Some(CommandRefusal::ButtonHeld),
         5 => Some(CommandRefusal::WheelsTurning),
         6 => Some(CommandRefusal::NonFinitePose),
+        7 => Some(CommandRefusal::MotorTestOutOfBounds),
         _ => match state_from(code) {
             Some(state) => Some(CommandRefusal::WrongState(state)),
             None => None,

@@ -137,6 +137,7 @@ mod tests {
             pid_right: Default::default(),
             supply_v: 6.0,
             missed_ticks: 0,
+            raw_counts: link::RawCounts::default(),
         };
         let text = screen(&frame, None, 1000);
         assert!(text.contains("t      2.50 s"), "{text}");
@@ -177,6 +178,7 @@ mod tests {
             },
             supply_v: 6.0,
             missed_ticks: 0,
+            raw_counts: link::RawCounts::default(),
         };
         let text = screen(&frame, None, 1000);
         assert!(text.contains("motors            off (Disarmed)"), "{text}");

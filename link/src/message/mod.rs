@@ -43,6 +43,7 @@ mod telemetry;
 use controller_core::kinematics::{BodyVelocity, WheelSpeeds};
 use controller_core::params::RobotConfig;
 use controller_core::supervisor::{Event, SupervisorConfig};
+pub use controller_core::supervisor::{Wheel, MOTOR_TEST_MAX_MS, MOTOR_TEST_MAX_VOLTS};
 use heapless::String;
 use postcard_schema::Schema;
 use serde::de::DeserializeOwned;
@@ -54,7 +55,7 @@ pub use self::board::{
 pub use self::path::{CommitSummary, PathBegin, PathChunk, PathCommit, SEGMENTS_PER_CHUNK};
 pub use self::refusal::{FieldProblem, NotPermitted, PathProblem, Refusal, FIELD_CAP, PROBLEM_CAP};
 pub use self::run::{ErrorSummary, RunReport, TrueRunReport, TuneReport};
-pub use self::telemetry::{GroundTruth, LinkStats, PidParts, Stats, TelemetryFrame};
+pub use self::telemetry::{GroundTruth, LinkStats, PidParts, RawCounts, Stats, TelemetryFrame};
 use crate::protocol::ProtocolId;
 
 /// Capacity of [`RobotInfo::firmware_version`], bytes of UTF-8.
@@ -94,6 +95,9 @@ pub struct Downlink {
 }
 
 /// What the host asks the robot. See the module doc for the reply each one gets.
+// A whole configuration is the largest request; there is no heap to box it on the robot,
+// which decodes a request in place.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Schema)]
 pub enum Request {
     /// Who are you: protocol, firmware, chip, robot and active parameters.
@@ -182,7 +186,30 @@ pub enum Request {
     GetPanicRecord,
     /// Forget the panic record (once a host has shown it). Always accepted.
     ClearPanicRecord,
+    /// One motor pulse of a bring-up, the wheels lifted: `volts` on `wheel`'s motor (0 V
+    /// on the other) for `duration_ms`, run as a short armed mode (the core's
+    /// `RunMode::MotorTest`: every fault check applies, the button stops it), then
+    /// disarmed ([`Uplink::Event`] `Armed(MotorTest)`, then `Disarmed(Timeout)`). The
+    /// encoders' answer is in the telemetry ([`TelemetryFrame::raw_counts`]). Only from
+    /// Disarmed ([`Refusal::Armed`], [`Refusal::Faulted`], [`Refusal::Busy`]) with the
+    /// wheels at rest ([`NotPermitted::WheelsTurning`]); `confirm` must be
+    /// [`MOTOR_TEST_CONFIRMATION`] ([`NotPermitted::MotorTestUnconfirmed`]); |`volts`| ≤
+    /// [`MOTOR_TEST_MAX_VOLTS`] and 1 ≤ `duration_ms` ≤ [`MOTOR_TEST_MAX_MS`], each
+    /// refused by name otherwise ([`Refusal::InvalidArgument`]).
+    MotorTest {
+        /// The wheel whose motor is pulsed (through the robot's wiring corrections).
+        wheel: Wheel,
+        /// Armature voltage, V, forward positive.
+        volts: f32,
+        /// Length of the pulse, ms.
+        duration_ms: u16,
+        /// [`MOTOR_TEST_CONFIRMATION`]: the host says the wheels are off the ground.
+        confirm: u32,
+    },
 }
+
+/// The value of [`Request::MotorTest`]'s `confirm`: the bytes `LIFT`, little-endian.
+pub const MOTOR_TEST_CONFIRMATION: u32 = u32::from_le_bytes(*b"LIFT");
 
 impl Request {
     /// The request's name, for logs (`"SetParams"`, …).
@@ -208,6 +235,7 @@ impl Request {
             Request::SetPose { .. } => "SetPose",
             Request::GetPanicRecord => "GetPanicRecord",
             Request::ClearPanicRecord => "ClearPanicRecord",
+            Request::MotorTest { .. } => "MotorTest",
         }
     }
 }
@@ -238,6 +266,9 @@ pub struct ParamSet {
 }
 
 /// Robot → host.
+// The reply carrying a whole configuration is the largest; there is no heap to box it on
+// the robot, and a message is built in place where it is sent.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Schema)]
 pub enum Uplink {
     /// The answer to the request that carried `seq`.
@@ -394,6 +425,13 @@ mod tests {
             .name(),
             Request::GetPanicRecord.name(),
             Request::ClearPanicRecord.name(),
+            Request::MotorTest {
+                wheel: Wheel::Left,
+                volts: 1.0,
+                duration_ms: 100,
+                confirm: MOTOR_TEST_CONFIRMATION,
+            }
+            .name(),
         ];
         for (i, a) in names.iter().enumerate() {
             for b in &names[i + 1..] {

@@ -259,6 +259,9 @@ pub enum NotPermitted {
     /// running, and writing its flash, with its supply below the 2.7 V that needs. The
     /// firmware sets the level when it starts; it reports in `Info` which level is in force.
     BrownOutResetOff,
+    /// A motor pulse without the confirmation that the wheels are lifted
+    /// (`MotorTest::confirm` is not [`MOTOR_TEST_CONFIRMATION`](crate::MOTOR_TEST_CONFIRMATION)).
+    MotorTestUnconfirmed,
 }
 
 impl fmt::Display for NotPermitted {
@@ -279,6 +282,9 @@ impl fmt::Display for NotPermitted {
                 "the robot's brown-out reset is not at level 3, so its supply could sag \
                  below the 2.7 V a flash write needs (the firmware sets the level at boot: \
                  see its log)"
+            }
+            NotPermitted::MotorTestUnconfirmed => {
+                "a motor pulse needs the confirmation that the wheels are lifted"
             }
         })
     }

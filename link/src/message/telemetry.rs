@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::decoder::RxCounters;
 
-/// One telemetry sample, taken at the end of control step `step`. About 110 bytes of
+/// One telemetry sample, taken at the end of control step `step`. About 130 bytes of
 /// postcard (see the crate doc for the measured size).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
 pub struct TelemetryFrame {
@@ -42,6 +42,20 @@ pub struct TelemetryFrame {
     pub supply_v: f32,
     /// Control ticks missed since boot (the loop was late).
     pub missed_ticks: u32,
+    /// The board's encoder counts since boot, before the robot's wiring corrections,
+    /// armed or not (what a bring-up reads while a wheel is turned by hand or pulsed).
+    pub raw_counts: RawCounts,
+}
+
+/// The board's two encoder inputs as positions since boot, counts (wrapping `i32`), before
+/// the wiring corrections: `left` is the input the board labels left, whichever wheel is
+/// on it, counting up when that encoder turns the way the board calls forward.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, Schema)]
+pub struct RawCounts {
+    /// The board's left encoder input, counts.
+    pub left: i32,
+    /// The board's right encoder input, counts.
+    pub right: i32,
 }
 
 /// One wheel PID's output split into its parts, V. Their sum is the voltage asked of the

@@ -168,6 +168,17 @@ pub enum Command {
         /// Simulated time per wall-clock time (1 = real time).
         #[arg(long, default_value_t = 1.0)]
         speed: f64,
+        /// Miswire the robot between the plant and its board, over the scenario's
+        /// `[virtual_robot] miswire`: a comma-separated list of left-motor-inverted,
+        /// right-motor-inverted, left-encoder-inverted, right-encoder-inverted,
+        /// encoders-swapped, motors-swapped, cpr=xK, supply-scale=F.
+        #[arg(long)]
+        miswire: Option<String>,
+        /// For tests: read the bench's hands from standard input, one command a line
+        /// (`turn left 1`, `turn right -0.5`, `press 2000`, `led`), each answered on
+        /// standard output with a line starting `hands: `.
+        #[arg(long)]
+        hands: bool,
     },
     /// The core's wheel-loop tune on the simulated robot (ground or lifted, the scenario's
     /// `[plant] load`): the identified model against the linearised plant, the gains (as

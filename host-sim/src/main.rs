@@ -123,6 +123,8 @@ fn dispatch(command: Command) -> Result<()> {
             scenario,
             listen,
             speed,
+            miswire,
+            hands,
         } => {
             // An event line that cannot be written is dropped: the robot keeps serving.
             let mut event = |line: &commands::serve::EventLine| {
@@ -131,10 +133,12 @@ fn dispatch(command: Command) -> Result<()> {
                 let _ = out.flush();
             };
             let mut listening = |line: &commands::serve::Listening| say(line);
+            let bench = commands::serve::Bench { miswire, hands };
             finish(&commands::serve::run(
                 &scenario,
                 &listen,
                 speed,
+                &bench,
                 &mut listening,
                 &mut event,
             )?)

@@ -9,6 +9,10 @@ use std::net::TcpListener;
 use anyhow::{Context, Result};
 
 use super::{load, Failed, Report};
+use std::io::{BufRead as _, Write as _};
+
+use crate::serve::hands::{self, HandCommand, HandsRemote};
+use crate::serve::miswire::Miswiring;
 use crate::serve::{serve, ServeOptions, StepReport, VirtualRobot};
 
 /// The fastest `--speed`: simulated time per wall-clock time.
@@ -70,6 +74,48 @@ impl fmt::Display for EventLine {
     }
 }
 
+/// How the bench around the virtual robot is set up.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Bench {
+    /// The miswiring list (over the scenario's), if given.
+    pub miswire: Option<String>,
+    /// Read the hands' commands from standard input and answer on standard output.
+    pub hands: bool,
+}
+
+/// Reads hand commands from standard input into `remote`, and prints its answers, each
+/// on a thread of its own, until standard input ends.
+fn hands_on_stdio(remote: HandsRemote) {
+    let HandsRemote { commands, answers } = remote;
+    std::thread::spawn(move || {
+        for line in std::io::stdin().lock().lines() {
+            let Ok(line) = line else { break };
+            if line.trim().is_empty() {
+                continue;
+            }
+            match line.parse::<HandCommand>() {
+                Ok(command) => {
+                    if commands.send(command).is_err() {
+                        break;
+                    }
+                }
+                Err(problem) => {
+                    let mut out = std::io::stdout().lock();
+                    let _ = writeln!(out, "{problem}");
+                    let _ = out.flush();
+                }
+            }
+        }
+    });
+    std::thread::spawn(move || {
+        for answer in answers {
+            let mut out = std::io::stdout().lock();
+            let _ = writeln!(out, "{answer}");
+            let _ = out.flush();
+        }
+    });
+}
+
 /// What is left when the virtual robot stops (its listener failed): nothing to print.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Stopped;
@@ -90,6 +136,7 @@ pub fn run(
     scenario: &str,
     listen: &str,
     speed: f64,
+    bench: &Bench,
     listening: &mut dyn FnMut(&Listening) -> std::io::Result<()>,
     event: &mut dyn FnMut(&EventLine),
 ) -> Result<Stopped> {
@@ -98,6 +145,17 @@ pub fn run(
     let listener = TcpListener::bind(listen).with_context(|| format!("listening on {listen}"))?;
     let mut channels = robot_app::Channels::new();
     let mut robot = VirtualRobot::new(&mut channels, &scenario)?;
+    if let Some(list) = &bench.miswire {
+        let miswiring: Miswiring = list
+            .parse()
+            .map_err(|e| Failed(format!("--miswire: {e}")))?;
+        robot.miswire(miswiring);
+    }
+    if bench.hands {
+        let (remote, hands) = hands::hands();
+        robot.attach_hands(hands);
+        hands_on_stdio(remote);
+    }
     let rate_hz = f64::from(scenario.robot.control_rate_hz);
     listening(&Listening {
         scenario: scenario.name.clone(),
@@ -141,6 +199,7 @@ mod tests {
             "paper-circle",
             "127.0.0.1:0",
             1.0,
+            &Bench::default(),
             &mut listening,
             &mut |_| {},
         );

@@ -483,5 +483,6 @@ pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, 
             .collect::<Result<_, _>>()
             .map_err(|e| ScenarioError::invalid(e.key, e.problem))?,
         sweep: build_sweep(&file.sweep)?,
+        miswire: file.virtual_robot.miswire,
     })
 }

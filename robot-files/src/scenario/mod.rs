@@ -310,6 +310,10 @@ pub struct Scenario {
     pub arm_at_start: bool,
     /// Faults injected on the run's timeline (`[[faults]]`).
     pub faults: Vec<Fault>,
+    /// How the virtual robot is miswired (`[virtual_robot] miswire`, the list
+    /// `host-sim serve --miswire` takes; empty: wired as labelled). Only `host-sim serve`
+    /// reads it.
+    pub miswire: String,
 }
 
 impl Scenario {

@@ -189,4 +189,14 @@ pub(super) struct ScenarioFile {
     pub(super) sweep: FileSweep,
     #[serde(default)]
     pub(super) faults: Vec<FaultEntry>,
+    #[serde(default)]
+    pub(super) virtual_robot: FileVirtualRobot,
+}
+
+/// `[virtual_robot]`: what only `host-sim serve` reads.
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub(super) struct FileVirtualRobot {
+    #[serde(default)]
+    pub(super) miswire: String,
 }

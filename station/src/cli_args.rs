@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 use robot_files::cli::Law;
-use station::calibrate;
+use station::{bringup, calibrate};
 
 /// Ground station for the differential-drive robot and its virtual twin.
 #[derive(Parser)]
@@ -127,6 +127,11 @@ pub(crate) enum Command {
     /// end points, the corrected wheel radii and track width; then a straight run against
     /// a tape for the common scale.
     Calibrate(calibrate::CalibrateArgs),
+    /// Guided bring-up of a new robot, from flashed to driving: the link, the button and
+    /// LED, the supply, the encoders by hand, the motors lifted, the self-tune and the
+    /// odometry calibration. What each step learns is shown as a robot-file diff, then
+    /// sent and persisted. Resumes where it stopped (its state is in --out).
+    Bringup(bringup::BringupArgs),
 }
 
 #[derive(Subcommand)]

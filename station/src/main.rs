@@ -234,6 +234,7 @@ fn main() -> ExitCode {
             hz,
         } => recording::cmd_run(link, &scenario, law, &out, hz),
         Command::Calibrate(args) => calibrate::command(link_open(link), &args),
+        Command::Bringup(args) => cmd_bringup(link, &args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -252,6 +253,15 @@ fn main() -> ExitCode {
             }
         }
     }
+}
+
+fn cmd_bringup(link: &LinkArgs, args: &station::bringup::BringupArgs) -> Result<()> {
+    let mut client = open(link)?;
+    let mut out = std::io::stdout();
+    station::bringup::run(&mut client, args, &mut out).map_err(|e| match e {
+        station::bringup::BringupError::Found(text) => NotAsAsked(text).into(),
+        other => anyhow::Error::new(other),
+    })
 }
 
 fn link_open(link: &LinkArgs) -> Result<Client<Box<dyn Transport>>> {

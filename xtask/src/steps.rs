@@ -342,6 +342,30 @@ pub fn end_to_end() -> Step {
     })
 }
 
+/// The guided bring-up against every single miswiring of the virtual robot and a few
+/// pairs (`station/tests/bringup_matrix.rs`, its ignored test): each detected and
+/// corrected, then paper-circle settling within 5 % of the correctly wired robot. Prints
+/// `bring-up matrix: N of N miswirings detected and corrected`. About two minutes; CI
+/// runs two of its cases in the end-to-end step.
+pub fn bringup_matrix() -> Step {
+    Step::new(
+        "bring-up matrix: station bringup against every miswiring of the virtual robot",
+        |ctx| {
+            run_command(&mut ctx.cargo(&[
+                "test",
+                "-p",
+                "station",
+                "--test",
+                "bringup_matrix",
+                "--",
+                "--ignored",
+                "--nocapture",
+                "the_whole_matrix",
+            ]))
+        },
+    )
+}
+
 /// Clippy with `-D warnings` on `package` for the ARM target, with `features` (cargo
 /// feature flags, possibly empty).
 fn clippy_for_target(ctx: &Context, package: &str, features: &[&str]) -> Result<()> {

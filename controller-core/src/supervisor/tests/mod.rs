@@ -1120,4 +1120,5 @@ fn a_refused_setting_says_why_and_keeps_its_cause() {
     assert_ne!(invalid.to_string(), armed.to_string());
 }
 
+mod motor_test;
 mod rearm;

@@ -39,15 +39,21 @@ pub struct Listening {
     pub speed: f64,
     /// The supervisor's heartbeat timeout, control steps.
     pub heartbeat_timeout_steps: u32,
+    /// How the robot is miswired (`none`: as labelled).
+    pub miswiring: String,
 }
 
 impl fmt::Display for Listening {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        writeln!(
+        write!(
             f,
             "virtual robot ({}) listening on {}, {}× real time; heartbeat timeout {} steps",
             self.scenario, self.listen, self.speed, self.heartbeat_timeout_steps
-        )
+        )?;
+        if self.miswiring != "none" {
+            write!(f, "; miswired: {}", self.miswiring)?;
+        }
+        writeln!(f)
     }
 }
 
@@ -164,6 +170,7 @@ pub fn run(
             .map_or_else(|_| listen.to_string(), |address| address.to_string()),
         speed,
         heartbeat_timeout_steps: scenario.supervisor.heartbeat_timeout_steps,
+        miswiring: robot.miswiring().to_string(),
     })?;
     let mut log = |report: &StepReport| {
         event(&EventLine {

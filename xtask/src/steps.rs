@@ -334,8 +334,9 @@ pub fn miri() -> Step {
 /// The station against the virtual robot (`station/tests`): in this process in lockstep
 /// (a run bit for bit equal to `host-sim run`, refusals while armed), and the `station`
 /// binary over TCP against `host-sim serve`'s loop at 4× real time (the same result, a
-/// killed station disarming the robot within the heartbeat timeout, a corrupted line).
-/// About 10 s of tests once built.
+/// killed station disarming the robot within the heartbeat timeout, a corrupted line),
+/// and two cases of the bring-up matrix (about 10 s more). About 20 s of tests once
+/// built.
 pub fn end_to_end() -> Step {
     Step::new("end-to-end: station against the virtual robot", |ctx| {
         run_command(&mut ctx.cargo(&["test", "-p", "station", "--no-fail-fast"]))

@@ -131,7 +131,7 @@ pub struct BringupArgs {
     /// Send and persist what a step learned without asking.
     #[arg(long)]
     pub yes: bool,
-    /// Output directory: the bring-up's state (to resume) and the later steps' runs.
+    /// Directory of the bring-up's state (`bringup-state.json`), from which it resumes.
     #[arg(long, default_value = "out/bringup")]
     pub out: PathBuf,
     /// Forget the steps done before and start again.
@@ -165,8 +165,6 @@ pub struct Session<'a, T: Transport> {
     pub answers: &'a mut Answers,
     /// The terminal.
     pub out: &'a mut dyn Write,
-    /// The output directory.
-    pub dir: PathBuf,
 }
 
 /// Runs the bring-up `args` asks for against `client`, printing to `out`.
@@ -202,7 +200,6 @@ pub fn run<T: Transport>(
         client,
         answers: &mut answers,
         out,
-        dir: args.out.clone(),
     };
     for step in steps {
         writeln!(session.out, "step {} of 7, {step}:", step.number())?;

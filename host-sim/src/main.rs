@@ -40,12 +40,14 @@ fn dispatch(command: Command) -> Result<()> {
             out,
             trace_every,
             duration_s,
+            mcap,
         } => finish(&commands::run::run(&commands::run::Options {
             scenario,
             law: LawKind::from(law),
             out,
             trace_every,
             duration_s,
+            mcap,
         })?),
         Command::Paper { out } => finish(&commands::paper::run(out)?),
         Command::Compare { scenario, out } => finish(&commands::compare::run(&scenario, out)?),
@@ -55,12 +57,14 @@ fn dispatch(command: Command) -> Result<()> {
             law,
             seed,
             out,
+            mcap_dir,
         } => finish(&commands::sweep::run(&commands::sweep::Options {
             scenario,
             runs,
             law: LawKind::from(law),
             seed,
             out,
+            mcap_dir,
         })?),
         Command::StepResponse {
             scenario,
@@ -75,9 +79,17 @@ fn dispatch(command: Command) -> Result<()> {
                 out,
             },
         )?),
-        Command::Faults { scenario, law, out } => {
-            finish(&commands::faults::run(&scenario, LawKind::from(law), out)?)
-        }
+        Command::Faults {
+            scenario,
+            law,
+            out,
+            mcap_dir,
+        } => finish(&commands::faults::run(
+            &scenario,
+            LawKind::from(law),
+            out,
+            mcap_dir,
+        )?),
         Command::Pil {
             scenario,
             law,
@@ -125,7 +137,13 @@ fn dispatch(command: Command) -> Result<()> {
             speed,
             miswire,
             hands,
+            foxglove,
+            foxglove_hz,
         } => {
+            let foxglove = foxglove.map(|address| commands::serve::FoxgloveOptions {
+                address,
+                hz: foxglove_hz,
+            });
             // An event line that cannot be written is dropped: the robot keeps serving.
             let mut event = |line: &commands::serve::EventLine| {
                 let mut out = std::io::stdout().lock();
@@ -139,6 +157,7 @@ fn dispatch(command: Command) -> Result<()> {
                 &listen,
                 speed,
                 &bench,
+                foxglove.as_ref(),
                 &mut listening,
                 &mut event,
             )?)
@@ -148,7 +167,7 @@ fn dispatch(command: Command) -> Result<()> {
             out,
             sweep,
             tau_c_per_dead_time,
-            hold_s,
+            max_hold_s,
             lifted,
         } => {
             let options = commands::tune::Options {
@@ -156,7 +175,7 @@ fn dispatch(command: Command) -> Result<()> {
                 out,
                 sweep,
                 tau_c_per_dead_time,
-                hold_s,
+                max_hold_s,
                 lifted,
             };
             finish(&commands::tune::run(&options, &mut say)?)

@@ -55,7 +55,7 @@ fn virtual_robot(miswiring: Miswiring, max_s: f64) -> (String, HandsRemote) {
             speed: SPEED,
             max_steps: Some((max_s * 1000.0) as u64),
         };
-        let _ = serve(&mut robot, &listener, options, &mut |_| {});
+        let _ = serve(&mut robot, &listener, options, &mut |_| {}, None);
     });
     (address, remote)
 }

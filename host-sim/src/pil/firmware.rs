@@ -240,6 +240,7 @@ impl RobotLogic for Firmware {
                 steering_updated: answer.steering_updated,
             },
             telemetry: None,
+            pid_parts: None,
         })
     }
 }

@@ -98,6 +98,7 @@ pub mod supervisor;
 pub mod time;
 pub mod tune;
 pub mod velocity;
+pub mod wiring;
 
 /// The types needed to build and run a controller.
 pub mod prelude {

@@ -14,6 +14,7 @@ use crate::law::{KanayamaGains, LawGains, PaperGains, TrackingGains};
 use crate::limits::Limits;
 use crate::pid::PidGains;
 use crate::velocity::VelocityModeConfig;
+use crate::wiring::{WiringConfig, MAX_SUPPLY_SCALE, MIN_SUPPLY_SCALE};
 
 /// Upper bound of [`Params::max_ticks_per_step`]: 2²⁴, exact in `f32`, and 64 of them fit
 /// an `i32` sum.
@@ -124,6 +125,9 @@ pub struct RobotConfig {
     /// The velocity mode's limits and command timeout (`diff_drive_controller`'s
     /// `linear.x.*`, `angular.z.*` and `cmd_vel_timeout`).
     pub velocity: VelocityModeConfig,
+    /// How the board's motor outputs and encoder inputs reach the wheels, and the scale
+    /// of its supply reading ([`crate::wiring`]; robot-app applies them at the board).
+    pub wiring: WiringConfig,
 }
 
 /// The wheel loop of the reference robot's motors (see [`RobotConfig::REFERENCE_ROBOT`]).
@@ -197,6 +201,7 @@ impl RobotConfig {
             },
         },
         velocity: VelocityModeConfig::at_rate(1000),
+        wiring: WiringConfig::AS_BUILT,
     };
 }
 
@@ -256,6 +261,9 @@ pub enum ParamError {
         /// `drive.max_supply_v`, V.
         max_v: f32,
     },
+    /// `wiring.supply_scale` was not finite or outside [`MIN_SUPPLY_SCALE`] …
+    /// [`MAX_SUPPLY_SCALE`].
+    SupplyScaleOutOfRange(f32),
 }
 
 impl ParamError {
@@ -269,6 +277,7 @@ impl ParamError {
                 "speed_window_steps"
             }
             ParamError::SupplyRangeEmpty { .. } => "drive.max_supply_v",
+            ParamError::SupplyScaleOutOfRange(_) => "wiring.supply_scale",
             ParamError::NonPositive { field, .. }
             | ParamError::Negative { field, .. }
             | ParamError::NonFinite { field, .. } => field,
@@ -292,6 +301,7 @@ impl ParamError {
             ParamError::Negative { .. } => "must be ≥ 0",
             ParamError::NonFinite { .. } => "must be finite",
             ParamError::SupplyRangeEmpty { .. } => "must be > drive.min_supply_v",
+            ParamError::SupplyScaleOutOfRange(_) => "must be in 0.5..=2",
         }
     }
 }
@@ -323,6 +333,10 @@ impl fmt::Display for ParamError {
             ParamError::SupplyRangeEmpty { min_v, max_v } => write!(
                 f,
                 "{field} must be > drive.min_supply_v ({min_v} V), got {max_v}"
+            ),
+            ParamError::SupplyScaleOutOfRange(v) => write!(
+                f,
+                "{field} must be in {MIN_SUPPLY_SCALE}..={MAX_SUPPLY_SCALE}, got {v}"
             ),
         }
     }
@@ -492,6 +506,11 @@ impl Params {
         config.right_wheel.validate(&RIGHT_WHEEL_FIELDS)?;
         config.law.validate()?;
         config.velocity.validate()?;
+        if !config.wiring.supply_scale_ok() {
+            return Err(ParamError::SupplyScaleOutOfRange(
+                config.wiring.supply_scale,
+            ));
+        }
 
         let ticks_per_rev = config.encoder_lines_per_motor_rev as f32 * 4.0 * config.gear_ratio;
         let rad_per_tick = TAU / ticks_per_rev;

@@ -142,6 +142,12 @@ fn downlinks() -> Vec<Downlink> {
         },
         Request::GetPanicRecord,
         Request::ClearPanicRecord,
+        Request::MotorTest {
+            wheel: link::Wheel::Right,
+            volts: -2.5,
+            duration_ms: 300,
+            confirm: link::MOTOR_TEST_CONFIRMATION,
+        },
         Request::Disarm,
         Request::EmergencyStop,
         Request::Heartbeat,

@@ -213,6 +213,17 @@ pub enum Command {
         /// Simulated time per wall-clock time (1 = real time).
         #[arg(long, default_value_t = 1.0)]
         speed: f64,
+        /// Miswire the robot between the plant and its board, over the scenario's
+        /// `[virtual_robot] miswire`: a comma-separated list of left-motor-inverted,
+        /// right-motor-inverted, left-encoder-inverted, right-encoder-inverted,
+        /// encoders-swapped, motors-swapped, cpr=xK, supply-scale=F.
+        #[arg(long)]
+        miswire: Option<String>,
+        /// For tests: read the bench's hands from standard input, one command a line
+        /// (`turn left 1`, `turn right -0.5`, `press 2000`, `led`), each answered on
+        /// standard output with a line starting `hands: `.
+        #[arg(long)]
+        hands: bool,
         /// Also stream the robot live to Foxglove (WebSocket, subprotocol
         /// foxglove.sdk.v1) on this address, with its parameters as a parameter set
         /// (read-only while armed).

@@ -138,6 +138,8 @@ fn dispatch(command: Command) -> Result<()> {
             scenario,
             listen,
             speed,
+            miswire,
+            hands,
             foxglove,
             foxglove_hz,
         } => {
@@ -152,10 +154,12 @@ fn dispatch(command: Command) -> Result<()> {
                 let _ = out.flush();
             };
             let mut listening = |line: &commands::serve::Listening| say(line);
+            let bench = commands::serve::Bench { miswire, hands };
             finish(&commands::serve::run(
                 &scenario,
                 &listen,
                 speed,
+                &bench,
                 foxglove.as_ref(),
                 &mut listening,
                 &mut event,

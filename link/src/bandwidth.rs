@@ -20,9 +20,9 @@ pub const BITS_PER_BYTE_8N1: u32 = 10;
 pub const TELEMETRY_RATE_HZ: core::ops::RangeInclusive<u8> = 1..=100;
 
 /// The robot's serial link rate (8N1), bit/s: 230 400, the lowest standard rate that
-/// carries the whole telemetry range (100 Hz of 146-byte frames with 30 % of the line
-/// kept for replies: [`max_telemetry_rate_hz`] gives 110 Hz, where 115 200 stops at
-/// 55 Hz). Both boards configure it and the station opens the port at it by default.
+/// carries the whole telemetry range (100 Hz of 156-byte frames with 30 % of the line
+/// kept for replies: [`max_telemetry_rate_hz`] gives 103 Hz, where 115 200 stops at
+/// 51 Hz). Both boards configure it and the station opens the port at it by default.
 pub const LINK_BAUD: u32 = 230_400;
 
 /// Share of the link (percent) kept free for replies, heartbeats and path chunks when
@@ -51,7 +51,7 @@ pub const fn max_frame_rate_hz(baud: u32, frame_wire_len: usize, reserved_percen
 }
 
 /// The largest telemetry sample: every varint at its longest. Its fields other than the
-/// step and tick counts are defaults; their size does not depend on their value.
+/// step, tick and encoder counts are defaults; their size does not depend on their value.
 pub fn largest_telemetry() -> Uplink {
     Uplink::Telemetry(TelemetryFrame {
         step: u32::MAX,
@@ -76,6 +76,10 @@ pub fn largest_telemetry() -> Uplink {
         gyro_health: controller_core::gyro::GyroHealth::Failed(
             controller_core::gyro::GyroFailure::NonFinite,
         ),
+        raw_counts: crate::RawCounts {
+            left: i32::MIN,
+            right: i32::MIN,
+        },
     })
 }
 

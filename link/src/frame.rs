@@ -25,9 +25,9 @@ use crate::protocol::{ProtocolId, HEADER_LEN};
 
 /// Largest postcard body a frame may carry, bytes. The largest messages,
 /// [`Request::SetParams`](crate::Request) and its twin [`Reply::Params`](crate::Reply),
-/// take at most 334 and 336 bytes with *any* configuration (every varint at its longest,
-/// every option present; a test derives these bounds from the message schema), 248 and
-/// 250 with the core's defaults. 352 leaves room for four more `f32` fields; each byte
+/// take at most 344 and 346 bytes with *any* configuration (every varint at its longest,
+/// every option present; a test derives these bounds from the message schema). 352
+/// leaves room for one more `f32` field; each byte
 /// here costs two of RAM on the robot (the receive and the transmit buffer).
 pub const MAX_BODY_LEN: usize = 352;
 

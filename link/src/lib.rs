@@ -57,9 +57,9 @@
 //!
 //! | message | postcard body | on the wire |
 //! |---|---|---|
-//! | `SetParams` (reference robot, 1 kHz supervisor) | 222 B | 233 B |
-//! | reply `Params` (the same configuration) | 224 B | 235 B |
-//! | `Telemetry` | 135 B | 146 B |
+//! | `SetParams` (reference robot, 1 kHz supervisor) | 258 B | 270 B |
+//! | reply `Params` (the same configuration) | 260 B | 272 B |
+//! | `Telemetry` | 145 B | 156 B |
 //! | `PathChunk`, 4 arcs ([`SEGMENTS_PER_CHUNK`]) | 93 B | 104 B |
 //! | `PathChunk`, 1 arc | 30 B | 41 B |
 //! | `PathBegin` | 30 B | 41 B |
@@ -69,9 +69,9 @@
 //! | `TuneReport` (a result) | 105 B | 116 B |
 //! | `Ping` / `Heartbeat` / reply `Ack` | 9 / 4 / 6 B | 20 / 15 / 17 B |
 //!
-//! The configuration's longest possible encoding (every varint at its longest) is 301 B,
-//! so `SetParams` never exceeds 305 B of body and reply `Params` 307 B: [`MAX_BODY_LEN`]
-//! leaves room for three more `f32` fields, and a test derived from the schema fails
+//! The configuration's longest possible encoding (every varint at its longest) is 311 B,
+//! so `SetParams` never exceeds 315 B of body and reply `Params` 317 B: [`MAX_BODY_LEN`]
+//! leaves room for three more bytes, and a test derived from the schema fails
 //! before a configuration that could not be sent is released.
 //!
 //! # Using it
@@ -140,19 +140,19 @@
 //!
 //! A UART with 8N1 framing carries `baud / 10` bytes per second. Keeping 30 %
 //! ([`bandwidth::DEFAULT_RESERVED_PERCENT`]) free for replies, heartbeats and path chunks,
-//! the largest telemetry frame (146 bytes on the wire) allows ([`max_telemetry_rate_hz`];
+//! the largest telemetry frame (156 bytes on the wire) allows ([`max_telemetry_rate_hz`];
 //! printed by `cargo run -p link --example sizes`; the unit tests of [`bandwidth`] check
 //! the arithmetic):
 //!
 //! | baud | bytes/s | telemetry at most | rate accepted |
 //! |---|---|---|---|
-//! | 115 200 | 11 520 | 55 Hz | 55 Hz |
-//! | 230 400 | 23 040 | 110 Hz | 100 Hz |
-//! | 460 800 | 46 080 | 220 Hz | 100 Hz |
-//! | 921 600 | 92 160 | 441 Hz | 100 Hz |
+//! | 115 200 | 11 520 | 51 Hz | 51 Hz |
+//! | 230 400 | 23 040 | 103 Hz | 100 Hz |
+//! | 460 800 | 46 080 | 206 Hz | 100 Hz |
+//! | 921 600 | 92 160 | 413 Hz | 100 Hz |
 //!
-//! Rates are capped at 100 Hz ([`TELEMETRY_RATE_HZ`]). A `SetParams` frame (233 bytes)
-//! takes 20.2 ms at 115 200 baud.
+//! Rates are capped at 100 Hz ([`TELEMETRY_RATE_HZ`]). A `SetParams` frame (243 bytes)
+//! takes 21.1 ms at 115 200 baud.
 //!
 //! # Cost on the target
 //!

@@ -80,7 +80,7 @@ fn every_configuration_fits() {
     let longest = longest_config + request_envelope.max(reply_envelope);
     assert_eq!(
         (longest_config, request_envelope, reply_envelope),
-        (330, 4, 6),
+        (340, 4, 6),
         "the configuration's shape changed: check MAX_BODY_LEN and its doc"
     );
     assert!(
@@ -121,11 +121,11 @@ fn the_longest_encoding_bound_is_reached() {
 }
 
 #[test]
-fn telemetry_stays_near_135_bytes() {
-    // 135 bytes measured; a change of more than a few fields shows here and in the
+fn telemetry_stays_near_145_bytes() {
+    // 145 bytes measured; a change of more than a few fields shows here and in the
     // bandwidth table of the crate doc.
     let body = postcard::to_allocvec(&largest_telemetry()).unwrap().len();
-    assert!((128..=142).contains(&body), "telemetry body {body} bytes");
+    assert!((138..=152).contains(&body), "telemetry body {body} bytes");
 }
 
 #[test]

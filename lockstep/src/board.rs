@@ -337,6 +337,7 @@ const fn run_mode_code(mode: RunMode) -> u8 {
         RunMode::HoldWheelSpeeds => 1,
         RunMode::Tune => 2,
         RunMode::FollowVelocity => 3,
+        RunMode::MotorTest => 4,
     }
 }
 
@@ -346,6 +347,7 @@ const fn run_mode_from(code: u8) -> Option<RunMode> {
         1 => Some(RunMode::HoldWheelSpeeds),
         2 => Some(RunMode::Tune),
         3 => Some(RunMode::FollowVelocity),
+        4 => Some(RunMode::MotorTest),
         _ => None,
     }
 }
@@ -380,7 +382,8 @@ const fn refusal_code(refusal: CommandRefusal) -> u8 {
         CommandRefusal::WheelsTurning => 5,
         CommandRefusal::NonFinitePose => 6,
         CommandRefusal::NonFiniteVelocity => 7,
-        CommandRefusal::WrongMode(mode) => 8 + run_mode_code(mode),
+        CommandRefusal::MotorTestOutOfBounds => 8,
+        CommandRefusal::WrongMode(mode) => 9 + run_mode_code(mode),
     }
 }
 
@@ -390,7 +393,8 @@ const fn refusal_from(code: u8) -> Option<CommandRefusal> {
         5 => Some(CommandRefusal::WheelsTurning),
         6 => Some(CommandRefusal::NonFinitePose),
         7 => Some(CommandRefusal::NonFiniteVelocity),
-        8.. => match run_mode_from(code - 8) {
+        8 => Some(CommandRefusal::MotorTestOutOfBounds),
+        9.. => match run_mode_from(code - 9) {
             Some(mode) => Some(CommandRefusal::WrongMode(mode)),
             None => None,
         },

@@ -186,6 +186,7 @@ fn every_event_and_fault_crosses() {
         Some(Event::Disarmed(DisarmReason::LinkLost)),
         Some(Event::Disarmed(DisarmReason::TuneFinished)),
         Some(Event::Armed(RunMode::Tune)),
+        Some(Event::Armed(RunMode::MotorTest)),
         Some(Event::Faulted),
         Some(Event::FaultsCleared),
         Some(Event::ModeSelected(RunMode::FollowPath)),
@@ -196,6 +197,7 @@ fn every_event_and_fault_crosses() {
         Some(Event::ArmRefused(CommandRefusal::WheelsTurning)),
         Some(Event::ArmRefused(CommandRefusal::ButtonHeld)),
         Some(Event::ArmRefused(CommandRefusal::NonFinitePose)),
+        Some(Event::ArmRefused(CommandRefusal::MotorTestOutOfBounds)),
         Some(Event::ArmRefused(CommandRefusal::WrongState(
             State::Faulted,
         ))),

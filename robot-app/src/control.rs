@@ -24,20 +24,23 @@ use controller_core::supervisor::{
     Bridge, Command, CommandRefusal, Event, Faults, Inputs, RunMode, State, Supervisor,
     SupervisorOutput, SupervisorSetError,
 };
-use link::{PidParts, RunReport, TelemetryFrame, TuneReport};
+use link::{PidParts, RawCounts, RunReport, TelemetryFrame, TuneReport};
 
 use crate::channel::{ControlEnd, ControlRefusal, Op, Published, Report, Staged, ToLink};
 use crate::metrics::{ErrorSample, ErrorStats, ErrorSummary};
 use crate::outer::{OuterLoopMailbox, OuterLoopWorker};
 
-/// What the board read for this control step.
+/// What the board read for this control step, as the board reads it: the robot's
+/// wiring corrections (`controller_core::wiring`) are applied by the control side.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sensors {
-    /// Encoder ticks since the previous step, forward positive.
+    /// Encoder ticks since the previous step of the board's left and right encoder
+    /// inputs, each counting up the way the board calls forward.
     pub ticks: TickDeltas,
     /// Control periods since the previous step: 1 on time, more after missed ticks.
     pub periods: NonZeroU32,
-    /// Measured motor supply, V (NaN when no reading is available).
+    /// The board's reading of the motor supply, V (NaN when no reading is available),
+    /// before the wiring's supply scale.
     pub supply_v: f32,
     /// Raw (undebounced) button level, true while pressed.
     pub button_pressed: bool,
@@ -68,7 +71,8 @@ impl Sensors {
 /// What the board applies after a control step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Actuation {
-    /// Duties to write, each in [−1, 1]; exactly 0 unless armed.
+    /// Duties to write to the board's left and right motor outputs (the wiring
+    /// corrections applied), each in [−1, 1]; exactly 0 unless armed.
     pub duty: MotorCommand,
     /// What the bridge does (drive, brake, coast).
     pub bridge: Bridge,
@@ -198,6 +202,8 @@ pub struct ControlSide<'a> {
     run_max_wheel_rad_s: f32,
     run_max_duty: f32,
     telemetry: TelemetryClock,
+    /// The board's encoder inputs' positions since start, counts (wrapping).
+    raw_counts: RawCounts,
 }
 
 impl<'a> ControlSide<'a> {
@@ -231,6 +237,7 @@ impl<'a> ControlSide<'a> {
                 period: 0,
                 since: 0,
             },
+            raw_counts: RawCounts { left: 0, right: 0 },
         }
     }
 
@@ -301,13 +308,17 @@ impl<'a> ControlSide<'a> {
             }
         }
 
-        // 2. The supervisor steps the controller.
+        // 2. The supervisor steps the controller, on the wheels' ticks and the supply as
+        //    the wiring corrections make them of the board's readings.
+        self.raw_counts.left = self.raw_counts.left.wrapping_add(sensors.ticks.left);
+        self.raw_counts.right = self.raw_counts.right.wrapping_add(sensors.ticks.right);
+        let wiring = self.controller.params().config().wiring;
         let out = self.supervisor.step(
             &mut self.controller,
             Inputs {
-                ticks: sensors.ticks,
+                ticks: wiring.ticks_from_board(sensors.ticks),
                 periods: sensors.periods,
-                supply_v: sensors.supply_v,
+                supply_v: wiring.supply_from_board(sensors.supply_v),
                 button_pressed: sensors.button_pressed,
                 overrun: sensors.overrun || !outer_loop_seated,
                 background_heartbeat: sensors.background_heartbeat,
@@ -352,7 +363,7 @@ impl<'a> ControlSide<'a> {
             if self
                 .end
                 .telemetry
-                .push_with(|| telemetry_frame(&self.controller, self.step, &out))
+                .push_with(|| telemetry_frame(&self.controller, self.step, &out, self.raw_counts))
             {
                 link_has_work = true;
             } else {
@@ -367,7 +378,13 @@ impl<'a> ControlSide<'a> {
             overruns: out.overruns_total,
         });
         Actuation {
-            duty: out.duty,
+            // Read after the step: an installation in it may have changed the wiring.
+            duty: self
+                .controller
+                .params()
+                .config()
+                .wiring
+                .duties_to_board(out.duty),
             bridge: out.bridge,
             feed_watchdog: out.feed_watchdog,
             state: out.state,
@@ -497,11 +514,13 @@ impl<'a> ControlSide<'a> {
 }
 
 /// The telemetry sample of step `step`: the supervisor's outputs `out` and `controller`'s
-/// telemetry (pose and error in the world frame, m and rad; wheel speeds in rad/s).
+/// telemetry (pose and error in the world frame, m and rad; wheel speeds in rad/s), and
+/// the board's encoder positions `raw_counts`.
 fn telemetry_frame(
     controller: &Controller<OuterLoopMailbox<'_>>,
     step: u32,
     out: &SupervisorOutput,
+    raw_counts: RawCounts,
 ) -> TelemetryFrame {
     let t = controller.telemetry();
     let [left, right] = controller.wheel_pid_parts();
@@ -526,6 +545,7 @@ fn telemetry_frame(
         fused_heading_rad: controller.fused_heading_rad(),
         odometry_heading_rad: controller.odometry_heading_rad(),
         gyro_health: t.gyro.health,
+        raw_counts,
     }
 }
 
@@ -629,6 +649,8 @@ fn command_outcome(
         Some(Err(CommandRefusal::NonFinitePose | CommandRefusal::NonFiniteVelocity)) => {
             Err(ControlRefusal::Invalid)
         }
+        // The link side refuses a pulse out of bounds by its field before forwarding it.
+        Some(Err(CommandRefusal::MotorTestOutOfBounds)) => Err(ControlRefusal::Invalid),
         Some(Err(CommandRefusal::WrongMode(_))) => Err(ControlRefusal::NotInVelocityMode),
         Some(Err(CommandRefusal::WrongState(State::Faulted))) => Err(ControlRefusal::Faulted),
         Some(Err(CommandRefusal::WrongState(_)))

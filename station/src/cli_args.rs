@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 use robot_files::cli::Law;
-use station::calibrate;
+use station::{bringup, calibrate};
 
 /// Ground station for the differential-drive robot and its virtual twin.
 #[derive(Parser)]
@@ -149,6 +149,11 @@ pub(crate) enum Command {
     /// set_pose, publishes odom, tf, joint_states and diagnostics, serves the parameters
     /// (named as diff_drive_controller's). Until Ctrl-C, which disarms first.
     Ros2(Ros2Args),
+    /// Guided bring-up of a new robot, from flashed to driving: the link, the button and
+    /// LED, the supply, the encoders by hand, the motors lifted, the self-tune and the
+    /// odometry calibration. What each step learns is shown as a robot-file diff, then
+    /// sent and persisted. Resumes where it stopped (its state is in --out).
+    Bringup(bringup::BringupArgs),
 }
 
 #[derive(Args)]

@@ -41,6 +41,7 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod bringup;
 pub mod calibrate;
 pub mod client;
 pub mod foxglove;

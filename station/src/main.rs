@@ -277,6 +277,7 @@ fn main() -> ExitCode {
         } => recording::cmd_run(link, &scenario, law, &out, hz, mcap.as_deref()),
         Command::Calibrate(args) => calibrate::command(link_open(link), &args),
         Command::Ros2(args) => cmd_ros2(link, &args),
+        Command::Bringup(args) => cmd_bringup(link, &args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -295,6 +296,15 @@ fn main() -> ExitCode {
             }
         }
     }
+}
+
+fn cmd_bringup(link: &LinkArgs, args: &station::bringup::BringupArgs) -> Result<()> {
+    let mut client = open(link)?;
+    let mut out = std::io::stdout();
+    station::bringup::run(&mut client, args, &mut out).map_err(|e| match e {
+        station::bringup::BringupError::Found(text) => NotAsAsked(text).into(),
+        other => anyhow::Error::new(other),
+    })
 }
 
 fn link_open(link: &LinkArgs) -> Result<Client<Box<dyn Transport>>> {

@@ -142,6 +142,7 @@ mod tests {
             fused_heading_rad: 0.0,
             odometry_heading_rad: 0.0,
             gyro_health: Default::default(),
+            raw_counts: link::RawCounts::default(),
         };
         let text = screen(&frame, None, 1000);
         assert!(text.contains("t      2.50 s"), "{text}");
@@ -187,6 +188,7 @@ mod tests {
             fused_heading_rad: 0.0,
             odometry_heading_rad: 0.0,
             gyro_health: Default::default(),
+            raw_counts: link::RawCounts::default(),
         };
         let text = screen(&frame, None, 1000);
         assert!(text.contains("motors            off (Disarmed)"), "{text}");

@@ -407,12 +407,37 @@ pub fn miri() -> Step {
 /// The station against the virtual robot (`station/tests`): in this process in lockstep
 /// (a run bit for bit equal to `host-sim run`, refusals while armed), and the `station`
 /// binary over TCP against `host-sim serve`'s loop at 4× real time (the same result, a
-/// killed station disarming the robot within the heartbeat timeout, a corrupted line).
-/// About 10 s of tests once built.
+/// killed station disarming the robot within the heartbeat timeout, a corrupted line),
+/// and two cases of the bring-up matrix (about 10 s more). About 20 s of tests once
+/// built.
 pub fn end_to_end() -> Step {
     Step::new("end-to-end: station against the virtual robot", |ctx| {
         run_command(&mut ctx.cargo(&["test", "-p", "station", "--no-fail-fast"]))
     })
+}
+
+/// The guided bring-up against every single miswiring of the virtual robot and a few
+/// pairs (`station/tests/bringup_matrix.rs`, its ignored test): each detected and
+/// corrected, then paper-circle settling within 5 % of the correctly wired robot. Prints
+/// `bring-up matrix: N of N miswirings detected and corrected`. About two minutes; CI
+/// runs two of its cases in the end-to-end step.
+pub fn bringup_matrix() -> Step {
+    Step::new(
+        "bring-up matrix: station bringup against every miswiring of the virtual robot",
+        |ctx| {
+            run_command(&mut ctx.cargo(&[
+                "test",
+                "-p",
+                "station",
+                "--test",
+                "bringup_matrix",
+                "--",
+                "--ignored",
+                "--nocapture",
+                "the_whole_matrix",
+            ]))
+        },
+    )
 }
 
 /// The firmware package's targets clippy checks: the board layer, the application and

@@ -162,8 +162,9 @@ pub use config::{
 pub use faults::{Fault, Faults};
 pub use rest::{REST_SPEED_RAD_S, REST_STEPS};
 pub use vocabulary::{
-    ArmRequest, Bridge, Command, CommandRefusal, DisarmReason, Event, Inputs, ResetCause, RunMode,
-    State, SupervisorOutput, SupervisorSetError,
+    ArmRequest, Bridge, Command, CommandRefusal, DisarmReason, Event, Inputs, MotorTestRequest,
+    ResetCause, RunMode, State, SupervisorOutput, SupervisorSetError, Wheel, MOTOR_TEST_MAX_MS,
+    MOTOR_TEST_MAX_VOLTS,
 };
 
 use core::num::NonZeroU32;
@@ -223,6 +224,10 @@ pub struct Supervisor {
     /// The wheel-loop tune, and the voltages it asked for the next step.
     tuner: Tuner,
     tune_volts: WheelVolts,
+    /// The voltages of the motor pulse in progress ([`RunMode::MotorTest`]).
+    motor_test_volts: WheelVolts,
+    /// The control rate, Hz (bounds a motor pulse's length).
+    rate_hz: u32,
 }
 
 impl Supervisor {
@@ -263,6 +268,8 @@ impl Supervisor {
             supply: Supply::default(),
             tuner: Tuner::new(TuneConfig::for_robot(params.config()), params),
             tune_volts: WheelVolts::default(),
+            motor_test_volts: WheelVolts::default(),
+            rate_hz: params.config().control_rate_hz,
         })
     }
 
@@ -292,6 +299,7 @@ impl Supervisor {
             .map_err(SupervisorSetError::Invalid)?;
         self.config = config;
         self.max_supply_v = params.config().drive.max_supply_v;
+        self.rate_hz = params.config().control_rate_hz;
         // The robot may have changed: the tune's timing follows, and settings the new robot
         // refuses (e.g. experiment volts above a lower motor rating) give way to its
         // defaults.
@@ -665,6 +673,15 @@ impl Supervisor {
             (Command::Velocity(command), State::Armed) => {
                 (self.command_velocity(controller, command), None)
             }
+            (Command::MotorTest(_), State::Disarmed) if self.button.pressed() => {
+                (Err(CommandRefusal::ButtonHeld), None)
+            }
+            (Command::MotorTest(test), State::Disarmed) => {
+                match self.start_motor_test(controller, test) {
+                    Ok(event) => (Ok(()), Some(event)),
+                    Err(refusal) => (Err(refusal), None),
+                }
+            }
             (Command::Disarm, State::Armed) => {
                 self.disarm(controller);
                 (Ok(()), Some(Event::Disarmed(DisarmReason::Link)))
@@ -682,7 +699,13 @@ impl Supervisor {
                 self.state = State::Disarmed;
                 (Ok(()), Some(Event::PersistEnded))
             }
-            (Command::Arm(_) | Command::ClearFaults | Command::BeginPersist, _)
+            (
+                Command::Arm(_)
+                | Command::ClearFaults
+                | Command::BeginPersist
+                | Command::MotorTest(_),
+                _,
+            )
             | (Command::EndPersist | Command::Velocity(_), _) => (wrong_state, None),
         }
     }
@@ -737,6 +760,35 @@ impl Supervisor {
             }
             State::Disarmed | State::Faulted | State::Persisting => None,
         }
+    }
+
+    /// Arms for one motor pulse, if `test` is within its bounds and the wheels are at
+    /// rest: `test.volts` on its wheel, 0 V on the other, for `test.steps` steps.
+    fn start_motor_test<S: OuterLoopHolder>(
+        &mut self,
+        controller: &mut Controller<S>,
+        test: MotorTestRequest,
+    ) -> Result<Event, CommandRefusal> {
+        test.check(self.rate_hz)?;
+        let request = ArmRequest {
+            mode: RunMode::MotorTest,
+            hold_speeds: None,
+            initial_motion: None,
+            max_armed_steps: Some(test.steps),
+        };
+        // No heartbeats are due: the pulse ends by itself within MOTOR_TEST_MAX_MS.
+        let event = self.arm_if_at_rest(controller, request, false)?;
+        self.motor_test_volts = match test.wheel {
+            Wheel::Left => WheelVolts {
+                left_v: test.volts,
+                right_v: 0.0,
+            },
+            Wheel::Right => WheelVolts {
+                left_v: 0.0,
+                right_v: test.volts,
+            },
+        };
+        Ok(event)
     }
 
     /// The request the button and auto-arm make for `mode`.
@@ -813,6 +865,7 @@ impl Supervisor {
             }
             (State::Armed, RunMode::Tune) => Mode::ApplyVolts(self.tune_volts),
             (State::Armed, RunMode::FollowVelocity) => Mode::FollowVelocity,
+            (State::Armed, RunMode::MotorTest) => Mode::ApplyVolts(self.motor_test_volts),
             (State::Disarmed | State::Faulted | State::Persisting, _) => Mode::Idle,
         }
     }

@@ -39,6 +39,10 @@ pub enum RunMode {
     /// only: not in the button's mode-select cycle, and the button and auto-arm arm
     /// [`RunMode::FollowPath`] when this mode was the last one.
     FollowVelocity,
+    /// One motor pulse of a bring-up ([`Command::MotorTest`]): a set voltage on one wheel,
+    /// the other at 0 V, for a bounded time, then disarmed ([`DisarmReason::Timeout`]).
+    /// Never selected by the button.
+    MotorTest,
 }
 
 impl RunMode {
@@ -48,7 +52,7 @@ impl RunMode {
     pub const fn next(self) -> RunMode {
         match self.in_button_cycle() {
             RunMode::HoldWheelSpeeds => RunMode::Tune,
-            RunMode::Tune => RunMode::FollowPath,
+            RunMode::Tune | RunMode::MotorTest => RunMode::FollowPath,
             RunMode::FollowPath | RunMode::FollowVelocity => RunMode::HoldWheelSpeeds,
         }
     }
@@ -259,6 +263,63 @@ pub enum Command {
     /// ([`CommandRefusal::NonFiniteVelocity`]): in force from this step for the velocity
     /// mode's timeout ([`Controller::command_velocity`]). Not a heartbeat.
     Velocity(BodyVelocity),
+    /// One motor pulse (from Disarmed only, the wheels at rest): armed in
+    /// [`RunMode::MotorTest`], every fault check in force and the button stopping it.
+    MotorTest(MotorTestRequest),
+}
+
+/// Largest |voltage| of a motor pulse, V ([`MotorTestRequest::volts`]).
+pub const MOTOR_TEST_MAX_VOLTS: f32 = 3.0;
+/// Longest motor pulse, ms ([`MotorTestRequest::steps`] at the control rate).
+pub const MOTOR_TEST_MAX_MS: u32 = 500;
+
+/// A wheel of the robot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub enum Wheel {
+    /// The left wheel.
+    Left,
+    /// The right wheel.
+    Right,
+}
+
+/// One motor pulse of a bring-up: `volts` on `wheel`'s motor (through the robot's wiring
+/// corrections, like every duty), 0 V on the other, for `steps` control steps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct MotorTestRequest {
+    /// The wheel whose motor is pulsed.
+    pub wheel: Wheel,
+    /// The armature voltage, V, forward positive: finite, |volts| ≤
+    /// [`MOTOR_TEST_MAX_VOLTS`] (and the motor's rating, as every voltage the loop
+    /// applies).
+    pub volts: f32,
+    /// How long, control steps armed (the step that arms among them): 1 … the steps of
+    /// [`MOTOR_TEST_MAX_MS`].
+    pub steps: u32,
+}
+
+impl MotorTestRequest {
+    /// The request's fault, if any, at a control rate of `rate_hz` (Hz): the voltage or
+    /// the duration out of its bounds.
+    pub fn check(&self, rate_hz: u32) -> Result<(), CommandRefusal> {
+        let max_steps = (u64::from(rate_hz) * u64::from(MOTOR_TEST_MAX_MS) / 1000) as u32;
+        let volts_ok =
+            self.volts.is_finite() && crate::math::abs(self.volts) <= MOTOR_TEST_MAX_VOLTS;
+        if volts_ok && self.steps >= 1 && self.steps <= max_steps {
+            Ok(())
+        } else {
+            Err(CommandRefusal::MotorTestOutOfBounds)
+        }
+    }
 }
 
 /// Why a [`Command`] was refused.
@@ -283,6 +344,9 @@ pub enum CommandRefusal {
     WrongMode(RunMode),
     /// A velocity command with a NaN or infinite field.
     NonFiniteVelocity,
+    /// A motor pulse above [`MOTOR_TEST_MAX_VOLTS`] or longer than [`MOTOR_TEST_MAX_MS`]
+    /// (or of no steps, or a voltage that is not finite).
+    MotorTestOutOfBounds,
 }
 
 impl core::fmt::Display for CommandRefusal {
@@ -298,6 +362,10 @@ impl core::fmt::Display for CommandRefusal {
                 write!(f, "armed in {mode:?}, not in the velocity mode")
             }
             CommandRefusal::NonFiniteVelocity => f.write_str("the velocity command must be finite"),
+            CommandRefusal::MotorTestOutOfBounds => write!(
+                f,
+                "a motor pulse is at most {MOTOR_TEST_MAX_VOLTS} V and {MOTOR_TEST_MAX_MS} ms"
+            ),
         }
     }
 }

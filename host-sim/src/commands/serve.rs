@@ -10,6 +10,10 @@ use std::net::TcpListener;
 use anyhow::{Context, Result};
 
 use super::{load, Failed, Report};
+use std::io::{BufRead as _, Write as _};
+
+use crate::serve::hands::{self, HandCommand, HandsRemote};
+use crate::serve::miswire::Miswiring;
 use crate::serve::{serve, LiveStream, ServeOptions, StepReport, VirtualRobot};
 
 /// The fastest `--speed`: simulated time per wall-clock time.
@@ -36,6 +40,8 @@ pub struct Listening {
     pub speed: f64,
     /// The supervisor's heartbeat timeout, control steps.
     pub heartbeat_timeout_steps: u32,
+    /// How the robot is miswired (`none`: as labelled).
+    pub miswiring: String,
     /// Where the Foxglove stream listens (`host:port`, the port the system chose for
     /// port 0) and its rate, Hz; `None` without `--foxglove`.
     pub foxglove: Option<(String, f64)>,
@@ -43,11 +49,15 @@ pub struct Listening {
 
 impl fmt::Display for Listening {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        writeln!(
+        write!(
             f,
             "virtual robot ({}) listening on {}, {}× real time; heartbeat timeout {} steps",
             self.scenario, self.listen, self.speed, self.heartbeat_timeout_steps
         )?;
+        if self.miswiring != "none" {
+            write!(f, "; miswired: {}", self.miswiring)?;
+        }
+        writeln!(f)?;
         if let Some((address, hz)) = &self.foxglove {
             writeln!(
                 f,
@@ -90,6 +100,48 @@ impl fmt::Display for EventLine {
     }
 }
 
+/// How the bench around the virtual robot is set up.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Bench {
+    /// The miswiring list (over the scenario's), if given.
+    pub miswire: Option<String>,
+    /// Read the hands' commands from standard input and answer on standard output.
+    pub hands: bool,
+}
+
+/// Reads hand commands from standard input into `remote`, and prints its answers, each
+/// on a thread of its own, until standard input ends.
+fn hands_on_stdio(remote: HandsRemote) {
+    let HandsRemote { commands, answers } = remote;
+    std::thread::spawn(move || {
+        for line in std::io::stdin().lock().lines() {
+            let Ok(line) = line else { break };
+            if line.trim().is_empty() {
+                continue;
+            }
+            match line.parse::<HandCommand>() {
+                Ok(command) => {
+                    if commands.send(command).is_err() {
+                        break;
+                    }
+                }
+                Err(problem) => {
+                    let mut out = std::io::stdout().lock();
+                    let _ = writeln!(out, "{problem}");
+                    let _ = out.flush();
+                }
+            }
+        }
+    });
+    std::thread::spawn(move || {
+        for answer in answers {
+            let mut out = std::io::stdout().lock();
+            let _ = writeln!(out, "{answer}");
+            let _ = out.flush();
+        }
+    });
+}
+
 /// What is left when the virtual robot stops (its listener failed): nothing to print.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Stopped;
@@ -110,6 +162,7 @@ pub fn run(
     scenario: &str,
     listen: &str,
     speed: f64,
+    bench: &Bench,
     foxglove: Option<&FoxgloveOptions>,
     listening: &mut dyn FnMut(&Listening) -> std::io::Result<()>,
     event: &mut dyn FnMut(&EventLine),
@@ -119,6 +172,17 @@ pub fn run(
     let listener = TcpListener::bind(listen).with_context(|| format!("listening on {listen}"))?;
     let mut channels = robot_app::Channels::new();
     let mut robot = VirtualRobot::new(&mut channels, &scenario)?;
+    if let Some(list) = &bench.miswire {
+        let miswiring: Miswiring = list
+            .parse()
+            .map_err(|e| Failed(format!("--miswire: {e}")))?;
+        robot.miswire(miswiring);
+    }
+    if bench.hands {
+        let (remote, hands) = hands::hands();
+        robot.attach_hands(hands);
+        hands_on_stdio(remote);
+    }
     let rate = scenario.robot.control_rate_hz;
     let rate_hz = f64::from(rate);
     let mut live = match foxglove {
@@ -159,6 +223,7 @@ pub fn run(
             .map_or_else(|_| listen.to_string(), |address| address.to_string()),
         speed,
         heartbeat_timeout_steps: scenario.supervisor.heartbeat_timeout_steps,
+        miswiring: robot.miswiring().to_string(),
         foxglove: foxglove_line,
     })?;
     let mut log = |report: &StepReport| {
@@ -196,6 +261,7 @@ mod tests {
             "paper-circle",
             "127.0.0.1:0",
             1.0,
+            &Bench::default(),
             None,
             &mut listening,
             &mut |_| {},
@@ -220,6 +286,7 @@ mod tests {
                 "paper-circle",
                 "127.0.0.1:0",
                 1.0,
+                &Bench::default(),
                 Some(&options),
                 &mut |_| Ok(()),
                 &mut |_| {},

@@ -39,6 +39,17 @@
 //!
 //! After a run the plant goes on (braking, coasting) until the next path is committed.
 //!
+//! # Miswired, and the bench's hands
+//!
+//! Between the plant and the robot's board sit the wires ([`miswire`]): a robot served
+//! with `--miswire` (or its scenario's `[virtual_robot] miswire`) has motors or encoders
+//! inverted or swapped, encoders of another resolution or a supply reading that is off,
+//! exactly where a real robot's wiring would have them; the robot's own wiring
+//! corrections are what undoes them. For tests only, [`hands`] turn a wheel by hand,
+//! press the button and watch the LED.
+//!
+//! It reports its brown-out reset at level 3, as a set-up robot does.
+//!
 //! # In Foxglove
 //!
 //! With a [`LiveStream`] (`serve --foxglove`), every step may be sampled as a trace row
@@ -46,8 +57,10 @@
 //! link side as the robot's own requests ([`VirtualRobot::request_locally`]), whose
 //! replies go to no host.
 
+pub mod hands;
 mod hosts;
 mod live;
+pub mod miswire;
 mod truth;
 
 use std::io::ErrorKind;
@@ -76,8 +89,10 @@ use robot_files::truth::{tracking_error_f64, true_error, TruePose};
 use crate::hardware::{Actuation, SimHardware};
 use crate::plant::PlantError;
 
+use self::hands::Hands;
 use self::hosts::Hosts;
 pub use self::live::LiveStream;
+use self::miswire::{MiswireError, Miswiring, Wires};
 pub use self::truth::TrueRun;
 
 /// The UART rate the virtual robot's link pretends to have, baud: fast enough for the
@@ -96,6 +111,9 @@ pub enum ServeError {
     /// The scenario's reference could not be built.
     #[error("reference: {0}")]
     Reference(controller_core::reference::ReferenceError),
+    /// The scenario's `[virtual_robot] miswire` list is invalid.
+    #[error("[virtual_robot] miswire: {0}")]
+    Miswire(#[from] MiswireError),
 }
 
 /// What one control step of the virtual robot did, for its log.
@@ -134,6 +152,10 @@ pub struct VirtualRobot<'a> {
     outgoing: Vec<u8>,
     /// Control step of the last `Heartbeat` the link side took.
     last_heartbeat_step: u32,
+    /// The wires between the plant and the board.
+    wires: Wires,
+    /// The bench's hands (tests only).
+    hands: Option<Hands>,
     /// The last step's supervisor outcome and the plant's truth when its sensors were
     /// read (pose, body velocity, wheel speeds): what [`VirtualRobot::trace_row`] shows.
     last_step: Option<LastStep>,
@@ -197,6 +219,7 @@ impl<'a> VirtualRobot<'a> {
         let (control, link) =
             start(channels, config).map_err(|e| ServeError::Start(e.to_string()))?;
         let hardware = SimHardware::new(&placed(scenario, &scenario.start), &scenario.faults)?;
+        let miswiring: Miswiring = scenario.miswire.parse()?;
         Ok(Self {
             scenario: scenario.clone(),
             control,
@@ -212,9 +235,26 @@ impl<'a> VirtualRobot<'a> {
             pending_in: Vec::new(),
             outgoing: Vec::new(),
             last_heartbeat_step: 0,
+            wires: Wires::new(miswiring),
+            hands: None,
             last_step: None,
             local_reply: None,
         })
+    }
+
+    /// Miswires the robot as `miswiring` says (over its scenario's list).
+    pub fn miswire(&mut self, miswiring: Miswiring) {
+        self.wires = Wires::new(miswiring);
+    }
+
+    /// How the robot is miswired.
+    pub fn miswiring(&self) -> &Miswiring {
+        self.wires.miswiring()
+    }
+
+    /// Gives the bench these hands (tests only: see [`hands`]).
+    pub fn attach_hands(&mut self, hands: Hands) {
+        self.hands = Some(hands);
     }
 
     /// The control side (supervisor, controller).
@@ -365,15 +405,32 @@ impl<'a> VirtualRobot<'a> {
         };
         self.background = self.background.wrapping_add(1);
         let periods = NonZeroU32::new(sensed.periods).unwrap_or(NonZeroU32::MIN);
+        // The hands turn the encoders at the plant's resolution, before the wires.
+        let (by_hand, hand_pressed) = match &mut self.hands {
+            Some(hands) => {
+                let c = &self.scenario.robot;
+                let ticks_per_turn =
+                    f64::from(c.encoder_lines_per_motor_rev) * 4.0 * f64::from(c.gear_ratio);
+                hands.step(f64::from(c.control_rate_hz), ticks_per_turn)
+            }
+            None => (Default::default(), false),
+        };
+        let wheel_ticks = controller_core::controller::TickDeltas {
+            left: sensed.ticks.left.wrapping_add(by_hand.left),
+            right: sensed.ticks.right.wrapping_add(by_hand.right),
+        };
         let out = self.control.step(Sensors {
-            ticks: sensed.ticks,
+            ticks: self.wires.board_ticks(wheel_ticks),
             periods,
-            supply_v: sensed.supply_v,
-            button_pressed: sensed.button_pressed,
+            supply_v: self.wires.board_supply(sensed.supply_v),
+            button_pressed: sensed.button_pressed || hand_pressed,
             overrun: false,
             background_heartbeat: self.background,
             gyro: sensed.gyro,
         });
+        if let Some(hands) = &mut self.hands {
+            hands.see_led(out.led_on);
+        }
         let step = self.control.steps();
         self.last_step = Some(LastStep {
             out,
@@ -478,7 +535,7 @@ impl<'a> VirtualRobot<'a> {
         // 5. The plant runs once armed.
         if !self.frozen {
             self.hardware.actuate(Actuation {
-                duty: out.duty,
+                duty: self.wires.wheel_duties(out.duty),
                 bridge: out.bridge,
             });
             self.hardware.advance();

@@ -43,6 +43,7 @@ mod telemetry;
 use controller_core::kinematics::{BodyVelocity, WheelSpeeds};
 use controller_core::params::RobotConfig;
 use controller_core::supervisor::{Event, SupervisorConfig};
+pub use controller_core::supervisor::{Wheel, MOTOR_TEST_MAX_MS, MOTOR_TEST_MAX_VOLTS};
 use heapless::String;
 use postcard_schema::Schema;
 use serde::de::DeserializeOwned;
@@ -54,7 +55,7 @@ pub use self::board::{
 pub use self::path::{CommitSummary, PathBegin, PathChunk, PathCommit, SEGMENTS_PER_CHUNK};
 pub use self::refusal::{FieldProblem, NotPermitted, PathProblem, Refusal, FIELD_CAP, PROBLEM_CAP};
 pub use self::run::{ErrorSummary, RunReport, TrueRunReport, TuneReport};
-pub use self::telemetry::{GroundTruth, LinkStats, PidParts, Stats, TelemetryFrame};
+pub use self::telemetry::{GroundTruth, LinkStats, PidParts, RawCounts, Stats, TelemetryFrame};
 use crate::protocol::ProtocolId;
 
 /// Capacity of [`RobotInfo::firmware_version`], bytes of UTF-8.
@@ -216,7 +217,30 @@ pub enum Request {
         /// Yaw rate ω, rad/s, counter-clockwise positive.
         omega_rad_s: f32,
     },
+    /// One motor pulse of a bring-up, the wheels lifted: `volts` on `wheel`'s motor (0 V
+    /// on the other) for `duration_ms`, run as a short armed mode (the core's
+    /// `RunMode::MotorTest`: every fault check applies, the button stops it), then
+    /// disarmed ([`Uplink::Event`] `Armed(MotorTest)`, then `Disarmed(Timeout)`). The
+    /// encoders' answer is in the telemetry ([`TelemetryFrame::raw_counts`]). Only from
+    /// Disarmed ([`Refusal::Armed`], [`Refusal::Faulted`], [`Refusal::Busy`]) with the
+    /// wheels at rest ([`NotPermitted::WheelsTurning`]); `confirm` must be
+    /// [`MOTOR_TEST_CONFIRMATION`] ([`NotPermitted::MotorTestUnconfirmed`]); |`volts`| ≤
+    /// [`MOTOR_TEST_MAX_VOLTS`] and 1 ≤ `duration_ms` ≤ [`MOTOR_TEST_MAX_MS`], each
+    /// refused by name otherwise ([`Refusal::InvalidArgument`]).
+    MotorTest {
+        /// The wheel whose motor is pulsed (through the robot's wiring corrections).
+        wheel: Wheel,
+        /// Armature voltage, V, forward positive.
+        volts: f32,
+        /// Length of the pulse, ms.
+        duration_ms: u16,
+        /// [`MOTOR_TEST_CONFIRMATION`]: the host says the wheels are off the ground.
+        confirm: u32,
+    },
 }
+
+/// The value of [`Request::MotorTest`]'s `confirm`: the bytes `LIFT`, little-endian.
+pub const MOTOR_TEST_CONFIRMATION: u32 = u32::from_le_bytes(*b"LIFT");
 
 impl Request {
     /// The request's name, for logs (`"SetParams"`, …).
@@ -243,6 +267,7 @@ impl Request {
             Request::GetPanicRecord => "GetPanicRecord",
             Request::ClearPanicRecord => "ClearPanicRecord",
             Request::Velocity { .. } => "Velocity",
+            Request::MotorTest { .. } => "MotorTest",
         }
     }
 }
@@ -439,6 +464,13 @@ mod tests {
             .name(),
             Request::GetPanicRecord.name(),
             Request::ClearPanicRecord.name(),
+            Request::MotorTest {
+                wheel: Wheel::Left,
+                volts: 1.0,
+                duration_ms: 100,
+                confirm: MOTOR_TEST_CONFIRMATION,
+            }
+            .name(),
         ];
         for (i, a) in names.iter().enumerate() {
             for b in &names[i + 1..] {

@@ -263,6 +263,9 @@ pub enum NotPermitted {
     /// armed in the velocity mode ([`ArmMode::FollowVelocity`](crate::ArmMode)):
     /// disarmed, or armed in another mode.
     NotInVelocityMode,
+    /// A motor pulse without the confirmation that the wheels are lifted
+    /// (`MotorTest::confirm` is not [`MOTOR_TEST_CONFIRMATION`](crate::MOTOR_TEST_CONFIRMATION)).
+    MotorTestUnconfirmed,
 }
 
 impl fmt::Display for NotPermitted {
@@ -286,6 +289,9 @@ impl fmt::Display for NotPermitted {
             }
             NotPermitted::NotInVelocityMode => {
                 "velocity commands are taken only while armed in the velocity mode"
+            }
+            NotPermitted::MotorTestUnconfirmed => {
+                "a motor pulse needs the confirmation that the wheels are lifted"
             }
         })
     }

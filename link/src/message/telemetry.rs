@@ -55,6 +55,20 @@ pub struct TelemetryFrame {
     pub odometry_heading_rad: f32,
     /// The gyro's state (none, reading, failed and why).
     pub gyro_health: GyroHealth,
+    /// The board's encoder counts since boot, before the robot's wiring corrections,
+    /// armed or not (what a bring-up reads while a wheel is turned by hand or pulsed).
+    pub raw_counts: RawCounts,
+}
+
+/// The board's two encoder inputs as positions since boot, counts (wrapping `i32`), before
+/// the wiring corrections: `left` is the input the board labels left, whichever wheel is
+/// on it, counting up when that encoder turns the way the board calls forward.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, Schema)]
+pub struct RawCounts {
+    /// The board's left encoder input, counts.
+    pub left: i32,
+    /// The board's right encoder input, counts.
+    pub right: i32,
 }
 
 /// One wheel PID's output split into its parts, V. Their sum is the voltage asked of the

@@ -32,7 +32,10 @@ mod tx;
 
 use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::path::{Segment, MAX_SEGMENTS};
-use controller_core::supervisor::{ArmRequest, Command, RunMode, State};
+use controller_core::supervisor::{
+    ArmRequest, Command, MotorTestRequest, RunMode, State, Wheel, MOTOR_TEST_MAX_MS,
+    MOTOR_TEST_MAX_VOLTS,
+};
 use link::{
     bounded, check_telemetry_rate, params_hash, ArmMode, BrownOutReset, ClockSource, Commit,
     CommitSummary, CommittedPath, Decoder, Downlink, FieldProblem, LinkStats, NotPermitted,
@@ -67,7 +70,7 @@ const _: () = assert!(REPLY_RESERVE + COMMAND_CAPACITY * CONTROL_REPLY_MAX <= TX
 
 /// Bytes on the wire of the largest telemetry frame (`link::bandwidth::telemetry_wire_len`,
 /// checked by a test; a constant here so the target needs no size-counting serializer).
-pub const TELEMETRY_WIRE_LEN: usize = 146;
+pub const TELEMETRY_WIRE_LEN: usize = 156;
 
 /// Who the robot is and what its board found when it started, as [`Request::Info`]
 /// reports it. Strings longer than the link's capacities are cut.
@@ -446,6 +449,21 @@ impl<'a> LinkService<'a> {
                     Err(refused) => Some(Err(refused)),
                 }
             }
+            &Request::MotorTest {
+                wheel,
+                volts,
+                duration_ms,
+                confirm,
+            } => match motor_test(
+                wheel,
+                volts,
+                duration_ms,
+                confirm,
+                self.active.robot.control_rate_hz,
+            ) {
+                Ok(test) => self.forward(seq, Op::Command(Command::MotorTest(test))),
+                Err(refused) => Some(Err(refused)),
+            },
         };
         if let Some(result) = now {
             self.reply(seq, result);
@@ -720,6 +738,40 @@ fn finite_velocity(v_m_s: f32, omega_rad_s: f32) -> Result<BodyVelocity, Refusal
         }
     }
     Ok(BodyVelocity::new(v_m_s, omega_rad_s))
+}
+
+/// The supervisor's motor pulse for the link's `MotorTest` at a control rate of
+/// `rate_hz` (Hz), or the refusal that names what is wrong: the confirmation first, then
+/// each field out of its bounds. Not inlined: see [`LinkService::handle`].
+#[inline(never)]
+fn motor_test(
+    wheel: Wheel,
+    volts: f32,
+    duration_ms: u16,
+    confirm: u32,
+    rate_hz: u32,
+) -> Result<MotorTestRequest, Refusal> {
+    if confirm != link::MOTOR_TEST_CONFIRMATION {
+        return Err(Refusal::NotPermitted(NotPermitted::MotorTestUnconfirmed));
+    }
+    if !(volts.is_finite() && controller_core::math::abs(volts) <= MOTOR_TEST_MAX_VOLTS) {
+        return Err(Refusal::InvalidArgument(FieldProblem::new(
+            "volts",
+            "must be finite and at most 3 V either way",
+        )));
+    }
+    if duration_ms == 0 || u32::from(duration_ms) > MOTOR_TEST_MAX_MS {
+        return Err(Refusal::InvalidArgument(FieldProblem::new(
+            "duration_ms",
+            "must be in 1..=500",
+        )));
+    }
+    let steps = (u64::from(rate_hz) * u64::from(duration_ms) / 1000).max(1) as u32;
+    Ok(MotorTestRequest {
+        wheel,
+        volts,
+        steps,
+    })
 }
 
 /// The reply to `GetPanicRecord`: what `board` keeps. Not inlined: see

@@ -4,6 +4,7 @@ use controller_core::law::{KanayamaGains, LawGains, PaperGains, TrackingGains};
 use controller_core::params::{DriveConfig, MotorConfig, Params, RobotConfig, WheelLoopConfig};
 use controller_core::tune::TuneResult;
 use controller_core::velocity::AxisLimits;
+use controller_core::wiring::WiringConfig;
 use serde::{Deserialize, Serialize};
 
 use super::{param_error, set, SectionError};
@@ -191,6 +192,58 @@ pub struct LawSection {
     pub kanayama: KanayamaSection,
 }
 
+/// `[robot.wiring]`: the wiring corrections (`controller_core::wiring`), which
+/// `station bringup` finds.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WiringSection {
+    /// The left motor turns its wheel backward for a positive duty.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub left_motor_inverted: Option<bool>,
+    /// The right motor turns its wheel backward for a positive duty.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub right_motor_inverted: Option<bool>,
+    /// The motors are on each other's board outputs.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motors_swapped: Option<bool>,
+    /// The left encoder counts down when its wheel turns forward.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub left_encoder_inverted: Option<bool>,
+    /// The right encoder counts down when its wheel turns forward.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub right_encoder_inverted: Option<bool>,
+    /// The encoders are on each other's board inputs.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub encoders_swapped: Option<bool>,
+    /// True supply over the board's reading of it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub supply_scale: Option<f32>,
+}
+
+impl WiringSection {
+    fn apply(&self, w: &mut WiringConfig) {
+        set(&mut w.left_motor_inverted, self.left_motor_inverted);
+        set(&mut w.right_motor_inverted, self.right_motor_inverted);
+        set(&mut w.motors_swapped, self.motors_swapped);
+        set(&mut w.left_encoder_inverted, self.left_encoder_inverted);
+        set(&mut w.right_encoder_inverted, self.right_encoder_inverted);
+        set(&mut w.encoders_swapped, self.encoders_swapped);
+        set(&mut w.supply_scale, self.supply_scale);
+    }
+
+    fn of(w: &WiringConfig) -> Self {
+        Self {
+            left_motor_inverted: Some(w.left_motor_inverted),
+            right_motor_inverted: Some(w.right_motor_inverted),
+            motors_swapped: Some(w.motors_swapped),
+            left_encoder_inverted: Some(w.left_encoder_inverted),
+            right_encoder_inverted: Some(w.right_encoder_inverted),
+            encoders_swapped: Some(w.encoders_swapped),
+            supply_scale: Some(w.supply_scale),
+        }
+    }
+}
+
 /// `[robot]`: overrides of [`RobotConfig::REFERENCE_ROBOT`] (module doc).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -249,6 +302,9 @@ pub struct RobotSection {
     /// The velocity mode.
     #[serde(default)]
     pub velocity: VelocitySection,
+    /// Wiring corrections.
+    #[serde(default)]
+    pub wiring: WiringSection,
 }
 
 /// True when `section` sets the wheel-loop field `name`.
@@ -357,6 +413,7 @@ impl RobotSection {
             &mut c.velocity.cmd_vel_timeout_steps,
             self.velocity.cmd_vel_timeout_steps,
         );
+        self.wiring.apply(&mut c.wiring);
         c
     }
 
@@ -422,6 +479,7 @@ impl RobotSection {
                 angular_z: AxisSection::of(&config.velocity.angular_z),
                 cmd_vel_timeout_steps: Some(config.velocity.cmd_vel_timeout_steps),
             },
+            wiring: WiringSection::of(&config.wiring),
         }
     }
 }

@@ -488,5 +488,6 @@ pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, 
             Some(v) => Some(super::velocity::build(v, control)?),
             None => None,
         },
+        miswire: file.virtual_robot.miswire,
     })
 }

@@ -334,6 +334,10 @@ pub struct Scenario {
     pub gyro: Option<GyroSetup>,
     /// A run in the velocity mode: its commands (`[velocity]`; `None`: path following).
     pub velocity: Option<VelocityTimeline>,
+    /// How the virtual robot is miswired (`[virtual_robot] miswire`, the list
+    /// `host-sim serve --miswire` takes; empty: wired as labelled). Only `host-sim serve`
+    /// reads it.
+    pub miswire: String,
 }
 
 impl Scenario {

@@ -191,6 +191,8 @@ pub(super) struct ScenarioFile {
     pub(super) faults: Vec<FaultEntry>,
     pub(super) gyro: Option<super::gyro::FileGyro>,
     pub(super) velocity: Option<FileVelocity>,
+    #[serde(default)]
+    pub(super) virtual_robot: FileVirtualRobot,
 }
 
 /// `[velocity]` (see the `velocity` module).
@@ -200,4 +202,12 @@ pub(super) struct FileVelocity {
     pub(super) commands: RawValue,
     pub(super) command_period_s: Option<f64>,
     pub(super) stop_sending_s: Option<f64>,
+}
+
+/// `[virtual_robot]`: what only `host-sim serve` reads.
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub(super) struct FileVirtualRobot {
+    #[serde(default)]
+    pub(super) miswire: String,
 }

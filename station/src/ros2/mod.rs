@@ -49,6 +49,7 @@ pub(crate) mod test_frames {
             fused_heading_rad: 0.0,
             odometry_heading_rad: 0.0,
             gyro_health: Default::default(),
+            raw_counts: Default::default(),
         }
     }
 }

@@ -1121,5 +1121,6 @@ fn a_refused_setting_says_why_and_keeps_its_cause() {
     assert_ne!(invalid.to_string(), armed.to_string());
 }
 
+mod motor_test;
 mod rearm;
 mod velocity;

@@ -10,8 +10,10 @@ use stm32f4xx_hal::pac;
 
 use super::PwmTimer;
 
-/// Wiring polarity: set so that a positive duty drives the wheel forward and forward
-/// wheel rotation counts up. Flip after the bring-up check (`docs/hardware.md`, "Bring-up").
+/// The reference wiring's polarity (`docs/hardware.md`, "Wiring"): what the board calls
+/// forward for each motor output and encoder input. A robot wired otherwise is corrected
+/// by its parameters (`wiring`, found by `station bringup`: `docs/bring-up.md`), not by
+/// editing these.
 pub mod polarity {
     /// The left motor's leads are swapped (positive duty would turn it backwards).
     pub const LEFT_MOTOR_INVERTED: bool = false;

@@ -1,5 +1,6 @@
 //! Puts the chip's `memory.x` where the linker finds it, adds the linker scripts of
-//! `cortex-m-rt` (`link.x`) and `defmt` (`defmt.x`) for this crate's binary only, and
+//! `cortex-m-rt` (`link.x`) and `defmt` (`defmt.x`) for this crate's binary and its
+//! first-flash programs (`examples/`) only, and
 //! makes `info` this crate's default defmt log level.
 //!
 //! It also sets `FIRMWARE_GIT_HASH` (the commit the firmware is built from, 12 hex
@@ -74,9 +75,11 @@ fn main() {
     // Only when building for the MCU: a host `cargo check` of the crate must not ask the
     // host linker for these scripts.
     if env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
-        println!("cargo:rustc-link-arg-bins=--nmagic");
-        println!("cargo:rustc-link-arg-bins=-Tlink.x");
-        println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+        for kind in ["bins", "examples"] {
+            println!("cargo:rustc-link-arg-{kind}=--nmagic");
+            println!("cargo:rustc-link-arg-{kind}=-Tlink.x");
+            println!("cargo:rustc-link-arg-{kind}=-Tdefmt.x");
+        }
     }
 }
 

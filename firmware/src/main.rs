@@ -8,7 +8,9 @@
 //!   plant in lockstep: processor in the loop.
 //!
 //! Everything that differs between the two is in [`board`]; this file is the same for
-//! both. The story, top to bottom:
+//! both. The board layer, [`robot`] and [`stats`] are the crate's library
+//! (`firmware_board`), which the first-flash programs (`examples/`) share. The story,
+//! top to bottom:
 //!
 //! 1. [`app::init`] reads a previous run's panic record ([`panic_record`]), brings the
 //!    board up ([`board`]: on the F411 the watchdog with a long timeout first, the
@@ -56,20 +58,16 @@
 #![no_std]
 #![no_main]
 
-mod board;
 mod link_task;
 mod link_uart;
 #[cfg(feature = "panic-canary")]
 mod panic_canary;
 mod panic_record;
 mod persistence;
-mod robot;
-mod stats;
+
+use firmware_board::{board, robot, stats};
 
 use defmt_rtt as _;
-
-#[cfg(all(feature = "qemu", any(feature = "nucleo", feature = "drv8833")))]
-compile_error!("the `qemu` board has no button, LED or motor driver: drop `nucleo` / `drv8833`");
 
 #[rtic::app(device = stm32f4xx_hal::pac, peripherals = true)]
 mod app {

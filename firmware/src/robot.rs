@@ -17,8 +17,8 @@
 //! | Name reported by `Info`    | `diff-drive`                        | [`ROBOT_NAME`]   |
 //!
 //! These are the built-in defaults; the link's `SetParams` replaces the configuration
-//! and `PersistParams` keeps it in flash ([`crate::persistence`]), and a committed path
-//! upload replaces the built-in path until the next reset.
+//! and `PersistParams` keeps it in flash (the application's `persistence` module), and a
+//! committed path upload replaces the built-in path until the next reset.
 
 use core::f32::consts::FRAC_PI_3;
 

@@ -33,6 +33,10 @@ pub enum Command {
         /// 24 h soak is `--duration-s 86400`).
         #[arg(long)]
         duration_s: Option<f64>,
+        /// Also write the run as an MCAP file (Foxglove: poses, path, telemetry, events;
+        /// the trace's samples at simulated time).
+        #[arg(long)]
+        mcap: Option<PathBuf>,
     },
     /// Reproduce the paper: its circle and line experiments with every law, Figs. 5–7 and
     /// summary.json for each run, an overlay per experiment, a table and the verdict.
@@ -65,6 +69,10 @@ pub enum Command {
         /// Also write sweep.json (every run's draws and results) into this directory.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Also write each run as an MCAP file (Foxglove), run-NNNN.mcap, into this
+        /// directory.
+        #[arg(long)]
+        mcap_dir: Option<PathBuf>,
     },
     /// The velocity mode's figures: a step in the command reaching the limited command,
     /// the ramp to zero after the last command, and the limits held; one line, and a
@@ -101,6 +109,10 @@ pub enum Command {
         /// Output directory for faults.json [default: host-sim-out/<scenario>/faults].
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Also write each case's run as an MCAP file (Foxglove), named after the case,
+        /// into this directory.
+        #[arg(long)]
+        mcap_dir: Option<PathBuf>,
     },
     /// Processor in the loop: the firmware, built for the Cortex-M4F with its `qemu` board,
     /// runs under qemu-system-arm against this simulator's plant in lockstep, and a ground
@@ -176,6 +188,14 @@ pub enum Command {
         /// Simulated time per wall-clock time (1 = real time).
         #[arg(long, default_value_t = 1.0)]
         speed: f64,
+        /// Also stream the robot live to Foxglove (WebSocket, subprotocol
+        /// foxglove.sdk.v1) on this address, with its parameters as a parameter set
+        /// (read-only while armed).
+        #[arg(long, num_args = 0..=1, default_missing_value = "127.0.0.1:8765", value_name = "ADDR")]
+        foxglove: Option<String>,
+        /// Samples per second of robot time on the Foxglove stream, Hz.
+        #[arg(long, default_value_t = 100)]
+        foxglove_hz: u32,
     },
     /// The core's wheel-loop tune on the simulated robot (ground or lifted, the scenario's
     /// `[plant] load`): the identified model against the linearised plant, the gains (as
@@ -188,16 +208,17 @@ pub enum Command {
         /// Output directory for the plot (default: out/<scenario>/tune).
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Also the acceptance sweep: the identification on 36 robots (supply 5–12.6 V,
-        /// each motor parameter ±30 %) against their linearised truth.
+        /// Also the acceptance sweep: the tune on 27 robots (the nominal motor at 5–12.6 V,
+        /// R_a, K_t and inertia ±40 % and friction ×3, one at a time and at every corner)
+        /// against their linearised truth, and each tuned loop's step.
         #[arg(long)]
         sweep: bool,
         /// SIMC's τ_c over the loop's effective dead time (default: the core's).
         #[arg(long)]
         tau_c_per_dead_time: Option<f32>,
-        /// Length of the tune's hold and step, s (default: the core's).
+        /// The longest hold and step of the tune, s (default: the core's).
         #[arg(long)]
-        hold_s: Option<f32>,
+        max_hold_s: Option<f32>,
         /// Tune with the wheels lifted (the plant's load set to `lifted`): τ is corrected
         /// for the chassis before the PI is set.
         #[arg(long)]

@@ -26,6 +26,8 @@ use robot_files::metrics::FaultReport;
 use robot_files::scenario::Scenario;
 use serde::Serialize;
 
+use std::path::Path;
+
 use crate::run::{run_scenario_with, RunError, RunOptions};
 
 /// When each case's fault is injected, s (after the paper's circle's 5.5 s divergence
@@ -262,16 +264,31 @@ pub struct CaseResult {
     pub final_true_error_m: Option<f64>,
 }
 
-/// Runs every case on `scenario` with `law`.
-pub fn run_suite(scenario: &Scenario, law: LawKind) -> Result<Vec<CaseResult>, RunError> {
+/// Runs every case on `scenario` with `law`; with `mcap_dir`, each case's run is also
+/// written there as an MCAP file named after the case ([`crate::mcap::file_stem`]).
+pub fn run_suite(
+    scenario: &Scenario,
+    law: LawKind,
+    mcap_dir: Option<&Path>,
+) -> Result<Vec<CaseResult>, RunError> {
     cases()
         .into_iter()
-        .map(|case| run_case(scenario, law, case))
+        .map(|case| {
+            let file =
+                mcap_dir.map(|d| d.join(format!("{}.mcap", crate::mcap::file_stem(case.name))));
+            run_case(scenario, law, case, file.as_deref())
+        })
         .collect()
 }
 
-/// Runs `case` on `scenario` with `law`.
-pub fn run_case(scenario: &Scenario, law: LawKind, case: Case) -> Result<CaseResult, RunError> {
+/// Runs `case` on `scenario` with `law`; with `mcap`, the run (traced at the steering
+/// rate) is also written to that file.
+pub fn run_case(
+    scenario: &Scenario,
+    law: LawKind,
+    case: Case,
+    mcap: Option<&Path>,
+) -> Result<CaseResult, RunError> {
     let rate = f64::from(scenario.robot.control_rate_hz);
     {
         let mut s = scenario.clone();
@@ -295,13 +312,15 @@ pub fn run_case(scenario: &Scenario, law: LawKind, case: Case) -> Result<CaseRes
             // The mismatch exists from the start: odometry is wrong all run long.
             s.faults[0].at_step = 0;
         }
-        let run = run_scenario_with(
-            &s,
-            law,
-            RunOptions {
-                trace_every_steps: 0,
-            },
-        )?;
+        let trace_every_steps = if mcap.is_some() {
+            s.robot.steering_divider
+        } else {
+            0
+        };
+        let run = run_scenario_with(&s, law, RunOptions { trace_every_steps })?;
+        if let Some(file) = mcap {
+            crate::mcap::write_run_mcap(file, &s, &run)?;
+        }
         let report = run
             .summary
             .injected_faults
@@ -370,7 +389,7 @@ mod tests {
     fn a_second_press_re_arms_only_at_rest_and_resumes_from_the_real_pose() {
         let scenario = Scenario::load("paper-circle").unwrap();
         for case in cases().into_iter().filter(|c| c.again_after_s.is_some()) {
-            let r = run_case(&scenario, LawKind::Tracking, case).unwrap();
+            let r = run_case(&scenario, LawKind::Tracking, case, None).unwrap();
             let Expectation::Rearm { armed_again, .. } = case.expect else {
                 panic!("{}: a repeated press is a re-arm case", case.name);
             };

@@ -24,6 +24,7 @@
 //! - [`margins`] — the wheel loop's gain and phase margins, from its linearised model and
 //!   measured by a frequency sweep on the simulated robot.
 //! - [`output`] — a run's files (trace, summary, Figs. 5–7) and its human summary.
+//! - [`mcap`] — a run as an MCAP file for Foxglove (the `robot_foxglove` crate's channels).
 //! - [`plot`] — SVG figures of the wheel loop's step response.
 //! - [`sweep`] — Monte-Carlo over mismatch, noise and start pose, on every core.
 //! - [`robustness`] — the wheel loop with fixed gains against supplies from 4.8 to 12.6 V
@@ -59,6 +60,7 @@ pub mod encoder;
 pub mod fault_suite;
 pub mod hardware;
 pub mod margins;
+pub mod mcap;
 pub mod output;
 pub mod pil;
 pub mod plant;

@@ -40,12 +40,14 @@ fn dispatch(command: Command) -> Result<()> {
             out,
             trace_every,
             duration_s,
+            mcap,
         } => finish(&commands::run::run(&commands::run::Options {
             scenario,
             law: LawKind::from(law),
             out,
             trace_every,
             duration_s,
+            mcap,
         })?),
         Command::Paper { out } => finish(&commands::paper::run(out)?),
         Command::Compare { scenario, out } => finish(&commands::compare::run(&scenario, out)?),
@@ -55,12 +57,14 @@ fn dispatch(command: Command) -> Result<()> {
             law,
             seed,
             out,
+            mcap_dir,
         } => finish(&commands::sweep::run(&commands::sweep::Options {
             scenario,
             runs,
             law: LawKind::from(law),
             seed,
             out,
+            mcap_dir,
         })?),
         Command::VelocityCheck { scenario } => finish(&commands::velocity_check::run(&scenario)?),
         Command::StepResponse {
@@ -76,9 +80,17 @@ fn dispatch(command: Command) -> Result<()> {
                 out,
             },
         )?),
-        Command::Faults { scenario, law, out } => {
-            finish(&commands::faults::run(&scenario, LawKind::from(law), out)?)
-        }
+        Command::Faults {
+            scenario,
+            law,
+            out,
+            mcap_dir,
+        } => finish(&commands::faults::run(
+            &scenario,
+            LawKind::from(law),
+            out,
+            mcap_dir,
+        )?),
         Command::Pil {
             scenario,
             law,
@@ -124,7 +136,13 @@ fn dispatch(command: Command) -> Result<()> {
             scenario,
             listen,
             speed,
+            foxglove,
+            foxglove_hz,
         } => {
+            let foxglove = foxglove.map(|address| commands::serve::FoxgloveOptions {
+                address,
+                hz: foxglove_hz,
+            });
             // An event line that cannot be written is dropped: the robot keeps serving.
             let mut event = |line: &commands::serve::EventLine| {
                 let mut out = std::io::stdout().lock();
@@ -136,6 +154,7 @@ fn dispatch(command: Command) -> Result<()> {
                 &scenario,
                 &listen,
                 speed,
+                foxglove.as_ref(),
                 &mut listening,
                 &mut event,
             )?)
@@ -145,7 +164,7 @@ fn dispatch(command: Command) -> Result<()> {
             out,
             sweep,
             tau_c_per_dead_time,
-            hold_s,
+            max_hold_s,
             lifted,
         } => {
             let options = commands::tune::Options {
@@ -153,7 +172,7 @@ fn dispatch(command: Command) -> Result<()> {
                 out,
                 sweep,
                 tau_c_per_dead_time,
-                hold_s,
+                max_hold_s,
                 lifted,
             };
             finish(&commands::tune::run(&options, &mut say)?)

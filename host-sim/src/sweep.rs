@@ -162,17 +162,24 @@ pub fn perturb(base: &Scenario, rng: &mut Rng) -> (Scenario, Draws) {
 }
 
 /// Runs `runs` perturbed copies of `base` with `law` on every core, calling `progress`
-/// after each run (from any thread).
+/// after each run (from any thread); with `mcap_dir`, each run is also written there as
+/// `run-NNNN.mcap` (N its index), traced at the steering rate, one file (and one
+/// Foxglove context) per run.
 pub fn sweep(
     base: &Scenario,
     law: LawKind,
     runs: u32,
     seed: u64,
+    mcap_dir: Option<&std::path::Path>,
     progress: &(dyn Fn() + Sync),
 ) -> Result<SweepReport, RunError> {
     let start = std::time::Instant::now();
     let options = RunOptions {
-        trace_every_steps: 0,
+        trace_every_steps: if mcap_dir.is_some() {
+            base.robot.steering_divider
+        } else {
+            0
+        },
     };
     let details = (0..runs)
         .into_par_iter()
@@ -182,17 +189,21 @@ pub fn sweep(
             scenario.seed = rng.next_u64();
             let result = run_scenario_with(&scenario, law, options);
             progress();
+            if let (Some(dir), Ok(run)) = (mcap_dir, &result) {
+                let file = dir.join(format!("run-{index:04}.mcap"));
+                crate::mcap::write_run_mcap(&file, &scenario, run)?;
+            }
             // A draw whose robot or plant is invalid (the spreads pushed a value out of
             // range) is a failed run, not the end of the sweep.
-            result.ok().map(|r| SweepRun {
+            Ok(result.ok().map(|r| SweepRun {
                 index,
                 draws,
                 fault: r.faulted(),
                 estimated: r.summary.estimated_error,
                 summary: r.summary,
-            })
+            }))
         })
-        .collect::<Vec<_>>();
+        .collect::<Result<Vec<_>, RunError>>()?;
     let invalid_draws = details.iter().filter(|r| r.is_none()).count() as u32;
     let details: Vec<SweepRun> = details.into_iter().flatten().collect();
     // Invalid draws count as failures: rates are over every run asked for.

@@ -9,7 +9,8 @@
 //! ## Load cases
 //!
 //! - **On the ground** (`[plant] load = "ground"`, the default): the robot drives about
-//!   0.6 m forward and back; the identified plant is the driving-straight plant.
+//!   0.7 m forward and back (up to 1.35 m for slow motors); the identified plant is the
+//!   driving-straight plant.
 //! - **Lifted** (`load = "lifted"`): the wheels turn their own inertia only; the tune is
 //!   told the factor (J_w + m R²/2) / J_w from the plant's own mass and inertia (what a
 //!   user states from a scale and the wheel's data), and corrects τ by it.
@@ -29,7 +30,7 @@ use robot_files::scenario::Scenario;
 use crate::margins::{Motion, WheelPlant};
 use crate::plant::{Plant, PowerFlow};
 use crate::robustness::Variation;
-use crate::run::{plant_params, Robot, RunError};
+use crate::run::{plant_params, wheel_step_response, Robot, RunError};
 
 /// Longest a tune may run on the simulated robot, s.
 pub const MAX_TUNE_S: f64 = 60.0;
@@ -50,6 +51,8 @@ pub struct TuneRun {
 /// The linearised truth of one wheel in the scenario's load case (motoring, straight).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Truth {
+    /// The voltage that just overcomes the Coulomb friction through the gearbox, V.
+    pub ks_v: f64,
     /// 1/K, V per rad/s.
     pub kv_v_per_rad_s: f64,
     /// τ in the scenario's load case, s.
@@ -80,9 +83,11 @@ pub fn config_for(scenario: &Scenario) -> TuneConfig {
 pub fn truth(scenario: &Scenario) -> Result<Truth, RunError> {
     let mut params = plant_params(scenario);
     let here = WheelPlant::linearise(&params, Motion::Straight, PowerFlow::Motoring)?;
+    let ks_v = Plant::new(params)?.drive().steady_volts(0.0);
     params.load = Load::Ground;
     let ground = WheelPlant::linearise(&params, Motion::Straight, PowerFlow::Motoring)?;
     Ok(Truth {
+        ks_v,
         kv_v_per_rad_s: 1.0 / here.gain_rad_s_per_v,
         time_constant_s: here.time_constant_s,
         ground_time_constant_s: ground.time_constant_s,
@@ -163,36 +168,104 @@ pub fn error_pct(x: f64, truth: f64) -> f64 {
 /// The supplies of the identification sweep, V: from a weak 4×AA pack to a full 3S.
 pub const SWEEP_SUPPLIES_V: [f64; 4] = [5.0, 6.0, 8.4, 12.6];
 
-/// The robots of the identification sweep: at each of [`SWEEP_SUPPLIES_V`], the nominal
-/// motor and each of R_a, K_t, friction and inertia at −30 % and +30 % (36 robots).
+/// How far the sweep moves R_a, K_t and the inertias, %.
+pub const SWEEP_SPREAD_PCT: f64 = 40.0;
+
+/// The sweep's high friction, % change: Coulomb and viscous friction ×3.
+pub const SWEEP_HIGH_FRICTION_PCT: f64 = 200.0;
+
+/// The robots of the identification sweep (27): the nominal motor at each of
+/// [`SWEEP_SUPPLIES_V`]; on the scenario's supply each of R_a, K_t and the inertias at
+/// ±[`SWEEP_SPREAD_PCT`] and the friction ×3; and every corner of R_a, K_t and the
+/// inertias at ±[`SWEEP_SPREAD_PCT`], with the nominal friction and with it ×3 (the
+/// slowest, weakest motor is R_a +40 %, K_t −40 %, inertia +40 %, friction ×3; the
+/// fastest R_a −40 %, K_t +40 %, inertia −40 %).
 pub fn sweep_variations() -> Vec<Variation> {
-    let mut rows = Vec::new();
-    for supply in SWEEP_SUPPLIES_V {
-        let at = Variation {
-            supply_v: Some(supply),
+    let mut rows: Vec<Variation> = SWEEP_SUPPLIES_V
+        .iter()
+        .map(|v| Variation {
+            supply_v: Some(*v),
             ..Variation::default()
-        };
-        rows.push(at);
-        for p in [-30.0, 30.0] {
+        })
+        .collect();
+    for p in [-SWEEP_SPREAD_PCT, SWEEP_SPREAD_PCT] {
+        rows.push(Variation {
+            resistance_pct: p,
+            ..Variation::default()
+        });
+        rows.push(Variation {
+            torque_constant_pct: p,
+            ..Variation::default()
+        });
+        rows.push(Variation {
+            inertia_pct: p,
+            ..Variation::default()
+        });
+    }
+    rows.push(Variation {
+        friction_pct: SWEEP_HIGH_FRICTION_PCT,
+        ..Variation::default()
+    });
+    for friction_pct in [0.0, SWEEP_HIGH_FRICTION_PCT] {
+        for bits in 0..8u32 {
+            let p = |bit: u32| {
+                if bits & (1 << bit) == 0 {
+                    -SWEEP_SPREAD_PCT
+                } else {
+                    SWEEP_SPREAD_PCT
+                }
+            };
             rows.push(Variation {
-                resistance_pct: p,
-                ..at
-            });
-            rows.push(Variation {
-                torque_constant_pct: p,
-                ..at
-            });
-            rows.push(Variation {
-                friction_pct: p,
-                ..at
-            });
-            rows.push(Variation {
-                inertia_pct: p,
-                ..at
+                supply_v: None,
+                resistance_pct: p(0),
+                torque_constant_pct: p(1),
+                friction_pct,
+                inertia_pct: p(2),
             });
         }
     }
     rows
+}
+
+/// The step the sweep checks each tuned loop on, from rest on the ground at the robot's
+/// own supply: set-point (rad/s) and length (s).
+pub const SWEEP_STEP_RAD_S: f64 = 15.0;
+/// See [`SWEEP_STEP_RAD_S`].
+pub const SWEEP_STEP_S: f64 = 0.4;
+
+/// The identification's aim: every identified quantity within this of the truth, %.
+pub const SWEEP_AIM_PCT: f64 = 10.0;
+
+/// The tuned loop's response to the sweep's step ([`SWEEP_STEP_RAD_S`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoopCheck {
+    /// Peak overshoot, % of the set-point.
+    pub overshoot_pct: f64,
+    /// Time after which the speed stays within ±5 % of the set-point, s (`None`: never).
+    pub settling_time_s: Option<f64>,
+}
+
+/// The identified quantities' errors against the truth, of the wheel with the larger
+/// error of each, %.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Errors {
+    /// k_S.
+    pub ks_pct: f64,
+    /// k_V (the ramp's slope).
+    pub kv_pct: f64,
+    /// K (the step's gain) against 1/k_V's truth.
+    pub gain_pct: f64,
+    /// τ.
+    pub tau_pct: f64,
+}
+
+impl Errors {
+    /// The largest |error|, %.
+    pub fn worst_pct(&self) -> f64 {
+        [self.ks_pct, self.kv_pct, self.gain_pct, self.tau_pct]
+            .iter()
+            .fold(0.0f64, |a, e| a.max(e.abs()))
+    }
 }
 
 /// One robot of the identification sweep.
@@ -204,12 +277,14 @@ pub struct SweepCase {
     pub truth: Truth,
     /// The tune on it.
     pub run: TuneRun,
+    /// The tuned loop's step on the ground (`None`: the tune found no model).
+    pub tuned_step: Option<LoopCheck>,
 }
 
 impl SweepCase {
-    /// The larger wheel's relative error of k_V and of τ against the truth, %, (k_V, τ);
-    /// `None` if the tune found no model.
-    pub fn errors_pct(&self) -> Option<(f64, f64)> {
+    /// The identified model's errors against the truth ([`Errors`]); `None` if the tune
+    /// found no model.
+    pub fn errors_pct(&self) -> Option<Errors> {
         let result = self.run.outcome.ok()?;
         let worst = |f: &dyn Fn(&controller_core::tune::WheelModel) -> f64, truth: f64| {
             result
@@ -218,18 +293,30 @@ impl SweepCase {
                 .map(|m| error_pct(f(m), truth))
                 .fold(0.0f64, |a, e| if e.abs() > a.abs() { e } else { a })
         };
-        Some((
-            worst(&|m| f64::from(m.kv_v_per_rad_s), self.truth.kv_v_per_rad_s),
-            worst(
+        Some(Errors {
+            ks_pct: worst(&|m| f64::from(m.ks_v), self.truth.ks_v),
+            kv_pct: worst(&|m| f64::from(m.kv_v_per_rad_s), self.truth.kv_v_per_rad_s),
+            gain_pct: worst(
+                &|m| f64::from(m.gain_rad_s_per_v),
+                1.0 / self.truth.kv_v_per_rad_s,
+            ),
+            tau_pct: worst(
                 &|m| f64::from(m.time_constant_s),
                 self.truth.time_constant_s,
             ),
-        ))
+        })
+    }
+
+    /// True when the tune gave a model with every error within [`SWEEP_AIM_PCT`].
+    pub fn identified(&self) -> bool {
+        self.errors_pct()
+            .is_some_and(|e| e.worst_pct() <= SWEEP_AIM_PCT)
     }
 }
 
 /// The tune on every robot of `variations` (applied to `scenario`), in parallel, with
-/// `config`'s settings (its load replaced by each robot's, [`config_for`]).
+/// `config`'s settings (its load replaced by each robot's, [`config_for`]), and each
+/// tuned loop's step on the ground.
 pub fn identification_sweep(
     scenario: &Scenario,
     config: TuneConfig,
@@ -239,16 +326,30 @@ pub fn identification_sweep(
         .par_iter()
         .map(|v| {
             let s = v.apply(scenario);
+            let run = run_tune(
+                &s,
+                TuneConfig {
+                    load: config_for(&s).load,
+                    ..config
+                },
+            )?;
+            let tuned_step = match &run.outcome {
+                Ok(result) => {
+                    let mut ground = with_tuned_loops(&s, result);
+                    ground.plant.load = Load::Ground;
+                    let r = wheel_step_response(&ground, SWEEP_STEP_RAD_S, SWEEP_STEP_S)?;
+                    Some(LoopCheck {
+                        overshoot_pct: r.overshoot_pct,
+                        settling_time_s: r.settling_time_s,
+                    })
+                }
+                Err(_) => None,
+            };
             Ok(SweepCase {
                 variation: *v,
                 truth: truth(&s)?,
-                run: run_tune(
-                    &s,
-                    TuneConfig {
-                        load: config_for(&s).load,
-                        ..config
-                    },
-                )?,
+                run,
+                tuned_step,
             })
         })
         .collect()
@@ -286,6 +387,92 @@ mod tests {
             "{run:?}"
         );
         assert!(run.max_wheel_speed_rad_s < f64::from(config_for(&s).max_speed_rad_s));
+    }
+
+    /// The tune on `variation` of paper-circle: the sweep's one case.
+    fn sweep_case(variation: Variation) -> SweepCase {
+        let s = scenario();
+        identification_sweep(&s, config_for(&s), &[variation])
+            .unwrap()
+            .remove(0)
+    }
+
+    #[test]
+    fn a_weak_motor_is_identified_within_its_leash() {
+        // K_t −40 %: τ 228 ms and 9.8 rad/s per V. Holds and steps of fixed length left
+        // the allowed distance; planned from the hold, the tune finishes, settled.
+        let case = sweep_case(Variation {
+            torque_constant_pct: -SWEEP_SPREAD_PCT,
+            ..Variation::default()
+        });
+        let result = case.run.outcome.unwrap();
+        assert!(!result.warnings.any(), "{:?}", result.warnings);
+        let e = case.errors_pct().unwrap();
+        assert!(e.worst_pct() <= SWEEP_AIM_PCT, "{e:?}");
+        assert!(case.run.max_distance_m < 1.5, "{:?}", case.run);
+    }
+
+    #[test]
+    fn a_slow_motor_with_three_times_the_friction_breaks_away_and_is_identified() {
+        // R_a +40 %, K_t −40 %, inertia +40 %, friction ×3: it needs 2.5 V to turn, more
+        // than the 2.4 V step of fixed level the tune had.
+        let case = sweep_case(Variation {
+            supply_v: None,
+            resistance_pct: SWEEP_SPREAD_PCT,
+            torque_constant_pct: -SWEEP_SPREAD_PCT,
+            friction_pct: SWEEP_HIGH_FRICTION_PCT,
+            inertia_pct: SWEEP_SPREAD_PCT,
+        });
+        assert!(case.truth.ks_v > 2.4, "{:?}", case.truth);
+        let e = case.errors_pct().expect("a model");
+        assert!(e.worst_pct() <= SWEEP_AIM_PCT, "{e:?}");
+    }
+
+    #[test]
+    fn the_fastest_motor_is_tuned_without_overshoot() {
+        // R_a −40 %, K_t +40 %, inertia −40 %: τ 18 ms, under twice the loop's delay.
+        // SIMC's T_i = τ overshot 0 → 15 rad/s by 22 %.
+        let case = sweep_case(Variation {
+            supply_v: None,
+            resistance_pct: -SWEEP_SPREAD_PCT,
+            torque_constant_pct: SWEEP_SPREAD_PCT,
+            friction_pct: 0.0,
+            inertia_pct: -SWEEP_SPREAD_PCT,
+        });
+        assert!(case.identified(), "{:?}", case.errors_pct());
+        let step = case.tuned_step.unwrap();
+        assert!(step.overshoot_pct <= 5.0, "{step:?}");
+        assert!(step.settling_time_s.is_some_and(|t| t < 0.1), "{step:?}");
+    }
+
+    #[test]
+    fn the_sweep_covers_the_spread_and_its_corners() {
+        let rows = sweep_variations();
+        assert_eq!(rows.len(), 27);
+        let has = |f: &dyn Fn(&Variation) -> bool| rows.iter().any(f);
+        for p in [-SWEEP_SPREAD_PCT, SWEEP_SPREAD_PCT] {
+            assert!(has(
+                &|v| v.resistance_pct == p && v.torque_constant_pct == 0.0
+            ));
+            assert!(has(&|v| v.torque_constant_pct == p && v.inertia_pct == 0.0));
+            assert!(has(&|v| v.inertia_pct == p && v.resistance_pct == 0.0));
+        }
+        // Every corner of R_a, K_t, inertia, with the nominal friction and with it ×3.
+        let corners = rows
+            .iter()
+            .filter(|v| {
+                [v.resistance_pct, v.torque_constant_pct, v.inertia_pct]
+                    .iter()
+                    .all(|p| p.abs() == SWEEP_SPREAD_PCT)
+            })
+            .count();
+        assert_eq!(corners, 16);
+        assert!(has(
+            &|v| v.friction_pct == SWEEP_HIGH_FRICTION_PCT && v.resistance_pct == 0.0
+        ));
+        for supply in SWEEP_SUPPLIES_V {
+            assert!(has(&|v| v.supply_v == Some(supply)));
+        }
     }
 
     #[test]

@@ -8,7 +8,7 @@ use robot_files::scenario::Scenario;
 fn small_sweep_closes_the_loop() {
     let mut s = Scenario::load("paper-circle").unwrap();
     s.duration_s = 10.0;
-    let report = sweep::sweep(&s, LawKind::Tracking, 6, 7, &|| {}).unwrap();
+    let report = sweep::sweep(&s, LawKind::Tracking, 6, 7, None, &|| {}).unwrap();
     assert_eq!(report.details.len(), 6);
     assert_eq!(report.success_rate, 1.0, "{:#?}", report.details);
     let p = report.settle_time_s.unwrap();

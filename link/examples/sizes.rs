@@ -180,6 +180,7 @@ fn main() {
                 outcome: Ok(controller_core::tune::TuneResult {
                     models: [controller_core::tune::WheelModel::default(); 2],
                     loops: [RobotConfig::REFERENCE_ROBOT.left_wheel; 2],
+                    warnings: controller_core::tune::TuneWarnings::default(),
                 }),
             }),
         ),

@@ -66,7 +66,7 @@
 //! | reply `Info` (every string full, the clock a fallback) | 112 B | 123 B |
 //! | reply `PanicRecord` (every string full) | 128 B | 139 B |
 //! | `Stats` | 61 B | 72 B |
-//! | `TuneReport` (a result) | 101 B | 112 B |
+//! | `TuneReport` (a result) | 105 B | 116 B |
 //! | `Ping` / `Heartbeat` / reply `Ack` | 9 / 4 / 6 B | 20 / 15 / 17 B |
 //!
 //! The configuration's longest possible encoding (every varint at its longest) is 301 B,

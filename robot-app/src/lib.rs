@@ -13,6 +13,7 @@
 //! | [`persist`] | the parameter record in flash and the two-page rotation, as pure functions | the link task (and `init`) |
 //! | [`metrics`] | run metrics (settle time, final and windowed errors) in fixed memory | the control interrupt |
 //! | [`stm32f4`] | the STM32F4's register arithmetic (clocks, timers, watchdog, ADC, USART, flash, reset flags), with host tests | `init` |
+//! | [`first_flash`] | the first-flash programs' arithmetic: the motor test pulse's bounds, the encoder's answer, wheel speed, the supply scale against a multimeter | the firmware's `examples/` |
 //! | [`panic_record`] | the record of the last panic or hard fault kept in RAM across a reset | panic handler, `init` |
 //!
 //! # How a board wires it
@@ -136,6 +137,7 @@
 
 pub mod channel;
 pub mod control;
+pub mod first_flash;
 pub mod metrics;
 pub mod outer;
 pub mod panic_record;

@@ -5,8 +5,9 @@
 use std::fmt::Write as _;
 use std::io;
 
+use controller_core::pid::PidParts;
 use controller_core::prelude::{BodyVelocity, MotorCommand, Pose, TrackingError, WheelSpeeds};
-use controller_core::supervisor::State;
+use controller_core::supervisor::{Faults, State};
 
 use crate::truth::TruePose;
 
@@ -48,6 +49,23 @@ pub struct TraceRow {
     pub supply_v: f32,
     /// The supervisor's state.
     pub state: State,
+    /// What the sample holds beyond `trace.csv`'s columns (not written to it).
+    pub detail: SampleDetail,
+}
+
+/// What a sample of a run holds beyond `trace.csv`'s columns: the parts a run's MCAP
+/// recording (the `robot-foxglove` crate) plots as well. `trace.csv` leaves them out, so
+/// its columns stay those of the paper's figures.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SampleDetail {
+    /// The rate V̇ of the Lyapunov function the law predicts, per s (≤ 0 when the proof
+    /// holds).
+    pub lyapunov_rate: f32,
+    /// The wheel PIDs' outputs by part [left, right], V (P, I, D and feed-forward, which
+    /// add up to the voltage asked of the motor before saturation).
+    pub pid: [PidParts; 2],
+    /// The supervisor's latched faults.
+    pub faults: Faults,
 }
 
 impl TraceRow {
@@ -190,6 +208,7 @@ mod tests {
             },
             supply_v: 6.0005,
             state: State::Armed,
+            detail: SampleDetail::default(),
         }
     }
 

@@ -23,6 +23,17 @@ pub struct TruePose {
     pub theta_rad: f64,
 }
 
+impl TruePose {
+    /// `pose` (single precision, as the link and the controller hold it) widened exactly.
+    pub fn from_pose(pose: Pose) -> Self {
+        Self {
+            x_m: f64::from(pose.x_m),
+            y_m: f64::from(pose.y_m),
+            theta_rad: f64::from(pose.theta_rad),
+        }
+    }
+}
+
 /// Wrap an angle to (−π, π], rad.
 pub fn wrap_angle(a: f64) -> f64 {
     use core::f64::consts::{PI, TAU};

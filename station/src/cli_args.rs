@@ -63,7 +63,7 @@ pub(crate) enum Command {
     /// command is sent every 50 ms; the robot stops by its own timeout 0.5 s after the
     /// last. Needs a terminal on stdin.
     Drive,
-    /// Tune the wheel loops: the robot, on the floor with about a metre free ahead and
+    /// Tune the wheel loops: the robot, on the floor with 1.5 m free ahead and
     /// behind, drives its wheels open loop forward and back, identifies them and computes
     /// their PI; prints the model and the gains as robot-file sections (for `params set`).
     Tune {
@@ -99,6 +99,11 @@ pub(crate) enum Command {
         /// Telemetry rate, Hz.
         #[arg(long, default_value_t = 10)]
         hz: u8,
+        /// Also stream the telemetry live to Foxglove (WebSocket, subprotocol
+        /// foxglove.sdk.v1) on this address, at the telemetry rate, with the robot's
+        /// parameters as a parameter set (read-only while armed).
+        #[arg(long, num_args = 0..=1, default_missing_value = "127.0.0.1:8765", value_name = "ADDR")]
+        foxglove: Option<String>,
     },
     /// Record telemetry (and the virtual robot's ground truth) to DIR/telemetry.csv until
     /// Ctrl-C or --duration-s.
@@ -112,6 +117,10 @@ pub(crate) enum Command {
         /// Stop after this many seconds of the robot's time.
         #[arg(long)]
         duration_s: Option<f64>,
+        /// Also write the recording as an MCAP file (Foxglove: poses, telemetry, events;
+        /// at the robot's own time).
+        #[arg(long)]
+        mcap: Option<PathBuf>,
     },
     /// Run a scenario on the robot: upload its path, arm (in motion if it starts moving),
     /// record until its duration or a fault, disarm, and write trace.csv, summary.json and
@@ -127,6 +136,10 @@ pub(crate) enum Command {
         /// Telemetry rate, Hz (the trace's rate; lower ones are tried if the link is slow).
         #[arg(long, default_value_t = 100)]
         hz: u8,
+        /// Also write the run as an MCAP file (Foxglove: poses, path, telemetry, events;
+        /// the trace's samples at the robot's own time).
+        #[arg(long)]
+        mcap: Option<PathBuf>,
     },
     /// UMBmark odometry calibration: squares clockwise and counter-clockwise, the measured
     /// end points, the corrected wheel radii and track width; then a straight run against

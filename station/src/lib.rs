@@ -11,6 +11,7 @@
 //! | [`ops`] | one function per request: info, parameters (the robot-file code of `robot_files`), path upload, arming |
 //! | [`record`] | a scenario run: heartbeats paced by the robot's step counter, trace rows, the robot's run report as the simulator's summary |
 //! | [`watch`] | the live terminal view of the telemetry |
+//! | [`foxglove`] | the live telemetry streamed to Foxglove, the parameters as its parameter set |
 //! | [`teleop`] | `station drive`'s keys and the velocity command they set |
 //! | [`calibrate`] | UMBmark odometry calibration: the squares, the fit for filleted corners, the corrected geometry |
 //!
@@ -41,6 +42,7 @@
 
 pub mod calibrate;
 pub mod client;
+pub mod foxglove;
 pub mod ops;
 pub mod record;
 pub mod teleop;

@@ -10,12 +10,27 @@ use station::record;
 use station::transport::Transport;
 use station::{ops, watch};
 
+use station::foxglove::FoxgloveStream;
+
 use crate::{interrupt_flag, open, LinkArgs};
 
-/// The live view of the telemetry at `hz` until Ctrl-C.
-pub(crate) fn cmd_watch(link: &LinkArgs, hz: u8) -> Result<()> {
+/// The live view of the telemetry at `hz` until Ctrl-C, also streamed to Foxglove on
+/// `foxglove` (`HOST:PORT`) if given.
+pub(crate) fn cmd_watch(link: &LinkArgs, hz: u8, foxglove: Option<&str>) -> Result<()> {
     let mut client = open(link)?;
-    live_view(&mut client, hz, None)
+    let mut stream = match foxglove {
+        Some(address) => {
+            let params = ops::get_params(&mut client)?;
+            let stream = FoxgloveStream::start(address, &params)?;
+            eprintln!(
+                "foxglove live on ws://{} (subprotocol foxglove.sdk.v1)",
+                stream.address(address)
+            );
+            Some(stream)
+        }
+        None => None,
+    };
+    live_view(&mut client, hz, None, stream.as_mut())
 }
 
 /// Arms, then holds the robot armed with heartbeats under the live view until it stops on
@@ -26,7 +41,12 @@ pub(crate) fn cmd_arm(link: &LinkArgs, hz: u8) -> Result<()> {
         .supervisor
         .heartbeat_timeout_steps;
     ops::arm(&mut client, None, None)?;
-    let held = live_view(&mut client, hz, Some(record::HeartbeatPacer::new(timeout)));
+    let held = live_view(
+        &mut client,
+        hz,
+        Some(record::HeartbeatPacer::new(timeout)),
+        None,
+    );
     let disarmed = client.command(Request::Disarm);
     held?;
     disarmed?;
@@ -35,11 +55,14 @@ pub(crate) fn cmd_arm(link: &LinkArgs, hz: u8) -> Result<()> {
 }
 
 /// The live view of the telemetry until Ctrl-C; with a `heartbeat` pacer, also the
-/// heartbeats that keep a link-armed robot armed, until the robot leaves the armed state.
+/// heartbeats that keep a link-armed robot armed, until the robot leaves the armed state;
+/// with a Foxglove `stream`, every frame streamed and the parameter changes its clients
+/// ask for applied.
 fn live_view(
     client: &mut station::client::Client<Box<dyn Transport>>,
     hz: u8,
     mut heartbeat: Option<record::HeartbeatPacer>,
+    mut stream: Option<&mut FoxgloveStream>,
 ) -> Result<()> {
     let interrupt = interrupt_flag();
     // Redrawn in place on a terminal; plain lines in a file or a pipe.
@@ -87,6 +110,10 @@ fn live_view(
             }
             _ => continue,
         };
+        if let Some(stream) = stream.as_deref_mut() {
+            stream.frame(&frame, truth.as_ref(), rate);
+            stream.parameters(client, frame.state)?;
+        }
         if last_draw.elapsed() < Duration::from_millis(50) {
             continue;
         }

@@ -223,18 +223,20 @@ fn main() -> ExitCode {
         Command::Estop => cmd_simple(link, Request::EmergencyStop, "emergency stop latched"),
         Command::ClearFaults => cmd_simple(link, Request::ClearFaults, "faults cleared"),
         Command::Stats => cmd_stats(link),
-        Command::Watch { hz } => live::cmd_watch(link, hz),
+        Command::Watch { hz, foxglove } => live::cmd_watch(link, hz, foxglove.as_deref()),
         Command::Record {
             out,
             hz,
             duration_s,
-        } => recording::cmd_record(link, &out, hz, duration_s),
+            mcap,
+        } => recording::cmd_record(link, &out, hz, duration_s, mcap.as_deref()),
         Command::Run {
             scenario,
             law,
             out,
             hz,
-        } => recording::cmd_run(link, &scenario, law, &out, hz),
+            mcap,
+        } => recording::cmd_run(link, &scenario, law, &out, hz, mcap.as_deref()),
         Command::Calibrate(args) => calibrate::command(link_open(link), &args),
     };
     match result {

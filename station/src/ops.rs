@@ -3,7 +3,6 @@
 
 use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::law::LawKind;
-use controller_core::params::Params;
 use controller_core::supervisor::{DisarmReason, Event};
 use std::time::Duration;
 
@@ -12,9 +11,7 @@ use link::{
     PathCommit, Reply, Request, RobotInfo, TuneReport, Uplink, PERSIST_REPLY_TIMEOUT_MS,
 };
 use robot_app::stm32f4::option_bytes::BorLevel;
-use robot_files::robot_file::{
-    tuned_wheel_sections, DivergenceSetting, Keyword, NumberOr, RobotFile, SectionError,
-};
+use robot_files::robot_file::{tuned_wheel_sections, RobotFile, SectionError};
 use robot_files::scenario::Scenario;
 
 use crate::client::{Client, StationError};
@@ -104,28 +101,10 @@ pub fn params_from_toml(
         error,
     };
     let parsed = RobotFile::from_toml(text).map_err(named)?;
-    let params: Params = parsed.robot.params(current.robot, "robot").map_err(named)?;
-    let mut supervisor = parsed
-        .supervisor
-        .config(&params, None, "supervisor")
+    let (robot, supervisor) = parsed
+        .over(&current.robot, &current.supervisor)
         .map_err(named)?;
-    supervisor.start_pose = current.supervisor.start_pose;
-    if matches!(
-        parsed.supervisor.divergence,
-        None | Some(DivergenceSetting::Keyword(Keyword::Auto))
-    ) {
-        supervisor.divergence = current.supervisor.divergence;
-    }
-    if matches!(
-        parsed.supervisor.geofence_radius_m,
-        None | Some(NumberOr::Keyword(Keyword::Auto))
-    ) {
-        supervisor.geofence_radius_m = current.supervisor.geofence_radius_m;
-    }
-    Ok(ParamSet {
-        robot: *params.config(),
-        supervisor,
-    })
+    Ok(ParamSet { robot, supervisor })
 }
 
 /// Sends `set`; returns the robot's hash of the configuration it now runs.
@@ -419,8 +398,9 @@ fn hold_tune<T: Transport>(
     Ok(())
 }
 
-/// A tune's report as text: per wheel the identified model, then the wheel loops as a
-/// robot file's sections (ready for `station params set`), or why the tune stopped.
+/// A tune's report as text: per wheel the identified model, the tune's warnings (a line
+/// `# warning: …`, when it has any), then the wheel loops as a robot file's sections
+/// (ready for `station params set`), or why the tune stopped.
 pub fn describe_tune(report: &TuneReport) -> String {
     if report.tunes_ended == 0 {
         return "no tune has ended on this robot since it started".to_string();
@@ -440,6 +420,9 @@ pub fn describe_tune(report: &TuneReport) -> String {
                     m.dead_time_s * 1e3,
                     m.design_time_constant_s * 1e3
                 ));
+            }
+            if result.warnings.any() {
+                text.push_str(&format!("# warning: {}\n", result.warnings));
             }
             text.push_str(&tuned_wheel_sections(&result));
             text
@@ -595,5 +578,29 @@ b = 2\n\n[robot.none]\n# only a comment\n\n[supervisor]\n";
             "[robot]\na = 1\n\n[robot.left_wheel]\n# a comment\nb = 2\n\n"
         );
         assert_eq!(without_empty_sections("a = 1\n"), "a = 1\n");
+    }
+
+    #[test]
+    fn a_tunes_warnings_are_shown_before_its_gains() {
+        use controller_core::params::RobotConfig;
+        use controller_core::tune::{TuneResult, TuneWarnings, WheelModel};
+        let mut result = TuneResult {
+            models: [WheelModel::default(); 2],
+            loops: [RobotConfig::REFERENCE_ROBOT.left_wheel; 2],
+            warnings: TuneWarnings::default(),
+        };
+        let report = |result| TuneReport {
+            tunes_ended: 1,
+            outcome: Ok(result),
+        };
+        assert!(!describe_tune(&report(result)).contains("warning"));
+        result.warnings.step_not_settled[1] = true;
+        let text = describe_tune(&report(result));
+        let warning = "# warning: Right wheel's step had not settled (τ likely low)\n";
+        assert!(text.contains(warning), "{text}");
+        assert!(
+            text.find(warning) < text.find("[robot.left_wheel]"),
+            "{text}"
+        );
     }
 }

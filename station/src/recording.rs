@@ -19,19 +19,25 @@ use station::{ops, NotAsAsked};
 use crate::{interrupt_flag, load, open, LinkArgs};
 
 /// Records telemetry (and the virtual robot's ground truth) at `hz` into
-/// `out/telemetry.csv` until Ctrl-C or `duration_s` of the robot's time.
+/// `out/telemetry.csv` (and `mcap`, if given) until Ctrl-C or `duration_s` of the robot's
+/// time.
 pub(crate) fn cmd_record(
     link: &LinkArgs,
     out: &FsPath,
     hz: u8,
     duration_s: Option<f64>,
+    mcap: Option<&FsPath>,
 ) -> Result<()> {
     if let Some(d) = duration_s.filter(|d| !(d.is_finite() && *d > 0.0)) {
         bail!("--duration-s must be a positive number of seconds, got {d}");
     }
     let interrupt = interrupt_flag();
     let mut client = open(link)?;
-    let rate = f64::from(ops::get_params(&mut client)?.robot.control_rate_hz);
+    let robot = ops::get_params(&mut client)?;
+    let params = controller_core::params::Params::new(robot.robot).ok();
+    let rate = f64::from(robot.robot.control_rate_hz);
+    // The MCAP file's samples: every row of telemetry.csv, as trace rows.
+    let mut samples: Vec<robot_files::trace::TraceRow> = Vec::new();
     let hz = record::set_telemetry_rate(&mut client, hz)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let file = out.join("telemetry.csv");
@@ -46,12 +52,15 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
     let period = (rate as u32 / u32::from(hz.max(1))).max(1);
     let mut frames = record::GapCounter::default();
     let mut last_k = 0u64;
-    let push = |csv: &mut String,
-                first: u32,
-                f: &link::TelemetryFrame,
-                g: Option<&link::GroundTruth>| {
+    let mut push = |csv: &mut String,
+                    first: u32,
+                    f: &link::TelemetryFrame,
+                    g: Option<&link::GroundTruth>| {
         use std::fmt::Write as _;
         let t = f64::from(f.step.wrapping_sub(first)) / rate;
+        if mcap.is_some() {
+            samples.push(record::trace_row(f, g, t, None, params.as_ref()));
+        }
         let (gx, gy, gt) = g.map_or((f32::NAN, f32::NAN, f32::NAN), |g| {
             (g.pose.x_m, g.pose.y_m, g.pose.theta_rad)
         });
@@ -129,6 +138,22 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
     }
     std::fs::write(&file, csv).with_context(|| format!("writing {}", file.display()))?;
     say!("wrote {rows} rows to {}", file.display());
+    if let Some(mcap) = mcap {
+        let written = robot_foxglove::write_run_mcap(
+            mcap,
+            &robot_foxglove::RunRecord {
+                path: None,
+                trace: &samples,
+                end: Some("recording ended"),
+            },
+        )?;
+        say!(
+            "wrote {} samples to {} ({} bytes)",
+            written.samples,
+            mcap.display(),
+            written.bytes
+        );
+    }
     let steps = match limit {
         Some(limit) if reached => limit,
         _ => last_k + 1,
@@ -161,13 +186,15 @@ supply_v,faults,x_true_m,y_true_m,theta_true_rad\n",
     }
 }
 
-/// Runs `scenario` with `law` on the robot and writes the simulator's outputs into `out`.
+/// Runs `scenario` with `law` on the robot and writes the simulator's outputs into `out`
+/// (and the run as `mcap`, if given).
 pub(crate) fn cmd_run(
     link: &LinkArgs,
     scenario: &str,
     law: Law,
     out: &FsPath,
     hz: u8,
+    mcap: Option<&FsPath>,
 ) -> Result<()> {
     let interrupt = interrupt_flag();
     let scenario = load(scenario)?;
@@ -205,6 +232,10 @@ the robot's (`station params set` sends a robot file)"
     bar.finish_and_clear();
     let recording = outcome?;
     let mut files = recording.write(out)?;
+    let mcap_written = match mcap {
+        Some(file) => Some(recording.write_mcap(file, &scenario.path)?),
+        None => None,
+    };
     // Figures of a run cut short are drawn as far as it went, if they can be.
     if recording.complete() {
         files.extend(write_figures(out, &scenario, &recording)?);
@@ -269,6 +300,14 @@ the robot's (`station params set` sends a robot file)"
         .map(|n| n.to_string_lossy().into_owned())
         .collect();
     say!("  wrote {} to {}", names.join(", "), out.display());
+    if let Some(written) = mcap_written {
+        say!(
+            "  wrote {} ({} samples, {} bytes)",
+            written.file.display(),
+            written.samples,
+            written.bytes
+        );
+    }
     if !recording.complete() {
         return Err(NotAsAsked(format!(
             "the run did not end at its time limit: it ended by {}; what was recorded is in \

@@ -40,7 +40,7 @@ fn virtual_robot(scenario: &str, max_s: f64) -> (String, Receiver<StepReport>) {
         let mut log = |r: &StepReport| {
             let _ = events.send(*r);
         };
-        let _ = serve(&mut robot, &listener, options, &mut log);
+        let _ = serve(&mut robot, &listener, options, &mut log, None);
     });
     (address, received)
 }
@@ -255,7 +255,7 @@ fn corrupting_proxy(robot: String, flip_every: usize) -> String {
                 }
                 for byte in &mut buf[..n] {
                     count += 1;
-                    if count % flip_every == 0 {
+                    if count.is_multiple_of(flip_every) {
                         *byte ^= 1 << (count % 8);
                     }
                 }
@@ -278,7 +278,7 @@ fn corrupting_proxy(robot: String, flip_every: usize) -> String {
             seed ^= seed << 13;
             seed ^= seed >> 7;
             seed ^= seed << 17;
-            if seed % 8 == 0 {
+            if seed.is_multiple_of(8) {
                 let junk: Vec<u8> = (0..(seed % 40) as usize)
                     .map(|i| (seed >> (i % 56)) as u8 | 1)
                     .chain([0])

@@ -4,6 +4,7 @@
 //! | check | what it proves |
 //! |---|---|
 //! | a 1 000-run sweep of `paper-circle` | the controller settles on 1 000 robots drawn from the scenario's spreads (mismatch, noise, start pose); the sweep prints its percentiles and fails when a run does not settle |
+//! | the tune's spread matrix (`host-sim tune --sweep`) | the self-tune identifies 27 robots (R_a, K_t, inertia ±40 %, friction ×3, one at a time and at every corner, the supply 5–12.6 V) within 10 %, and prints each tuned loop's overshoot; it ends with `tune spread: N of 27 robots identified within 10 %, worst overshoot X %` and fails when a robot was not identified |
 //! | mutation testing (`cargo xtask mutants`) | the tests notice a wrong sign, a swapped comparison or a dropped statement in the mutated crates |
 //! | every fuzz target for 10 minutes (`cargo xtask fuzz 600`) | no input of a decoder of outside bytes or text (the link's frames and messages, the parameter record, scenarios, robot files) crashes it, hangs it or breaks one of its properties (`fuzz-checks`) |
 
@@ -31,6 +32,18 @@ pub fn steps() -> Vec<Step> {
                 "paper-circle",
                 "--runs",
                 SWEEP_RUNS,
+            ]))
+        }),
+        Step::new("tune spread: paper-circle, 27 robots", |ctx: &Context| {
+            run_command(&mut ctx.cargo(&[
+                "run",
+                "--release",
+                "--package",
+                "host-sim",
+                "--",
+                "tune",
+                "paper-circle",
+                "--sweep",
             ]))
         }),
         Step::new("mutants: cargo xtask mutants", |ctx: &Context| {

@@ -2,23 +2,26 @@
 //!
 //! | command | what it does |
 //! |---|---|
-//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, Miri on the lock-free channels, the station end to end, firmware build and size budget, the panic check, the core and the link on an emulated Cortex-M4F, the firmware in the loop (`pil`), the docs, the protocol page and its client, the velocity mode's figures, the figures. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
+//! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, Miri on the lock-free channels, the station end to end, firmware build and size budget, the first-flash programs (hello under QEMU), the panic check, the core and the link on an emulated Cortex-M4F, the firmware in the loop (`pil`), the docs, the protocol page and its client, the velocity mode's figures, the figures. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
 //! | `e2e` | the station against the virtual robot: in process, and the binary over TCP (same result as `host-sim run`, link loss, corruption, refusals) |
 //! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` (the `miri` step sets up its own toolchain) |
 //! | `miri` | `robot-app`'s lock-free channels (`robot_app::channel`, its only `unsafe` code) under Miri: the channel modules' unit tests (including every interleaving of the mailbox's handshake and of the ring) and the integration tests that take the channels through the robot cheaply; each must run and pass. Sets itself up: installs the nightly toolchain with its `miri` and `rust-src` components when missing (rustup), then `cargo +nightly miri setup`; without a network, fails naming what is missing. Prints its times; under two minutes from a fresh clone on 2 cores |
 //! | `size` | builds the firmware and checks it against the flash and RAM budget |
+//! | `first-flash` | builds the first-flash programs (`firmware/examples/`: hello, encoders, motors, supply) for the F411 and prints their sizes; runs `hello` on the emulated board under QEMU and prints its report, `hello under QEMU: reset cause …, clock …` |
 //! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
 //! | `link-qemu` | runs the link crate under QEMU and talks to it over its USART: replies, corrupted frames, counters |
 //! | `docs` | `cargo doc --no-deps` with warnings denied, for the host crates and the firmware |
 //! | `figures` | regenerates `docs/figures.md` and the README's headline rows from what the simulator writes (`ci` fails when either is stale) |
 //! | `protocol-page` | checks `docs/protocol.md` against the `link` crate: every type, field and variant of the messages in wire order, the constants (the schema hash among them) and the example frame; names each difference with the row or section to write |
 //! | `protocol-client` | runs the Python client written from `docs/protocol.md` (`tools/protocol-client/`) against `host-sim serve` on an ephemeral port: handshake, `Info`, the configuration and telemetry decoded and checked; needs `python3` (installed with apt-get as root, otherwise named) |
+//! | `foxglove-file` | `host-sim run --mcap` and `station run --mcap` (against the virtual robot) read by PyPI's `mcap` and `mcap-protobuf-support` in a venv: every channel and schema, the poses equal to `trace.csv` within 1e-6 m and rad, the 30 s run at 100 Hz at most 10 MB; prints `mcap: N channels, M messages, poses equal trace.csv` |
+//! | `foxglove-live` | npm's `@foxglove/ws-protocol` 0.8 on a `ws` socket (subprotocol `foxglove.sdk.v1`) subscribed to `host-sim serve --foxglove` while a station runs paper-circle: every channel, the rates, the arrival delays, the parameter set (changed while disarmed, read-only while armed); prints `foxglove live: N channels, M messages in S s` |
 //! | `velocity-check` | `host-sim velocity-check` on `velocity-steps`: how soon a step in the command moves the limited command, when the ramp to zero starts after the last command, the largest velocity, acceleration and jerk against the limits; one line, fails when the mode's contract is broken |
 //! | `pil` | processor in the loop: the firmware (emulated `qemu` board) under QEMU against host-sim's plant, driven over its link: `paper-circle` and `longest-path` identical to `host-sim run`, the control interrupt's instructions and the stack, an encoder disconnect and a link loss stopping the motors in time |
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
 //! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt, the steering task and the link USART's interrupt reach no panic and no indirect call; then bounds the firmware's worst-case stack from the same call graph |
 //! | `panic-check ELF [--root NAME:IRQ]…` | the same proof on a given ELF (no build), from the given interrupts (default `TIM5:50`, `EXTI3:9`, `USART2:38`) |
-//! | `long` | the checks too long for CI: a 1 000-run sweep, mutation testing and 10 minutes of each fuzz target (`long.rs`) |
+//! | `long` | the checks too long for CI: a 1 000-run sweep, the tune's spread matrix, mutation testing and 10 minutes of each fuzz target (`long.rs`) |
 //! | `fuzz [SECONDS]` | every fuzz target of `fuzz/` (cargo-fuzz on nightly: the link's frames and messages, the parameter record, scenarios, robot files) for SECONDS each (default 60), one at a time, then a table of executions, coverage and corpus per target; fails on a crash, a broken property or a hang. Installs nightly and cargo-fuzz when missing (`fuzz.rs`). CI replays the committed corpus instead (`fuzz-checks`' tests) |
 //! | `mutants [ARGS…]` | mutation testing of `controller-core` (and `link`) with cargo-mutants: score, missed list, wall time. Slow; not part of `ci` |
 //!
@@ -30,6 +33,8 @@ mod elf_size;
 mod figures;
 #[cfg(test)]
 mod firmware_logger;
+mod first_flash;
+mod foxglove_check;
 mod fuzz;
 mod link_qemu;
 mod long;
@@ -39,6 +44,7 @@ mod panic_check;
 mod pil;
 mod protocol_client;
 mod protocol_page;
+mod python_venv;
 mod qemu;
 mod setup;
 mod steps;
@@ -61,6 +67,9 @@ commands:
           of the mailbox and the ring, cheap integration tests); installs the nightly
           toolchain with miri when missing and runs `cargo +nightly miri setup`
   size    build the firmware and check its flash / static RAM budget
+  first-flash
+          build the first-flash programs (hello, encoders, motors, supply) for the F411;
+          run hello on the emulated board under QEMU and print its report
   qemu    run the core on an emulated Cortex-M4F and compare with the host
   link-qemu
           run the link on an emulated Cortex-M4F and talk to it over its USART
@@ -72,6 +81,12 @@ commands:
           hash, example frame); names each difference
   protocol-client
           the Python client written from docs/protocol.md against host-sim serve
+  foxglove-file
+          host-sim's and the station's MCAP files read by PyPI's mcap: every channel,
+          the poses equal trace.csv, the 30 s run within 10 MB
+  foxglove-live
+          npm's Foxglove client subscribed to host-sim serve --foxglove during a run:
+          every channel, the rates and delays, the parameter set
   velocity-check
           the velocity mode's figures on host-sim's velocity-steps: latency of a step,
           the ramp after the command timeout, the limits held (one line)
@@ -86,8 +101,9 @@ commands:
   panic-check ELF [--root NAME:IRQ]...
           the same proof on an ELF (no build), from the given interrupts (default TIM5:50,
           EXTI3:9, USART2:38)
-  long    the checks too long for CI: a 1 000-run sweep of paper-circle, mutation
-          testing (cargo xtask mutants) and every fuzz target for 10 minutes
+  long    the checks too long for CI: a 1 000-run sweep of paper-circle, the tune's
+          spread matrix (host-sim tune --sweep), mutation testing (cargo xtask
+          mutants) and every fuzz target for 10 minutes
   fuzz [SECONDS]
           run every fuzz target of fuzz/ (cargo-fuzz, libFuzzer) for SECONDS each
           (default 60), one at a time, and print executions, coverage and corpus per
@@ -125,6 +141,7 @@ fn run() -> Result<bool> {
         ["ci"] => steps::ci(),
         ["setup"] => vec![steps::setup()],
         ["size"] => vec![steps::setup(), steps::firmware_size()],
+        ["first-flash"] => vec![steps::setup(), steps::first_flash()],
         ["qemu"] => vec![steps::setup(), steps::qemu()],
         ["e2e"] => vec![steps::end_to_end()],
         ["miri"] => vec![steps::miri()],
@@ -148,6 +165,8 @@ fn run() -> Result<bool> {
         )],
         ["protocol-page"] => vec![steps::protocol_page()],
         ["protocol-client"] => vec![steps::protocol_client()],
+        ["foxglove-file"] => vec![steps::foxglove_file()],
+        ["foxglove-live"] => vec![steps::foxglove_live()],
         ["velocity-check"] => vec![steps::velocity_check()],
         ["figures", "--check"] => vec![Step::new(
             "figures: docs/figures.md and the README's headline rows up to date",

@@ -25,7 +25,7 @@ pub const CLIENT: &str = "tools/protocol-client/protocol_client.py";
 const LISTEN_TIMEOUT: Duration = Duration::from_secs(30);
 
 /// The server, killed and reaped when dropped.
-struct Server(Child);
+pub struct Server(Child);
 
 impl Drop for Server {
     fn drop(&mut self) {
@@ -38,7 +38,7 @@ impl Drop for Server {
 pub fn check(ctx: &Context) -> Result<()> {
     let python = crate::setup::ensure_python3()?;
     let host_sim = crate::pil::build_host_sim(ctx)?;
-    let (server, address) = start_server(&host_sim)?;
+    let (server, address, _) = start_server(&host_sim, &[])?;
     let mut cmd = Command::new(python);
     cmd.arg(ctx.root.join(CLIENT))
         .args(["--connect", &address])
@@ -65,10 +65,15 @@ pub fn check(ctx: &Context) -> Result<()> {
     Ok(())
 }
 
-/// Starts `host-sim serve` on an ephemeral port of 127.0.0.1; the server and its address.
-fn start_server(host_sim: &Path) -> Result<(Server, String)> {
+/// Starts `host-sim serve` on an ephemeral port of 127.0.0.1 with `args` added; the
+/// server, its address, and the lines it prints after the first.
+pub fn start_server(
+    host_sim: &Path,
+    args: &[&str],
+) -> Result<(Server, String, mpsc::Receiver<String>)> {
     let mut cmd = Command::new(host_sim);
     cmd.args(["serve", "--listen", "127.0.0.1:0"])
+        .args(args)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit());
@@ -96,7 +101,7 @@ fn start_server(host_sim: &Path) -> Result<(Server, String)> {
     println!("{line}");
     let address = listening_address(&line)
         .with_context(|| format!("`{shown}` printed `{line}`, not where it listens"))?;
-    Ok((server, address))
+    Ok((server, address, received))
 }
 
 /// The address in `virtual robot (NAME) listening on ADDRESS, …`.

@@ -172,7 +172,7 @@ pub fn ensure_python3() -> Result<PathBuf> {
 
 /// The program `name` on `PATH`, installing Debian's `package` with apt-get when it is
 /// missing and this runs as root; otherwise an error naming the package and `otherwise`.
-fn ensure_program(name: &str, package: &str, otherwise: &str) -> Result<PathBuf> {
+pub fn ensure_program(name: &str, package: &str, otherwise: &str) -> Result<PathBuf> {
     if let Some(path) = on_path(name) {
         println!("{name}: {}", path.display());
         return Ok(path);

@@ -86,6 +86,17 @@ pub fn build_target_executables(
     package: &str,
     extra_args: &[&str],
 ) -> Result<Vec<PathBuf>> {
+    build_target_artifacts(ctx, package, extra_args, "bin")
+}
+
+/// [`build_target_executables`] for the targets of cargo's `kind` (`bin`, `example`):
+/// the paths of the executables of that kind the build produced.
+pub fn build_target_artifacts(
+    ctx: &Context,
+    package: &str,
+    extra_args: &[&str],
+    kind: &str,
+) -> Result<Vec<PathBuf>> {
     let mut args = vec![
         "build",
         "--profile",
@@ -115,10 +126,10 @@ pub fn build_target_executables(
         if message["reason"] != "compiler-artifact" {
             continue;
         }
-        let is_bin = message["target"]["kind"]
+        let of_kind = message["target"]["kind"]
             .as_array()
-            .is_some_and(|kinds| kinds.iter().any(|k| k == "bin"));
-        if let (true, Some(path)) = (is_bin, message["executable"].as_str()) {
+            .is_some_and(|kinds| kinds.iter().any(|k| k == kind));
+        if let (true, Some(path)) = (of_kind, message["executable"].as_str()) {
             executables.push(PathBuf::from(path));
         }
     }
@@ -216,26 +227,37 @@ pub fn ci() -> Vec<Step> {
                 "warnings",
             ]))
         }),
-        Step::new("clippy: firmware (thumbv7em-none-eabihf)", |ctx| {
-            clippy_for_target(ctx, "firmware", &[])
-        }),
         Step::new(
-            "clippy: firmware feature variants and the STM32F401 port",
+            "clippy: firmware and its first-flash programs (thumbv7em-none-eabihf)",
+            |ctx| clippy_for_target(ctx, "firmware", &FIRMWARE_TARGETS),
+        ),
+        Step::new(
+            "clippy: firmware feature variants, the STM32F401 port and the emulated board",
             |ctx| {
                 // Every optional feature at once, then the porting example's other chip: code
                 // behind a feature must not rot just because the default build skips it.
+                let variant = |features: &[&str]| {
+                    let mut args = FIRMWARE_TARGETS.to_vec();
+                    args.extend_from_slice(features);
+                    clippy_for_target(ctx, "firmware", &args)
+                };
+                variant(&[
+                    "--features",
+                    "drv8833,nucleo,auto-arm,bring-up,path-line,panic-canary",
+                ])?;
+                variant(&["--no-default-features", "--features", "stm32f401"])?;
+                // The emulated board, with the one first-flash program it runs.
                 clippy_for_target(
                     ctx,
                     "firmware",
                     &[
+                        "--lib",
+                        "--bins",
+                        "--example",
+                        "hello",
                         "--features",
-                        "drv8833,nucleo,auto-arm,bring-up,path-line,panic-canary",
+                        "qemu",
                     ],
-                )?;
-                clippy_for_target(
-                    ctx,
-                    "firmware",
-                    &["--no-default-features", "--features", "stm32f401"],
                 )
             },
         ),
@@ -265,6 +287,7 @@ pub fn ci() -> Vec<Step> {
         self::miri(),
         end_to_end(),
         firmware_size(),
+        first_flash(),
         panic_check(),
         qemu(),
         link_qemu(),
@@ -272,6 +295,8 @@ pub fn ci() -> Vec<Step> {
         docs(),
         protocol_page(),
         protocol_client(),
+        foxglove_file(),
+        foxglove_live(),
         velocity_check(),
         Step::new(
             "figures: docs/figures.md and the README's headline rows up to date with the simulator",
@@ -336,6 +361,23 @@ pub fn velocity_check() -> Step {
     )
 }
 
+/// A run's MCAP files, host-sim's and the station's, read by PyPI's `mcap` (see
+/// `crate::foxglove_check`).
+pub fn foxglove_file() -> Step {
+    Step::new(
+        "foxglove file: host-sim and station MCAP files read by PyPI mcap, poses equal trace.csv",
+        crate::foxglove_check::check_file,
+    )
+}
+
+/// The live stream read by npm's Foxglove client (see `crate::foxglove_check`).
+pub fn foxglove_live() -> Step {
+    Step::new(
+        "foxglove live: npm @foxglove/ws-protocol subscribed to host-sim serve --foxglove",
+        crate::foxglove_check::check_live,
+    )
+}
+
 /// The Python client written from `docs/protocol.md` against the virtual robot: the
 /// handshake, `Info`, the configuration and telemetry decoded and checked (see
 /// `crate::protocol_client`).
@@ -362,6 +404,10 @@ pub fn end_to_end() -> Step {
         run_command(&mut ctx.cargo(&["test", "-p", "station", "--no-fail-fast"]))
     })
 }
+
+/// The firmware package's targets clippy checks: the board layer, the application and
+/// the first-flash programs.
+const FIRMWARE_TARGETS: [&str; 3] = ["--lib", "--bins", "--examples"];
 
 /// Clippy with `-D warnings` on `package` for the ARM target, with `features` (cargo
 /// feature flags, possibly empty).
@@ -392,6 +438,15 @@ pub fn firmware_size() -> Step {
     Step::new(
         "firmware: build (firmware profile) and size budget",
         elf_size::check_firmware,
+    )
+}
+
+/// The first-flash programs: built for the F411, and `hello` run under QEMU (see
+/// `crate::first_flash`).
+pub fn first_flash() -> Step {
+    Step::new(
+        "first-flash programs: built for the F411, hello under QEMU",
+        crate::first_flash::check,
     )
 }
 

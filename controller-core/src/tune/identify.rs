@@ -16,8 +16,8 @@
 //!
 //! Y(s) is a weighted sum of the samples, Σ y_j e^(−s jT) T (trapezoidal from y = 0 at
 //! the step, with the tail after the last sample taken as settled), accumulated for a
-//! bank of s = 2, 4, … 1024
-//! s⁻¹. The weight e^(−st) makes the late, noisy samples count little, which is what makes
+//! bank of s = 0.5, 1, 2, … 1024
+//! s⁻¹ (brackets for τ from about 2 ms to 1 s). The weight e^(−st) makes the late, noisy samples count little, which is what makes
 //! this better than the method of moments, whose t-weighted integrals amplify the encoder's
 //! quantisation in the tail. Two bank values bracketing the response (Q ≈ 0.6 and
 //! Q ≈ 0.35) give two equations; θ cancels from g(s)/s = θ + ln(1 + τs)/s, τ follows by
@@ -39,20 +39,23 @@
 //!
 //! ## SIMC (Skogestad 2003)
 //!
-//! For K e^(−θs)/(τs + 1) under a PI, K_c = τ / (K (τ_c + θ_e)), T_i = min(τ, 4 (τ_c +
-//! θ_e)). The loop's effective dead time θ_e is the plant's θ plus what the controller
+//! For K e^(−θs)/(τs + 1) under a PI, K_c = τ / (K (τ_c + θ_e)), and here T_i = max(τ, 4
+//! (τ_c + θ_e)): Skogestad's T_i = min(τ, 4 (τ_c + θ_e)) cancels the plant's pole, which
+//! on a wheel faster than its loop's delay (τ of 18 ms against θ_e of 11.5 ms) leaves an
+//! integral that, behind the feed-forward, overshoots a large step by over 20 %; the
+//! integral is never faster than 4 (τ_c + θ_e), the lag-dominant form. The loop's effective dead time θ_e is the plant's θ plus what the controller
 //! adds: the speed estimate's window (W T / 2) and sampling (T / 2, Skogestad's rule for
 //! digital control). τ_c is the closed-loop time constant asked for, a multiple of θ_e
 //! ([`super::TuneConfig::tau_c_per_dead_time`]).
 
 use crate::math;
 
-/// Number of Laplace variables in the bank: s = 2, 4, … 2^BANK s⁻¹.
-pub(crate) const BANK: usize = 10;
+/// Number of Laplace variables in the bank: s = 0.5, 1, 2, … 2^(BANK − 2) s⁻¹.
+pub(crate) const BANK: usize = 12;
 
 /// The bank's s values, s⁻¹.
 pub(crate) fn bank_s(k: usize) -> f32 {
-    (2u32 << k.min(30)) as f32
+    0.5 * (1u32 << k.min(30)) as f32
 }
 
 /// Running straight-line fit y = c + slope·x (Welford).
@@ -176,6 +179,12 @@ impl StepSums {
         }
     }
 
+    /// Forgets the tail (a new, later tail follows); the response sums are kept.
+    pub(crate) fn restart_tail(&mut self) {
+        self.tail_sum = 0.0;
+        self.tail_n = 0;
+    }
+
     /// The settled speed change Δω, rad/s (0 before any tail sample).
     pub(crate) fn delta(&self) -> f32 {
         if self.tail_n == 0 {
@@ -265,7 +274,7 @@ fn solve_tau(sa: f32, sb: f32, target: f32) -> Option<f32> {
 pub(crate) fn simc(model: &Fopdt, dead_time_s: f32, tau_c_s: f32) -> (f32, f32) {
     let horizon = tau_c_s + dead_time_s;
     let kc = model.tau / (model.gain * horizon);
-    let ti = if model.tau < 4.0 * horizon {
+    let ti = if model.tau > 4.0 * horizon {
         model.tau
     } else {
         4.0 * horizon
@@ -379,10 +388,14 @@ mod tests {
 
     #[test]
     fn the_bracket_is_the_last_q_over_0_6_and_the_first_under_0_35_after_it() {
-        let q = [1.0, 0.9, 0.61, 0.7, 0.6, 0.5, 0.4, 0.35, 0.3, 0.1];
+        let q = [
+            1.0, 0.9, 0.61, 0.7, 0.6, 0.5, 0.4, 0.35, 0.3, 0.1, 0.05, 0.02,
+        ];
         assert_eq!(bracket(&q), Some((4, 7)));
         // Nothing under 0.35 after the last Q ≥ 0.6, or nothing ≥ 0.6: no bracket.
-        let q = [1.0, 0.9, 0.3, 0.7, 0.6, 0.5, 0.4, 0.36, 0.36, 0.36];
+        let q = [
+            1.0, 0.9, 0.3, 0.7, 0.6, 0.5, 0.4, 0.36, 0.36, 0.36, 0.36, 0.36,
+        ];
         assert_eq!(bracket(&q), None);
         assert_eq!(bracket(&[0.5; BANK]), None);
     }
@@ -445,11 +458,11 @@ mod tests {
             tau: 0.09,
             theta: 0.0,
         };
-        // τ_c = θ_e = 10 ms: K_c = 0.09/(6 · 0.02) = 0.75, T_i = min(0.09, 0.08) = 0.08.
+        // τ_c = θ_e = 10 ms: K_c = 0.09/(6 · 0.02) = 0.75, T_i = max(0.09, 0.08) = τ.
         let (kc, ti) = simc(&m, 0.01, 0.01);
-        assert!((kc - 0.75).abs() < 1e-6 && (ti - 0.08).abs() < 1e-7);
-        // A slow loop: T_i = τ.
+        assert!((kc - 0.75).abs() < 1e-6 && ti == 0.09, "{kc} {ti}");
+        // A looser loop: T_i = 4 (τ_c + θ_e) = 0.12 s, never below it.
         let (_, ti) = simc(&m, 0.01, 0.02);
-        assert_eq!(ti, 0.09);
+        assert!((ti - 0.12).abs() < 1e-7, "{ti}");
     }
 }

@@ -33,7 +33,8 @@ impl Side {
 )]
 pub enum TuneLoad {
     /// The robot on the floor: the identified plant is the driving plant. The tune drives
-    /// about 0.9 m forward and back (the reference robot).
+    /// up to 90 % of [`TuneConfig::max_distance_m`] forward and back (about 0.7 m, the
+    /// reference robot).
     Ground,
     /// The robot on a stand: the identified τ is multiplied by `ground_inertia_factor`
     /// (the driving inertia over the lifted one, ≥ 1 and < 1 000) before the PI is set.
@@ -64,13 +65,17 @@ impl TuneLoad {
     derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
 )]
 pub struct TuneConfig {
-    /// u_hi, the largest voltage the experiments apply, V (≤ the motor's rated voltage).
+    /// The largest voltage the experiments apply, V (≤ the motor's rated voltage): the
+    /// breakaway ramp's ceiling and the step's; the step's level u_hi is planned below
+    /// it from the hold (the module doc).
     pub experiment_volts_v: f32,
     /// Rate of the breakaway ramp, V/s (> 0 and < 1 000).
     pub breakaway_ramp_v_per_s: f32,
-    /// Length of the hold before the step and of the step, s (at least 6 τ of the
-    /// slowest wheel for a clean fit; 0.1 to 10 s, and at least 50 control periods).
-    pub hold_s: f32,
+    /// The longest hold before the step, and the longest step, s (0.1 to 10 s, and at
+    /// least 50 control periods). Their lengths follow the wheel's own time constant
+    /// up to this; a step cut short by it is reported
+    /// ([`TuneWarnings::step_not_settled`]).
+    pub max_hold_s: f32,
     /// A wheel faster than this stops the tune, rad/s (> 0 and < 10⁴).
     pub max_speed_rad_s: f32,
     /// On the ground, the odometry farther than this from where the tune began stops it,
@@ -84,20 +89,21 @@ pub struct TuneConfig {
 }
 
 impl TuneConfig {
-    /// The defaults for `robot`: u_hi = 40 % of the rated voltage (2.4 V, about 13 rad/s on
-    /// the reference robot), breakaway ramp 1 V/s, 1 s holds (6 τ of a motor with
-    /// 30 % less torque constant than the reference), 75 % of the rated top
+    /// The defaults for `robot`: at most 80 % of the rated voltage (4.8 V: the breakaway
+    /// of a motor with three times the reference's friction, 40 % less torque constant
+    /// and 40 % more resistance is 2.5 V), breakaway ramp 0.5 V/s, holds and steps of
+    /// at most 4 s (8 τ of that motor with 40 % more inertia), 75 % of the rated top
     /// speed, 1.5 m, τ_c = 1.2 θ_e, on the ground.
     pub fn for_robot(robot: &RobotConfig) -> Self {
         let rated = robot.motor.rated_voltage_v;
         let top = robot.left_wheel.speed_at_volts(rated);
         Self {
-            experiment_volts_v: 0.4 * rated,
-            breakaway_ramp_v_per_s: 1.0,
-            hold_s: 1.0,
+            experiment_volts_v: 0.8 * rated,
+            breakaway_ramp_v_per_s: 0.5,
+            max_hold_s: 4.0,
             max_speed_rad_s: 0.75 * top,
             max_distance_m: 1.5,
-            tau_c_per_dead_time: 1.2,
+            tau_c_per_dead_time: 2.0,
             load: TuneLoad::Ground,
         }
     }
@@ -106,14 +112,14 @@ impl TuneConfig {
     pub fn validate(&self, params: &Params) -> Result<(), TuneConfigError> {
         let bad = |field, value| Err(TuneConfigError { field, value });
         let rated = params.config().motor.rated_voltage_v;
-        let steps = self.hold_s * params.control_rate().get() as f32;
+        let steps = self.max_hold_s * params.control_rate().get() as f32;
         #[allow(clippy::neg_cmp_op_on_partial_ord)]
         if !(self.experiment_volts_v > 0.0 && self.experiment_volts_v <= rated) {
             bad("experiment_volts_v", self.experiment_volts_v)
         } else if !(self.breakaway_ramp_v_per_s > 0.0 && self.breakaway_ramp_v_per_s < 1e3) {
             bad("breakaway_ramp_v_per_s", self.breakaway_ramp_v_per_s)
-        } else if !(self.hold_s >= 0.1 && self.hold_s <= 10.0 && steps >= 50.0) {
-            bad("hold_s", self.hold_s)
+        } else if !(self.max_hold_s >= 0.1 && self.max_hold_s <= 10.0 && steps >= 50.0) {
+            bad("max_hold_s", self.max_hold_s)
         } else if !(self.max_speed_rad_s > 0.0 && self.max_speed_rad_s < 1e4) {
             bad("max_speed_rad_s", self.max_speed_rad_s)
         } else if !(self.max_distance_m > 0.0 && self.max_distance_m < 1e3) {
@@ -161,9 +167,10 @@ pub enum TuneAbort {
     Stopped,
     /// A wheel was turning when the tune began.
     NotAtRest,
-    /// This wheel did not turn at u_hi: blocked, disconnected, or u_hi too low.
+    /// This wheel did not turn at the largest voltage: blocked, disconnected, or
+    /// [`TuneConfig::experiment_volts_v`] too low.
     NoBreakaway(Side),
-    /// This wheel needed more than 60 % of u_hi to break away: raise
+    /// This wheel needed more than 70 % of the largest voltage to break away: raise
     /// [`TuneConfig::experiment_volts_v`].
     BreakawayTooHigh(Side),
     /// This wheel turned against its voltage: motor or encoder wired the wrong way round.
@@ -189,9 +196,14 @@ impl fmt::Display for TuneAbort {
         match self {
             TuneAbort::Stopped => f.write_str("stopped by the supervisor (fault, button, link)"),
             TuneAbort::NotAtRest => f.write_str("a wheel was turning at the start"),
-            TuneAbort::NoBreakaway(w) => write!(f, "{w:?} wheel did not turn at u_hi"),
+            TuneAbort::NoBreakaway(w) => {
+                write!(f, "{w:?} wheel did not turn at the largest voltage")
+            }
             TuneAbort::BreakawayTooHigh(w) => {
-                write!(f, "{w:?} wheel needs over 60 % of u_hi to break away")
+                write!(
+                    f,
+                    "{w:?} wheel needs over 70 % of the largest voltage to break away"
+                )
             }
             TuneAbort::WrongDirection(w) => {
                 write!(f, "{w:?} wheel turned against its voltage (wiring)")
@@ -244,6 +256,66 @@ pub struct TuneResult {
     pub models: [WheelModel; 2],
     /// Feed-forward k_S, k_V from the models; K_p, T_i by SIMC; no D.
     pub loops: [WheelLoopConfig; 2],
+    /// What the tune doubts in these figures.
+    pub warnings: TuneWarnings,
+}
+
+/// What a tune that gave a result doubts, per wheel [left, right]: each flag set when
+/// it happened in either direction.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize, postcard_schema::Schema)
+)]
+pub struct TuneWarnings {
+    /// The hold before the step reached [`TuneConfig::max_hold_s`] before the wheel's
+    /// speed had settled (5 τ + θ of its own fit): the step started from a moving
+    /// speed, K may be off.
+    pub hold_not_settled: [bool; 2],
+    /// The step ended before its response had settled (it lasted under 5 τ + θ of the
+    /// step's own fit, cut short by [`TuneConfig::max_hold_s`] or the distance budget):
+    /// τ is likely low, and the gains with it.
+    pub step_not_settled: [bool; 2],
+}
+
+impl TuneWarnings {
+    /// True when any flag is set.
+    pub fn any(&self) -> bool {
+        self.hold_not_settled
+            .iter()
+            .chain(&self.step_not_settled)
+            .any(|w| *w)
+    }
+}
+
+impl fmt::Display for TuneWarnings {
+    /// Each warning as `<wheel> <what>`, separated by `; ` (empty when none).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut first = true;
+        let lists = [
+            (
+                &self.hold_not_settled,
+                "hold had not settled (K may be off)",
+            ),
+            (
+                &self.step_not_settled,
+                "step had not settled (τ likely low)",
+            ),
+        ];
+        for (flags, what) in lists {
+            for (side, set) in Side::BOTH.iter().zip(flags) {
+                if *set {
+                    if !first {
+                        f.write_str("; ")?;
+                    }
+                    first = false;
+                    write!(f, "{side:?} wheel's {what}")?;
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 impl TuneResult {

@@ -93,10 +93,19 @@ pub fn verdict(results: &[CaseResult]) -> Result<(), Failed> {
 }
 
 /// Runs the suite on `scenario` with `law` and writes `faults.json` into `out` (`None`:
-/// `host-sim-out/<scenario>/faults`).
-pub fn run(scenario: &str, law: LawKind, out: Option<PathBuf>) -> Result<FaultsReport> {
+/// `host-sim-out/<scenario>/faults`), and each case's run as an MCAP file into `mcap_dir`
+/// if given.
+pub fn run(
+    scenario: &str,
+    law: LawKind,
+    out: Option<PathBuf>,
+    mcap_dir: Option<PathBuf>,
+) -> Result<FaultsReport> {
     let scenario = load(scenario)?;
-    let results = run_suite(&scenario, law)?;
+    if let Some(dir) = &mcap_dir {
+        create_dir(dir)?;
+    }
+    let results = run_suite(&scenario, law, mcap_dir.as_deref())?;
     let dir = out.unwrap_or_else(|| default_dir(&scenario, "faults"));
     create_dir(&dir)?;
     let file = dir.join("faults.json");

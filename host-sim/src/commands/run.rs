@@ -26,6 +26,8 @@ pub struct Options {
     pub trace_every: Option<u32>,
     /// Simulated time, s, instead of the scenario's `sim.duration_s`.
     pub duration_s: Option<f64>,
+    /// Also write the run as an MCAP file here (Foxglove).
+    pub mcap: Option<PathBuf>,
 }
 
 /// A finished run and where its files went.
@@ -73,7 +75,10 @@ pub fn run(options: &Options) -> Result<RunReport> {
         .out
         .clone()
         .unwrap_or_else(|| default_dir(&scenario, law.name()));
-    let files = output::write_run(&dir, &scenario, &result)?;
+    let mut files = output::write_run(&dir, &scenario, &result)?;
+    if let Some(file) = &options.mcap {
+        files.push(crate::mcap::write_run_mcap(file, &scenario, &result)?.file);
+    }
     Ok(RunReport {
         scenario,
         result,

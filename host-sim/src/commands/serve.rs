@@ -1,6 +1,7 @@
 //! `host-sim serve`: the virtual robot ([`crate::serve`]) — the robot's own application
 //! logic against the simulated hardware, speaking the runtime link on a TCP port, with
-//! ground truth. Says where it listens, then prints every supervisor event as it comes,
+//! ground truth. Says where it listens (and, with `--foxglove`, where its Foxglove stream
+//! does: [`crate::serve::LiveStream`]), then prints every supervisor event as it comes,
 //! until killed.
 
 use std::fmt;
@@ -9,7 +10,7 @@ use std::net::TcpListener;
 use anyhow::{Context, Result};
 
 use super::{load, Failed, Report};
-use crate::serve::{serve, ServeOptions, StepReport, VirtualRobot};
+use crate::serve::{serve, LiveStream, ServeOptions, StepReport, VirtualRobot};
 
 /// The fastest `--speed`: simulated time per wall-clock time.
 pub const MAX_SPEED: f64 = 1000.0;
@@ -35,6 +36,9 @@ pub struct Listening {
     pub speed: f64,
     /// The supervisor's heartbeat timeout, control steps.
     pub heartbeat_timeout_steps: u32,
+    /// Where the Foxglove stream listens (`host:port`, the port the system chose for
+    /// port 0) and its rate, Hz; `None` without `--foxglove`.
+    pub foxglove: Option<(String, f64)>,
 }
 
 impl fmt::Display for Listening {
@@ -43,8 +47,24 @@ impl fmt::Display for Listening {
             f,
             "virtual robot ({}) listening on {}, {}× real time; heartbeat timeout {} steps",
             self.scenario, self.listen, self.speed, self.heartbeat_timeout_steps
-        )
+        )?;
+        if let Some((address, hz)) = &self.foxglove {
+            writeln!(
+                f,
+                "foxglove live on ws://{address} (subprotocol foxglove.sdk.v1), {hz} Hz of robot time"
+            )?;
+        }
+        Ok(())
     }
+}
+
+/// The Foxglove stream `host-sim serve --foxglove` asks for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FoxgloveOptions {
+    /// `HOST:PORT` to listen on (port 0: any free port, announced).
+    pub address: String,
+    /// Samples per second of robot time, Hz (1 to the control rate).
+    pub hz: u32,
 }
 
 /// One supervisor event, as printed.
@@ -90,6 +110,7 @@ pub fn run(
     scenario: &str,
     listen: &str,
     speed: f64,
+    foxglove: Option<&FoxgloveOptions>,
     listening: &mut dyn FnMut(&Listening) -> std::io::Result<()>,
     event: &mut dyn FnMut(&EventLine),
 ) -> Result<Stopped> {
@@ -98,7 +119,39 @@ pub fn run(
     let listener = TcpListener::bind(listen).with_context(|| format!("listening on {listen}"))?;
     let mut channels = robot_app::Channels::new();
     let mut robot = VirtualRobot::new(&mut channels, &scenario)?;
-    let rate_hz = f64::from(scenario.robot.control_rate_hz);
+    let rate = scenario.robot.control_rate_hz;
+    let rate_hz = f64::from(rate);
+    let mut live = match foxglove {
+        Some(options) => {
+            if options.hz == 0 || options.hz > rate {
+                return Err(Failed(format!(
+                    "--foxglove-hz must be in 1..={rate} (the control rate), got {}",
+                    options.hz
+                ))
+                .into());
+            }
+            Some(LiveStream::start(
+                &options.address,
+                &robot,
+                rate / options.hz,
+            )?)
+        }
+        None => None,
+    };
+    let foxglove_line = match (&live, foxglove) {
+        (Some(live), Some(options)) => {
+            let host = options
+                .address
+                .rsplit_once(':')
+                .map_or(options.address.as_str(), |(h, _)| h);
+            let every = rate / options.hz;
+            Some((
+                format!("{host}:{}", live.port()),
+                rate_hz / f64::from(every),
+            ))
+        }
+        _ => None,
+    };
     listening(&Listening {
         scenario: scenario.name.clone(),
         listen: listener
@@ -106,6 +159,7 @@ pub fn run(
             .map_or_else(|_| listen.to_string(), |address| address.to_string()),
         speed,
         heartbeat_timeout_steps: scenario.supervisor.heartbeat_timeout_steps,
+        foxglove: foxglove_line,
     })?;
     let mut log = |report: &StepReport| {
         event(&EventLine {
@@ -121,6 +175,7 @@ pub fn run(
             max_steps: None,
         },
         &mut log,
+        live.as_mut(),
     )?;
     Ok(Stopped)
 }
@@ -141,6 +196,7 @@ mod tests {
             "paper-circle",
             "127.0.0.1:0",
             1.0,
+            None,
             &mut listening,
             &mut |_| {},
         );
@@ -151,6 +207,26 @@ mod tests {
             .expect("a socket address");
         assert_eq!(address.ip().to_string(), "127.0.0.1");
         assert_ne!(address.port(), 0);
+    }
+
+    #[test]
+    fn the_foxglove_rate_must_be_within_the_control_rate() {
+        for hz in [0, 1001] {
+            let options = FoxgloveOptions {
+                address: "127.0.0.1:0".into(),
+                hz,
+            };
+            let error = run(
+                "paper-circle",
+                "127.0.0.1:0",
+                1.0,
+                Some(&options),
+                &mut |_| Ok(()),
+                &mut |_| {},
+            )
+            .expect_err("refused before anything starts");
+            assert!(error.to_string().contains("--foxglove-hz"), "{error}");
+        }
     }
 
     #[test]

@@ -26,6 +26,8 @@ pub struct Options {
     pub seed: u64,
     /// Also write `sweep.json` into this folder.
     pub out: Option<PathBuf>,
+    /// Also write each run as an MCAP file into this folder.
+    pub mcap_dir: Option<PathBuf>,
 }
 
 /// The sweep's statistics and where `sweep.json` went.
@@ -115,11 +117,15 @@ pub fn run(options: &Options) -> Result<SweepCommandReport> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let progress = || bar.inc(1);
+    if let Some(dir) = &options.mcap_dir {
+        create_dir(dir)?;
+    }
     let report = sweep(
         &scenario,
         options.law,
         options.runs,
         options.seed,
+        options.mcap_dir.as_deref(),
         &progress,
     )?;
     bar.finish_and_clear();

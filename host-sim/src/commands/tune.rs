@@ -2,9 +2,12 @@
 //! on the ground or lifted (the scenario's `[plant] load`, or `--lifted`): the identified
 //! model against the linearised plant, the tuned gains as robot-file sections, a
 //! 0 → 15 rad/s step at 6 V tuned vs the scenario's gains (`tune_step.svg` in the output
-//! folder) and the scenario's settle time with both; with `--sweep`, the identification
-//! on 36 robots against their linearised truth. The command fails when the tune stopped
-//! without a result ([`verdict`]).
+//! folder) and the scenario's settle time with both; with `--sweep`, the spread matrix:
+//! the tune on 27 robots ([`tune::sweep_variations`]) against their linearised truth, each
+//! tuned loop's step, the tune's warnings and a summary line `tune spread: N of M robots
+//! identified within 10 %, worst overshoot X %`. The command fails when the tune stopped
+//! without a result, or with `--sweep` when a robot was not identified within 10 %
+//! ([`verdict`], [`sweep_verdict`]).
 
 use std::fmt;
 use std::path::PathBuf;
@@ -32,12 +35,12 @@ pub struct Options {
     pub scenario: String,
     /// The output folder of the plot (`None`: `host-sim-out/<scenario>/tune`).
     pub out: Option<PathBuf>,
-    /// Also the identification sweep on 36 robots.
+    /// Also the identification sweep on 27 robots ([`tune::sweep_variations`]).
     pub sweep: bool,
     /// SIMC's τ_c over the loop's effective dead time (`None`: the core's).
     pub tau_c_per_dead_time: Option<f32>,
-    /// Length of the tune's hold and step, s (`None`: the core's).
-    pub hold_s: Option<f32>,
+    /// The longest hold and step of the tune, s (`None`: the core's).
+    pub max_hold_s: Option<f32>,
     /// Tune with the wheels lifted (the plant's load set to lifted).
     pub lifted: bool,
 }
@@ -59,12 +62,12 @@ impl fmt::Display for TuneStart {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "{}: tune on the {} load, {} V supply; u_hi {} V, holds {} s, τ_c = {} θ_e",
+            "{}: tune on the {} load, {} V supply; at most {} V, holds and steps up to {} s, τ_c = {} θ_e",
             self.scenario,
             self.load.name(),
             self.supply_v,
             self.config.experiment_volts_v,
-            self.config.hold_s,
+            self.config.max_hold_s,
             self.config.tau_c_per_dead_time
         )
     }
@@ -143,6 +146,9 @@ impl fmt::Display for Tuned {
                 m.design_time_constant_s * 1e3
             )?;
         }
+        if self.result.warnings.any() {
+            writeln!(f, "  warning: {}", self.result.warnings)?;
+        }
         writeln!(
             f,
             "\nthe tuned wheel loops (SIMC PI with feed-forward), for the robot file:\n"
@@ -189,53 +195,96 @@ impl fmt::Display for Tuned {
     }
 }
 
-/// The identification sweep's table and its worst errors.
+/// The identification sweep's matrix: per robot its parameters, each identified
+/// quantity's error against the linearised truth, the tuned loop's step and the tune's
+/// warnings; then the worst figures and the summary line.
 fn write_sweep(f: &mut fmt::Formatter<'_>, load: &str, cases: &[SweepCase]) -> fmt::Result {
     writeln!(
         f,
-        "\nidentification sweep, {load} load: k_V and τ of the worse wheel against the linearised truth"
+        "\nidentification sweep, {load} load: the worse wheel's errors against the linearised truth,\n  \
+and the tuned loop's {} rad/s step from rest on the ground (R, K, J: R_a, K_t, inertia ±{} %; \
+f+: friction ×3)",
+        tune::SWEEP_STEP_RAD_S,
+        tune::SWEEP_SPREAD_PCT
     )?;
     writeln!(
         f,
-        "  {:<24} {:>10} {:>8} {:>9} {:>8}",
-        "robot", "k_V truth", "k_V err", "τ truth", "τ err"
+        "  {:<18} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7} {:>9} {:>8}",
+        "robot", "k_S", "k_V", "K", "τ", "τ truth", "ran", "overshoot", "settle"
     )?;
-    let (mut worst_kv, mut worst_tau, mut failed) = (0.0f64, 0.0f64, 0usize);
+    let (mut identified, mut worst_error, mut worst_overshoot) = (0usize, 0.0f64, 0.0f64);
     for c in cases {
-        match c.errors_pct() {
-            Some((kv, tau)) => {
-                worst_kv = worst_kv.max(kv.abs());
-                worst_tau = worst_tau.max(tau.abs());
+        let label = c.variation.short_label();
+        match (c.errors_pct(), c.tuned_step) {
+            (Some(e), Some(step)) => {
+                if c.identified() {
+                    identified += 1;
+                }
+                worst_error = worst_error.max(e.worst_pct());
+                worst_overshoot = worst_overshoot.max(step.overshoot_pct);
                 writeln!(
                     f,
-                    "  {:<24} {:>10.5} {:>+7.1}% {:>7.1}ms {:>+7.1}%",
-                    c.variation.label(),
-                    c.truth.kv_v_per_rad_s,
-                    kv,
+                    "  {label:<18} {:>+6.1}% {:>+6.1}% {:>+6.1}% {:>+6.1}% {:>6.1}ms {:>6.1}s {:>8.1}% {:>8}{}",
+                    e.ks_pct,
+                    e.kv_pct,
+                    e.gain_pct,
+                    e.tau_pct,
                     c.truth.time_constant_s * 1e3,
-                    tau
+                    c.run.duration_s,
+                    step.overshoot_pct,
+                    ms_or(step.settling_time_s, 0, "never"),
+                    warnings_text(&c.run.outcome),
                 )?;
             }
-            None => {
-                failed += 1;
+            _ => {
                 let why = c.run.outcome.err().map_or(String::new(), |e| e.to_string());
-                writeln!(f, "  {:<24} no model: {why}", c.variation.label())?;
+                writeln!(f, "  {label:<18} no model: {why}")?;
             }
         }
     }
     writeln!(
         f,
-        "  {} robots, {} without a model; largest error: k_V {:.1} %, τ {:.1} % (aim ≤ 10 %)",
+        "  largest identification error {worst_error:.1} % (aim ≤ {} %)",
+        tune::SWEEP_AIM_PCT
+    )?;
+    writeln!(
+        f,
+        "tune spread: {identified} of {} robots identified within {} %, worst overshoot {worst_overshoot:.1} %",
         cases.len(),
-        failed,
-        worst_kv,
-        worst_tau
+        tune::SWEEP_AIM_PCT
     )
+}
+
+/// The tune's warnings for the sweep's table: empty when none.
+fn warnings_text(outcome: &Result<TuneResult, TuneAbort>) -> String {
+    match outcome {
+        Ok(result) if result.warnings.any() => format!("  warning: {}", result.warnings),
+        _ => String::new(),
+    }
 }
 
 impl Report for TuneReport {
     fn verdict(&self) -> Result<(), Failed> {
-        verdict(&self.run.outcome)
+        verdict(&self.run.outcome)?;
+        match self.tuned.as_ref().and_then(|t| t.sweep.as_ref()) {
+            Some((_, cases)) => sweep_verdict(cases),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The sweep's rule: every robot identified within [`tune::SWEEP_AIM_PCT`]; otherwise
+/// how many were not.
+pub fn sweep_verdict(cases: &[SweepCase]) -> Result<(), Failed> {
+    let missed = cases.iter().filter(|c| !c.identified()).count();
+    if missed == 0 {
+        Ok(())
+    } else {
+        Err(Failed(format!(
+            "{missed} of {} robots were not identified within {} %",
+            cases.len(),
+            tune::SWEEP_AIM_PCT
+        )))
     }
 }
 
@@ -258,8 +307,8 @@ pub fn run(options: &Options, progress: &mut Progress<'_>) -> Result<TuneReport>
     if let Some(x) = options.tau_c_per_dead_time {
         config.tau_c_per_dead_time = x;
     }
-    if let Some(x) = options.hold_s {
-        config.hold_s = x;
+    if let Some(x) = options.max_hold_s {
+        config.max_hold_s = x;
     }
     config.validate(&scenario.params()?)?;
     let truth = tune::truth(&scenario)?;

@@ -246,6 +246,7 @@ impl RobotLogic for Firmware {
                 steering_updated: answer.steering_updated,
             },
             telemetry: None,
+            pid_parts: None,
         })
     }
 }

@@ -39,6 +39,9 @@ pub struct Decision<'a> {
     /// The controller's whole telemetry, when the logic runs in this process (for the
     /// trace); `None` when it runs elsewhere.
     pub telemetry: Option<&'a Telemetry>,
+    /// The wheel PIDs' outputs by part [left, right], V, alongside `telemetry` (`None`
+    /// when the logic runs elsewhere).
+    pub pid_parts: Option<[controller_core::pid::PidParts; 2]>,
 }
 
 /// The robot's logic the loop runs against the simulated hardware: the supervisor around
@@ -119,6 +122,7 @@ impl RobotLogic for LocalRobot {
             sensors,
             self.command.take(),
         );
+        let pid_parts = self.controller.wheel_pid_parts();
         let t = self.controller.telemetry();
         Ok(Decision {
             out,
@@ -128,6 +132,7 @@ impl RobotLogic for LocalRobot {
                 steering_updated: t.steering_updated,
             },
             telemetry: Some(t),
+            pid_parts: Some(pid_parts),
         })
     }
 }

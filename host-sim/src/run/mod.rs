@@ -53,7 +53,7 @@ use m4f_scenario::{Digest, Fnv1a64};
 use robot_app::metrics::{ErrorSample, ErrorStats};
 use robot_files::metrics::{ErrorReport, HourlyRms, Summary, SupervisorReport};
 use robot_files::scenario::{Scenario, ScenarioError};
-use robot_files::trace::TraceRow;
+use robot_files::trace::{SampleDetail, TraceRow};
 use robot_files::truth::{tracking_error_f64, TrueReference};
 
 use crate::hardware::{Actuation, SimHardware};
@@ -106,6 +106,9 @@ pub enum RunError {
     /// answering).
     #[error("robot logic: {0}")]
     Logic(String),
+    /// The run's MCAP file (asked for with it) could not be written.
+    #[error(transparent)]
+    Mcap(#[from] robot_foxglove::McapError),
     /// An argument of a run function is out of range.
     #[error("{name} {rule}, got {value}")]
     Argument {
@@ -382,6 +385,11 @@ pub fn run_with_logic<L: RobotLogic>(
                 duty: out.duty,
                 supply_v: tel.supply_v,
                 state: out.state,
+                detail: SampleDetail {
+                    lyapunov_rate: tel.law.lyapunov_rate,
+                    pid: decision.pid_parts.unwrap_or_default(),
+                    faults: out.faults,
+                },
             });
         }
         let [il, ir] = hardware.plant().currents_a();

@@ -38,8 +38,16 @@
 //!   plant then starts exactly where `host-sim run` starts it.
 //!
 //! After a run the plant goes on (braking, coasting) until the next path is committed.
+//!
+//! # In Foxglove
+//!
+//! With a [`LiveStream`] (`serve --foxglove`), every step may be sampled as a trace row
+//! ([`VirtualRobot::trace_row`]) and streamed; the stream's parameter changes reach the
+//! link side as the robot's own requests ([`VirtualRobot::request_locally`]), whose
+//! replies go to no host.
 
 mod hosts;
+mod live;
 mod truth;
 
 use std::io::ErrorKind;
@@ -52,8 +60,8 @@ use controller_core::law::LawKind;
 use controller_core::reference::Reference;
 use controller_core::supervisor::{Event, ResetCause, RunMode, State};
 use link::{
-    encode, BrownOutReset, ClockSource, Decoder, Downlink, GroundTruth, ParamSet, Received, Reply,
-    Request, Uplink, MAX_FRAME_LEN,
+    encode, BrownOutReset, ClockSource, Decoder, Downlink, GroundTruth, ParamSet, Received,
+    Refusal, Reply, Request, Uplink, MAX_FRAME_LEN,
 };
 use robot_app::stm32f4::bridge::BridgeChip;
 use robot_app::{
@@ -62,11 +70,14 @@ use robot_app::{
 };
 use robot_files::plant::DriverKind;
 use robot_files::scenario::{Scenario, StartState};
+use robot_files::trace::{SampleDetail, TraceRow};
+use robot_files::truth::{tracking_error_f64, true_error, TruePose};
 
 use crate::hardware::{Actuation, SimHardware};
 use crate::plant::PlantError;
 
 use self::hosts::Hosts;
+pub use self::live::LiveStream;
 pub use self::truth::TrueRun;
 
 /// The UART rate the virtual robot's link pretends to have, baud: fast enough for the
@@ -123,7 +134,27 @@ pub struct VirtualRobot<'a> {
     outgoing: Vec<u8>,
     /// Control step of the last `Heartbeat` the link side took.
     last_heartbeat_step: u32,
+    /// The last step's supervisor outcome and the plant's truth when its sensors were
+    /// read (pose, body velocity, wheel speeds): what [`VirtualRobot::trace_row`] shows.
+    last_step: Option<LastStep>,
+    /// The reply to the request sent with [`VirtualRobot::request_locally`], once it came.
+    local_reply: Option<Result<Reply, Refusal>>,
 }
+
+/// A step's supervisor outcome and the plant's truth when its sensors were read.
+#[derive(Clone, Copy, Debug)]
+struct LastStep {
+    out: robot_app::Actuation,
+    pose: TruePose,
+    /// Body velocity (m/s, rad/s).
+    velocity: (f64, f64),
+    /// Wheel speeds [left, right], rad/s.
+    wheels: [f64; 2],
+}
+
+/// The `seq` of the requests the virtual robot sends itself
+/// ([`VirtualRobot::request_locally`]); their replies go to no host.
+pub const LOCAL_SEQ: u16 = 0xF0F0;
 
 impl<'a> VirtualRobot<'a> {
     /// The virtual robot of `scenario` (its robot, supervisor, path and plant), disarmed,
@@ -181,6 +212,8 @@ impl<'a> VirtualRobot<'a> {
             pending_in: Vec::new(),
             outgoing: Vec::new(),
             last_heartbeat_step: 0,
+            last_step: None,
+            local_reply: None,
         })
     }
 
@@ -217,6 +250,87 @@ impl<'a> VirtualRobot<'a> {
     /// The host took the first `sent` bytes of [`VirtualRobot::outgoing`].
     pub fn consume(&mut self, sent: usize) {
         self.outgoing.drain(..sent.min(self.outgoing.len()));
+    }
+
+    /// Sends the link side `request` as if a host had, with [`LOCAL_SEQ`], when no host's
+    /// bytes are half-way through (else `false`: try again at a later step). Its reply is
+    /// kept for [`VirtualRobot::take_local_reply`] and not sent to any host.
+    pub fn request_locally(&mut self, request: Request) -> bool {
+        if !self.pending_in.is_empty() {
+            return false;
+        }
+        let mut wire = [0u8; MAX_FRAME_LEN];
+        let Ok(len) = encode(
+            &Downlink {
+                seq: LOCAL_SEQ,
+                request,
+            },
+            &mut wire,
+        ) else {
+            return false;
+        };
+        self.pending_in
+            .extend_from_slice(wire.get(..len).unwrap_or_default());
+        true
+    }
+
+    /// The reply to the last [`VirtualRobot::request_locally`], once it came.
+    pub fn take_local_reply(&mut self) -> Option<Result<Reply, Refusal>> {
+        self.local_reply.take()
+    }
+
+    /// The last step as a trace row (the rows `trace.csv` and the Foxglove channels
+    /// show): the controller's telemetry, the supervisor's outcome, and the truth when
+    /// the sensors were read; the reference, and the true errors against it, only while
+    /// a path-following run is measured (NaN otherwise). `None` before the first step.
+    pub fn trace_row(&self) -> Option<TraceRow> {
+        let LastStep {
+            out,
+            pose,
+            velocity,
+            wheels,
+        } = self.last_step?;
+        let controller = self.control.controller();
+        let t = controller.telemetry();
+        let nan = f64::NAN;
+        let reference = self.truth.as_ref().map(TrueRun::reference_pose);
+        Some(TraceRow {
+            t_s: f64::from(self.control.steps()) / f64::from(self.scenario.robot.control_rate_hz),
+            true_pose: pose,
+            est_pose: t.pose,
+            reference: reference.unwrap_or(Pose::new(f32::NAN, f32::NAN, f32::NAN)),
+            error: t.error,
+            true_error: reference.map_or((nan, nan), |r| true_error(&r, &pose)),
+            true_tracking: reference.map_or([nan; 3], |r| tracking_error_f64(&pose, &r)),
+            lyapunov: t.law.lyapunov,
+            command: t.command,
+            true_velocity: velocity,
+            setpoint: t.wheel_setpoint,
+            measured: t.wheel_speed,
+            true_wheel: wheels,
+            volts: [t.wheel_loop.volts.left_v, t.wheel_loop.volts.right_v],
+            duty: out.duty,
+            supply_v: t.supply_v,
+            state: out.state,
+            detail: SampleDetail {
+                lyapunov_rate: t.law.lyapunov_rate,
+                pid: controller.wheel_pid_parts(),
+                faults: out.faults,
+            },
+        })
+    }
+
+    /// The robot's active configuration (what `GetParams` answers).
+    pub fn active_params(&self) -> ParamSet {
+        *self.link.active_params()
+    }
+
+    /// The path the robot follows now, world frame.
+    pub fn path(&self) -> Option<&controller_core::path::Path> {
+        self.control
+            .controller()
+            .steering()
+            .map(|steering| steering.reference().path())
     }
 
     /// One control period (module doc).
@@ -260,6 +374,12 @@ impl<'a> VirtualRobot<'a> {
             background_heartbeat: self.background,
         });
         let step = self.control.steps();
+        self.last_step = Some(LastStep {
+            out,
+            pose,
+            velocity,
+            wheels,
+        });
         if heartbeat_taken {
             self.last_heartbeat_step = step;
         }
@@ -304,9 +424,23 @@ impl<'a> VirtualRobot<'a> {
         let sent = self.link.outgoing().len();
         let mut committed = false;
         let mut frames = Vec::new();
+        let mut frame_start = self.outgoing.len();
         for &byte in self.link.outgoing() {
             self.outgoing.push(byte);
-            match self.tap_out.push::<Uplink>(byte) {
+            let decoded = self.tap_out.push::<Uplink>(byte);
+            if let Some(Ok(Received::Message(Uplink::Reply {
+                seq: LOCAL_SEQ,
+                result,
+            }))) = &decoded
+            {
+                // A reply to the virtual robot itself: for no host.
+                self.local_reply = Some(result.clone());
+                self.outgoing.truncate(frame_start);
+            }
+            if decoded.is_some() {
+                frame_start = self.outgoing.len();
+            }
+            match decoded {
                 Some(Ok(Received::Message(Uplink::Telemetry(frame)))) => {
                     frames.push(Uplink::GroundTruth(GroundTruth {
                         step: frame.step,
@@ -332,6 +466,7 @@ impl<'a> VirtualRobot<'a> {
                     self.outgoing
                         .extend_from_slice(wire.get(..len).unwrap_or_default());
                 }
+                frame_start = self.outgoing.len();
             }
         }
         self.link.consume(sent);
@@ -429,13 +564,15 @@ pub struct ServeOptions {
 
 /// Runs the virtual robot on `listener`, paced at `options.speed` × real time. Every
 /// connection receives what the robot sends; the newest one commands it, the older ones
-/// observe (the client rule in `docs/protocol.md`). `log` gets every step that changed the supervisor's state. Returns
+/// observe (the client rule in `docs/protocol.md`). `log` gets every step that changed the
+/// supervisor's state; `live`, if any, every step (the Foxglove stream). Returns
 /// after `options.max_steps`, or on an I/O error of the listener.
 pub fn serve(
     robot: &mut VirtualRobot<'_>,
     listener: &TcpListener,
     options: ServeOptions,
     log: &mut dyn FnMut(&StepReport),
+    mut live: Option<&mut LiveStream>,
 ) -> std::io::Result<()> {
     listener.set_nonblocking(true)?;
     let rate = f64::from(robot.scenario.robot.control_rate_hz);
@@ -476,6 +613,9 @@ pub fn serve(
             let report = robot.step();
             if report.event.is_some() {
                 log(&report);
+            }
+            if let Some(live) = live.as_deref_mut() {
+                live.after_step(robot);
             }
             hosts.write(robot.outgoing());
             robot.outgoing.clear();

@@ -55,7 +55,7 @@ impl TrueRun {
     /// `wheels` (rad/s) read before the step, as the robot's sensors saw them.
     pub fn observe(&mut self, pose: &TruePose, wheels: [f64; 2], periods: u32) {
         let k = self.periods;
-        if k % self.divider == 0 {
+        if k.is_multiple_of(self.divider) {
             let reference = self.reference.at(k, pose);
             let (position_m, heading_rad) = true_error(&reference, pose);
             self.stats.push(ErrorSample {

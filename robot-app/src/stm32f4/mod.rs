@@ -7,6 +7,7 @@
 //! |---|---|
 //! | [`chip`] | the supported parts and their limits (clock, buses, flash, PLL, LSI, ADC) |
 //! | [`clock`] | PLL M/N/P/Q, flash wait states, voltage scale, APB dividers, timer clocks |
+//! | [`clock_read_back`] | SYSCLK and its source decoded from RCC_CFGR and RCC_PLLCFGR |
 //! | [`oscillator`] | the board's external oscillator (HSE), its startup timeout, the fallback to the HSI |
 //! | [`option_bytes`] | the brown-out reset level in FLASH_OPTCR, and the value written to set it |
 //! | [`watchdog`] | IWDG prescaler and reload for a timeout, and its spread over the LSI |
@@ -22,6 +23,7 @@
 pub mod bridge;
 pub mod chip;
 pub mod clock;
+pub mod clock_read_back;
 pub mod encoder_filter;
 pub mod flash;
 pub mod option_bytes;

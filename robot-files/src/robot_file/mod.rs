@@ -176,6 +176,34 @@ impl RobotFile {
         // Every field is a number, a string keyword, a table or an array: this cannot fail.
         toml::to_string(self).unwrap_or_default()
     }
+
+    /// The configuration this file describes over a robot's own, `robot` and
+    /// `supervisor`: keys the file leaves out keep the robot's values; the start pose,
+    /// and the path-derived checks (`divergence`, `geofence_radius_m`) left at "auto",
+    /// keep the robot's, which it derives again from each committed path. Errors name
+    /// the key.
+    pub fn over(
+        &self,
+        robot: &RobotConfig,
+        supervisor: &SupervisorConfig,
+    ) -> Result<(RobotConfig, SupervisorConfig), SectionError> {
+        let params = self.robot.params(*robot, "robot")?;
+        let mut config = self.supervisor.config(&params, None, "supervisor")?;
+        config.start_pose = supervisor.start_pose;
+        if matches!(
+            self.supervisor.divergence,
+            None | Some(DivergenceSetting::Keyword(Keyword::Auto))
+        ) {
+            config.divergence = supervisor.divergence;
+        }
+        if matches!(
+            self.supervisor.geofence_radius_m,
+            None | Some(NumberOr::Keyword(Keyword::Auto))
+        ) {
+            config.geofence_radius_m = supervisor.geofence_radius_m;
+        }
+        Ok((*params.config(), config))
+    }
 }
 
 #[cfg(test)]

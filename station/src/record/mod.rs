@@ -26,6 +26,7 @@ mod recorder;
 mod recording;
 mod telemetry;
 
+pub use self::recorder::trace_row;
 use self::recorder::Recorder;
 pub use self::recording::*;
 pub use self::telemetry::*;

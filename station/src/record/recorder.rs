@@ -7,7 +7,7 @@ use controller_core::supervisor::{DisarmReason, Event, Faults, RunMode, State};
 use link::{GroundTruth, ParamSet, RunReport, TelemetryFrame, TrueRunReport, Uplink};
 use robot_files::metrics::{ErrorReport, Summary, SupervisorReport};
 use robot_files::scenario::Scenario;
-use robot_files::trace::TraceRow;
+use robot_files::trace::{SampleDetail, TraceRow};
 use robot_files::truth::{tracking_error_f64, true_error, TruePose, TrueReference};
 
 use crate::client::StationError;
@@ -172,63 +172,19 @@ impl<'a> Recorder<'a> {
     }
 
     pub(super) fn row(&self, f: &TelemetryFrame, truth: Option<&GroundTruth>, k: u64) -> TraceRow {
-        let nan = f64::NAN;
-        let true_pose = truth.map_or(
-            TruePose {
-                x_m: nan,
-                y_m: nan,
-                theta_rad: nan,
-            },
-            |t| TruePose {
-                x_m: f64::from(t.pose.x_m),
-                y_m: f64::from(t.pose.y_m),
-                theta_rad: f64::from(t.pose.theta_rad),
-            },
-        );
         // Where the reference is measured from: the truth when known, else the estimate.
-        let seen_from = truth.map_or(
-            TruePose {
-                x_m: f64::from(f.pose.x_m),
-                y_m: f64::from(f.pose.y_m),
-                theta_rad: f64::from(f.pose.theta_rad),
-            },
-            |_| true_pose,
-        );
+        let seen_from = match truth {
+            Some(t) => TruePose::from_pose(t.pose),
+            None => TruePose::from_pose(f.pose),
+        };
         let reference = self.reference.at(k, &seen_from);
-        let command = self
-            .params
-            .map(|p| p.geometry().forward(f.wheel_setpoint))
-            .unwrap_or_default();
-        let volts = |p: &link::PidParts| p.p_v + p.i_v + p.d_v + p.ff_v;
-        TraceRow {
-            t_s: k as f64 / self.rate_hz,
-            true_pose,
-            est_pose: f.pose,
-            reference,
-            error: f.tracking_error,
-            true_error: truth.map_or((nan, nan), |_| true_error(&reference, &true_pose)),
-            true_tracking: truth.map_or([nan; 3], |_| tracking_error_f64(&true_pose, &reference)),
-            lyapunov: f.lyapunov,
-            command,
-            true_velocity: truth.map_or((nan, nan), |t| {
-                (
-                    f64::from(t.velocity.v_m_s),
-                    f64::from(t.velocity.omega_rad_s),
-                )
-            }),
-            setpoint: f.wheel_setpoint,
-            measured: f.wheel_speed,
-            true_wheel: truth.map_or([nan; 2], |t| {
-                [
-                    f64::from(t.wheel_speed.left_rad_s),
-                    f64::from(t.wheel_speed.right_rad_s),
-                ]
-            }),
-            volts: [volts(&f.pid_left), volts(&f.pid_right)],
-            duty: f.duty,
-            supply_v: f.supply_v,
-            state: f.state,
-        }
+        trace_row(
+            f,
+            truth,
+            k as f64 / self.rate_hz,
+            Some(reference),
+            self.params.as_ref(),
+        )
     }
 
     /// How the run ended: the event that ended it, else what the report and the last
@@ -350,5 +306,77 @@ pub(super) fn final_state(last_sampled: State, ended_by: Option<Event>) -> State
         Some(Event::Disarmed(_)) => State::Disarmed,
         Some(Event::Faulted) => State::Faulted,
         _ => last_sampled,
+    }
+}
+
+/// The trace row of telemetry frame `f` at `t_s` (s of the run) with the virtual robot's
+/// `truth` for the same step (NaN where there is none) and the `reference` pose (NaN
+/// when not known, e.g. a recording of whatever the robot does); the body command comes
+/// from the set-points through `params`' geometry (zero without them).
+pub fn trace_row(
+    f: &TelemetryFrame,
+    truth: Option<&GroundTruth>,
+    t_s: f64,
+    reference: Option<Pose>,
+    params: Option<&Params>,
+) -> TraceRow {
+    let nan = f64::NAN;
+    let true_pose = truth.map_or(
+        TruePose {
+            x_m: nan,
+            y_m: nan,
+            theta_rad: nan,
+        },
+        |t| TruePose::from_pose(t.pose),
+    );
+    let known_reference = reference.filter(|_| truth.is_some());
+    let reference = reference.unwrap_or(Pose::new(f32::NAN, f32::NAN, f32::NAN));
+    let command = params
+        .map(|p| p.geometry().forward(f.wheel_setpoint))
+        .unwrap_or_default();
+    let volts = |p: &link::PidParts| p.p_v + p.i_v + p.d_v + p.ff_v;
+    TraceRow {
+        t_s,
+        true_pose,
+        est_pose: f.pose,
+        reference,
+        error: f.tracking_error,
+        true_error: known_reference.map_or((nan, nan), |r| true_error(&r, &true_pose)),
+        true_tracking: known_reference.map_or([nan; 3], |r| tracking_error_f64(&true_pose, &r)),
+        lyapunov: f.lyapunov,
+        command,
+        true_velocity: truth.map_or((nan, nan), |t| {
+            (
+                f64::from(t.velocity.v_m_s),
+                f64::from(t.velocity.omega_rad_s),
+            )
+        }),
+        setpoint: f.wheel_setpoint,
+        measured: f.wheel_speed,
+        true_wheel: truth.map_or([nan; 2], |t| {
+            [
+                f64::from(t.wheel_speed.left_rad_s),
+                f64::from(t.wheel_speed.right_rad_s),
+            ]
+        }),
+        volts: [volts(&f.pid_left), volts(&f.pid_right)],
+        duty: f.duty,
+        supply_v: f.supply_v,
+        state: f.state,
+        detail: SampleDetail {
+            lyapunov_rate: f.lyapunov_rate,
+            pid: [pid_parts(&f.pid_left), pid_parts(&f.pid_right)],
+            faults: f.faults,
+        },
+    }
+}
+
+/// A wheel PID's parts as the link carries them, in the core's type (V).
+fn pid_parts(parts: &link::PidParts) -> controller_core::pid::PidParts {
+    controller_core::pid::PidParts {
+        p: parts.p_v,
+        i: parts.i_v,
+        d: parts.d_v,
+        ff: parts.ff_v,
     }
 }

@@ -75,6 +75,26 @@ impl Recording {
     }
 }
 
+impl Recording {
+    /// Writes the run as an MCAP file (`robot_foxglove`'s channels): `path`, the trace's
+    /// rows at the robot's own time, and how the run ended.
+    pub fn write_mcap(
+        &self,
+        file: &std::path::Path,
+        path: &controller_core::path::Path,
+    ) -> Result<robot_foxglove::McapWritten, robot_foxglove::McapError> {
+        let end = format!("run ended by {}", self.ended_by);
+        robot_foxglove::write_run_mcap(
+            file,
+            &robot_foxglove::RunRecord {
+                path: Some(path),
+                trace: &self.trace,
+                end: Some(&end),
+            },
+        )
+    }
+}
+
 /// `summary.json` as the station writes it: the simulator's summary and how the run
 /// ended.
 #[derive(serde::Serialize)]

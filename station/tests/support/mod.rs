@@ -104,7 +104,7 @@ impl<'r, 'a> InProcess<'r, 'a> {
         if is_telemetry {
             self.telemetry_frames += 1;
             let every = self.faults.lose_telemetry_every;
-            if every > 0 && self.telemetry_frames % every == 0 {
+            if every > 0 && self.telemetry_frames.is_multiple_of(every) {
                 return None;
             }
         }

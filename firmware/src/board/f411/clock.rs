@@ -46,6 +46,7 @@ use core::fmt;
 use link::ClockSource;
 use robot_app::stm32f4::chip::{VoltageScale, HSI_HZ};
 use robot_app::stm32f4::clock::{ClockPlan, ClockTree, PllConfig, PLLSRC_HSE, SWS_PLL};
+use robot_app::stm32f4::clock_read_back::SysclkReadBack;
 use robot_app::stm32f4::oscillator::{cycles_in_us, Hse, HSE_STARTUP_TIMEOUT_US};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
@@ -195,6 +196,20 @@ pub fn configure(
         source: HSE.report(hse_started),
     };
     Ok((rcc, report))
+}
+
+/// SYSCLK as RCC_CFGR and RCC_PLLCFGR give it now, for the board's [`HSE`]
+/// (`robot_app::stm32f4::clock_read_back`): what the chip runs on, read independently of
+/// the plan `configure` checked.
+pub fn read_back() -> SysclkReadBack {
+    // SAFETY: two reads of RCC registers, which have no side effects; the HAL's `Rcc`
+    // owns RCC for writing and never relies on the values read here.
+    let rcc = unsafe { &*pac::RCC::ptr() };
+    SysclkReadBack::from_registers(
+        rcc.cfgr().read().bits(),
+        rcc.pllcfgr().read().bits(),
+        HSE.hz(),
+    )
 }
 
 /// Step 3 of the module doc: starts `hse` and waits for HSERDY for at most

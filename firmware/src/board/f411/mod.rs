@@ -51,6 +51,7 @@ mod watchdog;
 
 use core::num::NonZeroU32;
 
+use controller_core::controller::MotorCommand;
 use controller_core::supervisor::ResetCause;
 use cortex_m::peripheral::{DWT, NVIC};
 use link::{BrownOutReset, ClockSource};
@@ -67,6 +68,7 @@ use stm32f4xx_hal::qei::Qei;
 use stm32f4xx_hal::rcc::{Enable, Reset};
 use stm32f4xx_hal::timer::PwmChannel;
 
+pub use self::clock::read_back as clock_read_back;
 pub use self::flash::{Storage, WATCHDOG_PERSIST};
 use self::motor::DriveTrain;
 #[cfg(feature = "drv8833")]
@@ -450,8 +452,17 @@ impl ControlIo {
     /// starts the next supply conversion.
     #[inline(always)]
     pub fn actuate(&mut self, out: &Actuation, _control: &ControlSide<'_>) {
-        self.drive.apply(out.duty, out.bridge.enabled());
-        self.led.set(out.led_on);
+        self.apply_outputs(out.duty, out.bridge.enabled(), out.led_on);
+    }
+
+    /// Writes `duty` (each −1…1, positive forward) and the driver's enable line through
+    /// the bridge sequence, the LED, and starts the next supply conversion: what
+    /// [`ControlIo::actuate`] does with a step's outputs, for the first-flash programs,
+    /// which run no control step.
+    #[inline(always)]
+    pub fn apply_outputs(&mut self, duty: MotorCommand, bridge_enabled: bool, led_on: bool) {
+        self.drive.apply(duty, bridge_enabled);
+        self.led.set(led_on);
         self.supply.start();
     }
 

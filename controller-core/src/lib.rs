@@ -25,7 +25,9 @@
 //!    paper's Lyapunov design redone so the error reaches zero on a moving reference) and
 //!    [`law::kanayama`] (the 1990 baseline). Each reports its Lyapunov V and V̇.
 //! 7. [`limits`] — the acceleration ramp (at the wheel-loop rate) and a rim-speed cap that
-//!    keeps curvature and follows the battery.
+//!    keeps curvature and follows the battery. In the velocity mode the body command
+//!    comes from [`velocity`] instead of steps 5–6: the link's (v, ω) with
+//!    `diff_drive_controller`'s timeout and velocity, acceleration and jerk limits.
 //! 8. [`drive`] — the wheel loops in volts: feed-forward, the incremental PID of
 //!    [`pid`] (eqs. (36)–(38), (38)'s typo fixed), voltage, current and slew limits,
 //!    reversal through zero, coordinated saturation, and duty = volts / supply.

@@ -39,10 +39,13 @@
 //! - **Persisting**: motors off while the firmware erases and writes flash, which stalls
 //!   the CPU: missed ticks are expected and are not a fault.
 //!
-//! Armed, the robot runs one of three [`RunMode`]s: follow the path, hold wheel speeds,
-//! or tune the wheel loops ([`crate::tune`]: open-loop voltage experiments, every fault
+//! Armed, the robot runs one of four [`RunMode`]s: follow the path, hold wheel speeds,
+//! tune the wheel loops ([`crate::tune`]: open-loop voltage experiments, every fault
 //! check in force; the tune disarms by itself when done, and a fault, the button or the
-//! link stops it like any run).
+//! link stops it like any run), or follow the link's velocity commands
+//! ([`crate::velocity`]: armed by request only, [`Command::Velocity`] taken in that mode
+//! only; after the command timeout the robot ramps to a stop and stays armed; every fault
+//! check in force, the geofence too).
 //!
 //! ## The button
 //!

@@ -100,7 +100,9 @@ impl TestRobot {
                     ArmMode::FollowPath if self.path.is_none() => {
                         Err(Refusal::NotPermitted(NotPermitted::NoPath))
                     }
-                    ArmMode::Tune => Err(Refusal::NotPermitted(NotPermitted::Unsupported)),
+                    ArmMode::Tune | ArmMode::FollowVelocity => {
+                        Err(Refusal::NotPermitted(NotPermitted::Unsupported))
+                    }
                     _ => {
                         self.armed = true;
                         Ok(Reply::Ack)
@@ -144,6 +146,10 @@ impl TestRobot {
             // Nothing survives a reset of this test program.
             Request::GetPanicRecord => Ok(Reply::PanicRecord(None)),
             Request::ClearPanicRecord => Ok(Reply::Ack),
+            // No controller here, so no velocity mode to take a command and no motor to pulse.
+            Request::Velocity { .. } | Request::MotorTest { .. } => {
+                Err(Refusal::NotPermitted(NotPermitted::Unsupported))
+            }
         }
     }
 

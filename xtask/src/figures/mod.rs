@@ -37,7 +37,8 @@ pub const README_END: &str = "<!-- end of the headline figures -->";
 const EXPERIMENTS: [&str; 2] = ["paper-circle", "paper-line"];
 /// The laws every experiment runs with, in the order the page shows them.
 const LAWS: [&str; 3] = ["paper", "tracking", "kanayama"];
-/// The built-in scenarios, as `host-sim list` names them.
+/// The built-in path-following scenarios, as `host-sim list` names them (not
+/// `velocity-steps`, whose figures are `host-sim velocity-check`'s).
 const SCENARIOS: [&str; 5] = [
     "paper-circle",
     "paper-line",

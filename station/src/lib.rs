@@ -49,6 +49,8 @@ pub mod ops;
 pub mod record;
 pub mod ros2;
 pub mod teleop;
+#[cfg(test)]
+pub(crate) mod test_frames;
 pub mod transport;
 pub mod watch;
 

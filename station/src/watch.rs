@@ -121,29 +121,9 @@ mod tests {
 
     #[test]
     fn the_screen_names_state_pose_and_faults() {
-        let mut frame = TelemetryFrame {
-            step: 2500,
-            state: controller_core::supervisor::State::Armed,
-            run_mode: controller_core::supervisor::RunMode::FollowPath,
-            faults: Default::default(),
-            pose: Pose::new(1.0, -0.5, 0.0),
-            tracking_error: Default::default(),
-            lyapunov: 0.0,
-            lyapunov_rate: 0.0,
-            wheel_setpoint: Default::default(),
-            wheel_speed: Default::default(),
-            duty: controller_core::controller::MotorCommand::STOP,
-            pid_left: Default::default(),
-            pid_right: Default::default(),
-            supply_v: 6.0,
-            missed_ticks: 0,
-            gyro_yaw_rate_radps: 0.0,
-            gyro_bias_radps: 0.0,
-            fused_heading_rad: 0.0,
-            odometry_heading_rad: 0.0,
-            gyro_health: Default::default(),
-            raw_counts: link::RawCounts::default(),
-        };
+        let mut frame = crate::test_frames::still(2500);
+        frame.state = controller_core::supervisor::State::Armed;
+        frame.pose = Pose::new(1.0, -0.5, 0.0);
         let text = screen(&frame, None, 1000);
         assert!(text.contains("t      2.50 s"), "{text}");
         assert!(text.contains("x   +1.000 m   y   -0.500 m"), "{text}");
@@ -160,36 +140,10 @@ mod tests {
 
     #[test]
     fn a_robot_not_armed_shows_its_motors_off() {
-        let mut frame = TelemetryFrame {
-            step: 10,
-            state: controller_core::supervisor::State::Disarmed,
-            run_mode: controller_core::supervisor::RunMode::FollowPath,
-            faults: Default::default(),
-            pose: Pose::new(0.0, 0.0, 0.0),
-            tracking_error: Default::default(),
-            lyapunov: 0.0,
-            lyapunov_rate: 0.0,
-            wheel_setpoint: Default::default(),
-            wheel_speed: Default::default(),
-            duty: controller_core::controller::MotorCommand::STOP,
-            // What the wheel loops would ask for (the feed-forward's breakaway).
-            pid_left: link::PidParts {
-                ff_v: 3.0,
-                ..Default::default()
-            },
-            pid_right: link::PidParts {
-                ff_v: 3.32,
-                ..Default::default()
-            },
-            supply_v: 6.0,
-            missed_ticks: 0,
-            gyro_yaw_rate_radps: 0.0,
-            gyro_bias_radps: 0.0,
-            fused_heading_rad: 0.0,
-            odometry_heading_rad: 0.0,
-            gyro_health: Default::default(),
-            raw_counts: link::RawCounts::default(),
-        };
+        let mut frame = crate::test_frames::still(10);
+        // What the wheel loops would ask for (the feed-forward's breakaway).
+        frame.pid_left.ff_v = 3.0;
+        frame.pid_right.ff_v = 3.32;
         let text = screen(&frame, None, 1000);
         assert!(text.contains("motors            off (Disarmed)"), "{text}");
         assert!(

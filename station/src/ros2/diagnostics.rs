@@ -158,7 +158,7 @@ mod tests {
         let status = BridgeStatus {
             link: "127.0.0.1:5760".into(),
             link_down: Some("connection refused".into()),
-            latest: Some(crate::ros2::test_frames::still(5)),
+            latest: Some(crate::test_frames::still(5)),
             ..BridgeStatus::default()
         };
         let array = diagnostics(&status, Time::ZERO);
@@ -169,7 +169,7 @@ mod tests {
 
     #[test]
     fn latched_faults_are_named() {
-        let mut frame = crate::ros2::test_frames::still(5);
+        let mut frame = crate::test_frames::still(5);
         frame.state = State::Faulted;
         frame.faults.set(Fault::StallLeft);
         let status = BridgeStatus {
@@ -180,7 +180,7 @@ mod tests {
         assert_eq!(robot.level, DiagnosticStatus::ERROR);
         assert_eq!(robot.message, "faulted: stall_left");
         let ok = BridgeStatus {
-            latest: Some(crate::ros2::test_frames::still(5)),
+            latest: Some(crate::test_frames::still(5)),
             ..BridgeStatus::default()
         };
         assert_eq!(

@@ -172,7 +172,7 @@ mod tests {
     use controller_core::kinematics::{Pose as RobotPose, WheelSpeeds};
 
     fn frame(step: u32, left: f32, right: f32) -> TelemetryFrame {
-        let mut frame = crate::ros2::test_frames::still(step);
+        let mut frame = crate::test_frames::still(step);
         frame.wheel_speed = WheelSpeeds::new(left, right);
         frame.pose = RobotPose::new(1.5, -0.25, 2.0);
         frame

@@ -485,6 +485,58 @@ mod tests {
         );
     }
 
+    #[test]
+    fn a_step_of_several_periods_turns_by_the_whole_elapsed_time() {
+        let mut f = fusion(HeadingSource::Fused);
+        // 500 steps of 2 periods each at 0.2 rad/s: 1 s, 0.2 rad.
+        for k in 0..500 {
+            f.step(live(0.2, k), AngleDelta::default(), 2, false);
+        }
+        assert!(
+            (f.fused_heading_rad() - 0.2).abs() < 1e-3,
+            "{}",
+            f.fused_heading_rad()
+        );
+    }
+
+    #[test]
+    fn a_step_without_a_new_reading_holds_the_last_rate() {
+        let mut f = fusion(HeadingSource::Fused);
+        // A reading every other step (a sensor slower than the loop): the steps between
+        // turn at the last rate, so 1 s at 0.2 rad/s is still 0.2 rad.
+        for k in 0..1000 {
+            let reading = if k % 2 == 0 { live(0.2, k / 2) } else { None };
+            f.step(reading, AngleDelta::default(), 1, false);
+        }
+        assert_eq!(f.report().health, GyroHealth::Reading);
+        assert!(
+            (f.fused_heading_rad() - 0.2).abs() < 1e-3,
+            "{}",
+            f.fused_heading_rad()
+        );
+    }
+
+    #[test]
+    fn a_new_configuration_takes_effect_and_keeps_the_heading() {
+        let mut f = fusion(HeadingSource::Fused);
+        for k in 0..1000 {
+            f.step(live(0.1, k), AngleDelta::default(), 1, false);
+        }
+        let mut config = *f.config();
+        config.scale = 2.0;
+        f.set_config(config);
+        assert_eq!(f.config().scale, 2.0);
+        // 0.1 rad from the first second, then 1 s at 0.1 × 2 rad/s.
+        for k in 0..1000 {
+            f.step(live(0.1, k), AngleDelta::default(), 1, false);
+        }
+        assert!(
+            (f.fused_heading_rad() - 0.3).abs() < 1e-3,
+            "{}",
+            f.fused_heading_rad()
+        );
+    }
+
     /// The k-th reading of a test's gyro.
     type Reading = fn(u32) -> Option<GyroSample>;
 

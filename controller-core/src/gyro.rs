@@ -443,6 +443,7 @@ mod tests {
         assert_eq!(f.report().health, GyroHealth::None);
         assert!(!f.steers());
         assert!((f.fused_heading_rad() - 1.0).abs() < 1e-5);
+        assert!((f.odometry_heading_rad() - 1.0).abs() < 1e-5);
     }
 
     #[test]

@@ -538,6 +538,50 @@ mod tests {
         );
     }
 
+    #[test]
+    fn the_blend_pulls_the_fused_heading_towards_odometrys() {
+        let mut config = GyroConfig::ICM42688P.with_heading(HeadingSource::Fused);
+        config.odometry_blend_time_constant_s = 1.0;
+        let mut f = HeadingFusion::new(config, PERIOD_S, BinaryAngle::default());
+        // The gyro reads (almost) no turn while odometry says 0.5 rad at once: 5 time
+        // constants later the fused heading has come most of the way (1 − e⁻⁵ ≈ 99 %),
+        // never past.
+        let mut turn = AngleDelta::from_rad(0.5);
+        for k in 0..5000 {
+            f.step(sample(1e-6 * (k % 2) as f32), turn, 1, false);
+            turn = AngleDelta::default();
+            assert!(f.fused_heading_rad() <= 0.5 + 1e-6);
+        }
+        assert!(
+            (f.fused_heading_rad() - 0.5).abs() < 0.01,
+            "{}",
+            f.fused_heading_rad()
+        );
+    }
+
+    #[test]
+    fn a_persistent_disagreement_is_reported_and_agreement_is_not() {
+        let mut f = fusion(HeadingSource::Fused);
+        let odometry_turn = AngleDelta::from_rad(0.1 * PERIOD_S);
+        // Both at 0.1 rad/s for 20 s: no disagreement.
+        for k in 0..20_000 {
+            f.step(live(0.1, k), odometry_turn, 1, false);
+        }
+        assert!(!f.report().disagrees, "{}", f.report().disagreement_radps);
+        assert!(f.report().disagreement_radps.abs() < 0.01);
+        // The gyro at 0.2 rad/s, odometry still at 0.1, for 30 s (three windows):
+        // 0.1 rad/s apart, beyond the 0.03 rad/s threshold, gyro above odometry.
+        for k in 0..30_000 {
+            f.step(live(0.2, k), odometry_turn, 1, false);
+        }
+        assert!(f.report().disagrees);
+        assert!(
+            (f.report().disagreement_radps - 0.1).abs() < 0.01,
+            "{}",
+            f.report().disagreement_radps
+        );
+    }
+
     /// The k-th reading of a test's gyro.
     type Reading = fn(u32) -> Option<GyroSample>;
 

@@ -59,7 +59,7 @@ use controller_core::law::LawKind;
 use controller_core::params::Params;
 use controller_core::pid::PidGains;
 use controller_core::supervisor::{ArmRequest, RunMode};
-use robot_files::plant::Load;
+use robot_files::plant::{Load, Wheel};
 use robot_files::scenario::Scenario;
 
 use crate::plant::{Plant, PlantError, PlantParams, PowerFlow};
@@ -142,8 +142,9 @@ pub struct WheelPlant {
 }
 
 impl WheelPlant {
-    /// The plant of `params` (both wheels identical) in `motion` with gearbox power
-    /// flow `flow` (motoring or back-driven; coasting has no input and gives an error).
+    /// The plant of `params` in `motion` with gearbox power flow `flow` (motoring or
+    /// back-driven; coasting has no input and gives an error), both wheels taken alike:
+    /// with a motor mismatch, both with the left wheel's motor.
     pub fn linearise(
         params: &PlantParams,
         motion: Motion,
@@ -158,7 +159,7 @@ impl WheelPlant {
             Motion::Straight => a + b,
             Motion::Turning => a - b,
         };
-        let drive = plant.drive();
+        let drive = plant.drive(Wheel::Left);
         let damping = drive.damping_nm_s_per_rad(flow);
         let torque_per_volt = drive.gear_factor(flow) * drive.torque_per_volt;
         Ok(Self {

@@ -2,7 +2,8 @@
 //!
 //! Each run draws, uniformly within the scenario's [`SweepSpec`](robot_files::scenario::SweepSpec) and on top of its own
 //! values: wheel-radius and track-width mismatch, a left/right radius difference, supply
-//! voltage, Coulomb friction, wheel slip, encoder jitter, and an offset of the start pose.
+//! voltage, Coulomb friction, wheel slip, encoder jitter, an offset of the start pose,
+//! and a left/right difference of the motors' torque constant.
 //! Runs are independent (each has its own random stream, derived from the sweep seed and
 //! the run index), so the result does not depend on how many cores run them.
 //!
@@ -52,6 +53,8 @@ pub struct Draws {
     pub gyro_bias_rad_s: f64,
     /// Gyro scale error offset, % (0 without a gyro).
     pub gyro_scale_error_pct: f64,
+    /// Left − right motor torque constant (K_t and K_e), % of nominal.
+    pub motor_left_right_pct: f64,
 }
 
 /// One Monte-Carlo run.
@@ -171,6 +174,7 @@ pub fn perturb(base: &Scenario, rng: &mut Rng) -> (Scenario, Draws) {
         start_dtheta_rad: rng.symmetric(s.start_heading_rad),
         gyro_bias_rad_s: 0.0,
         gyro_scale_error_pct: 0.0,
+        motor_left_right_pct: 0.0,
     };
     let mut d = d;
     let mut out = base.clone();
@@ -212,6 +216,9 @@ pub fn perturb(base: &Scenario, rng: &mut Rng) -> (Scenario, Draws) {
             });
         }
     }
+    // Drawn last, so that the draws above are those of a sweep without it.
+    d.motor_left_right_pct = rng.symmetric(s.motor_left_right_pct);
+    out.plant.motor_mismatch.torque_constant_left_right_pct += d.motor_left_right_pct;
     (out, d)
 }
 
@@ -331,6 +338,11 @@ mod tests {
         assert_eq!(da, db);
         assert!(da.track_width_pct.abs() <= base.sweep.track_width_pct);
         assert!((0.0..=base.sweep.slip_max).contains(&da.slip_left));
+        assert!(da.motor_left_right_pct.abs() <= base.sweep.motor_left_right_pct);
+        assert_eq!(
+            a.plant.motor_mismatch.torque_constant_left_right_pct,
+            base.plant.motor_mismatch.torque_constant_left_right_pct + da.motor_left_right_pct
+        );
         assert!((a.start.x_m - base.start.x_m).abs() <= base.sweep.start_position_m);
     }
 }

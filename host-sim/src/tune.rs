@@ -24,7 +24,7 @@ use controller_core::supervisor::{ArmRequest, RunMode, State};
 use controller_core::tune::{TuneAbort, TuneConfig, TuneLoad, TuneResult};
 
 use rayon::prelude::*;
-use robot_files::plant::Load;
+use robot_files::plant::{Load, Wheel};
 use robot_files::scenario::Scenario;
 
 use crate::margins::{Motion, WheelPlant};
@@ -83,7 +83,7 @@ pub fn config_for(scenario: &Scenario) -> TuneConfig {
 pub fn truth(scenario: &Scenario) -> Result<Truth, RunError> {
     let mut params = plant_params(scenario);
     let here = WheelPlant::linearise(&params, Motion::Straight, PowerFlow::Motoring)?;
-    let ks_v = Plant::new(params)?.drive().steady_volts(0.0);
+    let ks_v = Plant::new(params)?.drive(Wheel::Left).steady_volts(0.0);
     params.load = Load::Ground;
     let ground = WheelPlant::linearise(&params, Motion::Straight, PowerFlow::Motoring)?;
     Ok(Truth {

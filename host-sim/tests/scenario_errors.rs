@@ -74,6 +74,18 @@ fn plant_and_sim_values_are_checked_with_their_key_and_value() {
         "plant.slip.left must be in [0, 1), got 1.5"
     );
     assert_eq!(
+        error("[plant.motor_mismatch]\ntorque_constant_left_right_pct = 60.0"),
+        "plant.motor_mismatch.torque_constant_left_right_pct must be in [-50, 50] %, got 60"
+    );
+    assert_eq!(
+        with("[plant.motor_mismatch]\ncoulomb_friction_left_right_pct = -8.0")
+            .unwrap()
+            .plant
+            .motor_mismatch
+            .coulomb_friction_left_right_pct,
+        -8.0
+    );
+    assert_eq!(
         error("[plant]\nsupply_v = nan"),
         "plant.supply_v must be > 0, got NaN"
     );

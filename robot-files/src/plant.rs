@@ -142,6 +142,55 @@ impl Default for MotorParams {
     }
 }
 
+/// How the right motor differs from the left, as split percentages: the left wheel's
+/// constant is (1 + p/200) × [`MotorParams`]'s, the right wheel's (1 − p/200) ×, so the two
+/// differ by p % of the nominal and their mean is the nominal (the convention of a
+/// scenario's `wheel_radius_left_right_pct`). All 0 ([`MotorMismatch::NONE`]): both wheels
+/// have the nominal motor. The rotor inertia and gear efficiency stay common.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MotorMismatch {
+    /// Armature resistance R_a, left − right, % of nominal.
+    pub resistance_left_right_pct: f64,
+    /// Torque constant K_t and back-EMF constant K_e together (one magnet, one winding),
+    /// left − right, % of nominal.
+    pub torque_constant_left_right_pct: f64,
+    /// Viscous friction b, left − right, % of nominal.
+    pub viscous_friction_left_right_pct: f64,
+    /// Coulomb (and static) friction τ_c, left − right, % of nominal.
+    pub coulomb_friction_left_right_pct: f64,
+}
+
+impl MotorMismatch {
+    /// Both motors nominal.
+    pub const NONE: MotorMismatch = MotorMismatch {
+        resistance_left_right_pct: 0.0,
+        torque_constant_left_right_pct: 0.0,
+        viscous_friction_left_right_pct: 0.0,
+        coulomb_friction_left_right_pct: 0.0,
+    };
+
+    /// The motor of `wheel`: `nominal` with this mismatch's share for that wheel. With
+    /// every percentage 0 the result is `nominal`, bit for bit.
+    pub fn wheel_motor(&self, nominal: &MotorParams, wheel: Wheel) -> MotorParams {
+        let side = match wheel {
+            Wheel::Left => 1.0,
+            Wheel::Right => -1.0,
+        };
+        let scale = |pct: f64| 1.0 + side * pct / 200.0;
+        let k = scale(self.torque_constant_left_right_pct);
+        MotorParams {
+            resistance_ohm: nominal.resistance_ohm * scale(self.resistance_left_right_pct),
+            torque_constant_nm_per_a: nominal.torque_constant_nm_per_a * k,
+            back_emf_v_s_per_rad: nominal.back_emf_v_s_per_rad * k,
+            viscous_friction_nm_s_per_rad: nominal.viscous_friction_nm_s_per_rad
+                * scale(self.viscous_friction_left_right_pct),
+            coulomb_friction_nm: nominal.coulomb_friction_nm
+                * scale(self.coulomb_friction_left_right_pct),
+            ..*nominal
+        }
+    }
+}
+
 /// Chassis mass properties, SI units.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BodyParams {
@@ -222,6 +271,36 @@ impl Wheel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn motor_mismatch_splits_about_the_nominal() {
+        let nominal = MotorParams::DEFAULT;
+        assert_eq!(
+            MotorMismatch::NONE.wheel_motor(&nominal, Wheel::Left),
+            nominal
+        );
+        assert_eq!(
+            MotorMismatch::NONE.wheel_motor(&nominal, Wheel::Right),
+            nominal
+        );
+        let m = MotorMismatch {
+            torque_constant_left_right_pct: 4.0,
+            coulomb_friction_left_right_pct: -10.0,
+            ..MotorMismatch::NONE
+        };
+        let left = m.wheel_motor(&nominal, Wheel::Left);
+        let right = m.wheel_motor(&nominal, Wheel::Right);
+        // The left motor is 2 % stronger, the right 2 % weaker; K_e follows K_t.
+        assert!(
+            (left.torque_constant_nm_per_a / nominal.torque_constant_nm_per_a - 1.02).abs() < 1e-12
+        );
+        assert!((right.back_emf_v_s_per_rad / nominal.back_emf_v_s_per_rad - 0.98).abs() < 1e-12);
+        // A negative split makes the right wheel's friction the larger.
+        assert!(right.coulomb_friction_nm > nominal.coulomb_friction_nm);
+        assert!(left.coulomb_friction_nm < nominal.coulomb_friction_nm);
+        assert_eq!(left.resistance_ohm, nominal.resistance_ohm);
+        assert_eq!(left.rotor_inertia_kg_m2, right.rotor_inertia_kg_m2);
+    }
 
     #[test]
     fn default_pwm_has_the_firmware_timer_resolution() {

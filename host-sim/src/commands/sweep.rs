@@ -57,12 +57,13 @@ impl fmt::Display for SweepCommandReport {
         writeln!(
             f,
             "  spreads: radius ±{}%, left/right ±{}%, track ±{}%, supply ±{}%, Coulomb ±{}%, \
-slip 0…{}, encoder jitter 0…{} ticks, start ±{} m / ±{} rad",
+motor left/right ±{}%, slip 0…{}, encoder jitter 0…{} ticks, start ±{} m / ±{} rad",
             s.wheel_radius_pct,
             s.wheel_radius_left_right_pct,
             s.track_width_pct,
             s.supply_pct,
             s.coulomb_friction_pct,
+            s.motor_left_right_pct,
             s.slip_max,
             s.encoder_noise_ticks_rms_max,
             s.start_position_m,

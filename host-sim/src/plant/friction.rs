@@ -90,8 +90,8 @@ impl Inertia {
 pub(crate) struct Friction {
     /// The chassis' inertia matrix.
     pub(crate) inertia: Inertia,
-    /// Coulomb (= static) friction τ_c at each wheel, N·m.
-    pub(crate) coulomb_nm: f64,
+    /// Coulomb (= static) friction τ_c of each wheel [left, right], N·m.
+    pub(crate) coulomb_nm: [f64; 2],
 }
 
 impl Friction {
@@ -105,27 +105,26 @@ impl Friction {
         torques: impl FnOnce() -> [f64; 2],
     ) -> [Grip; 2] {
         let c = self.coulomb_nm;
-        let sliding = |i: usize| Grip::Slides(-c * w0[i].signum());
+        let sliding = |i: usize| Grip::Slides(-c[i] * w0[i].signum());
         match (w0[0] == 0.0, w0[1] == 0.0) {
             (false, false) => [sliding(0), sliding(1)],
             (true, false) => {
                 let tau = torques();
-                let t1 = tau[1] - c * w0[1].signum();
-                [self.one_at_rest(tau[0], t1, blocked[0]), sliding(1)]
+                let t1 = tau[1] - c[1] * w0[1].signum();
+                [self.one_at_rest(tau[0], c[0], t1, blocked[0]), sliding(1)]
             }
             (false, true) => {
                 let tau = torques();
-                let t0 = tau[0] - c * w0[0].signum();
-                [sliding(0), self.one_at_rest(tau[1], t0, blocked[1])]
+                let t0 = tau[0] - c[0] * w0[0].signum();
+                [sliding(0), self.one_at_rest(tau[1], c[1], t0, blocked[1])]
             }
             (true, true) => self.both_at_rest(torques(), blocked),
         }
     }
 
-    /// A wheel at rest with torque `tau_i`, the other turning with net torque `t_j`
-    /// (kinetic friction included), N·m.
-    fn one_at_rest(&self, tau_i: f64, t_j: f64, blocked: bool) -> Grip {
-        let c = self.coulomb_nm;
+    /// A wheel at rest with torque `tau_i` and static friction `c` (its τ_c), the other
+    /// turning with net torque `t_j` (kinetic friction included), N·m.
+    fn one_at_rest(&self, tau_i: f64, c: f64, t_j: f64, blocked: bool) -> Grip {
         let m = &self.inertia;
         // Held: ω̇_i = 0, so ω̇_j = t_j / a, and its friction must supply b ω̇_j − τ_i.
         let needed = m.b * t_j / m.a - tau_i;
@@ -141,7 +140,7 @@ impl Friction {
     fn both_at_rest(&self, tau: [f64; 2], blocked: [bool; 2]) -> [Grip; 2] {
         let c = self.coulomb_nm;
         let m = &self.inertia;
-        let holds = |i: usize| blocked[i] || tau[i].abs() <= c;
+        let holds = |i: usize| blocked[i] || tau[i].abs() <= c[i];
         if holds(0) && holds(1) {
             return [Grip::Held; 2];
         }
@@ -153,10 +152,10 @@ impl Friction {
                 continue;
             }
             let j = 1 - i;
-            let friction_i = -c * tau[i].signum();
+            let friction_i = -c[i] * tau[i].signum();
             let needed_j = m.b * (tau[i] + friction_i) / m.a - tau[j];
-            let excess = tau[i].abs() - c;
-            if (blocked[j] || needed_j.abs() <= c) && best.is_none_or(|(e, _)| excess > e) {
+            let excess = tau[i].abs() - c[i];
+            if (blocked[j] || needed_j.abs() <= c[j]) && best.is_none_or(|(e, _)| excess > e) {
                 let mut grip = [Grip::Held; 2];
                 grip[i] = Grip::Slides(friction_i);
                 best = Some((excess, grip));
@@ -168,8 +167,8 @@ impl Friction {
         // Both break away: each one's friction opposes its frictionless acceleration.
         let free = m.solve(tau);
         [
-            Grip::Slides(-c * sign(free[0])),
-            Grip::Slides(-c * sign(free[1])),
+            Grip::Slides(-c[0] * sign(free[0])),
+            Grip::Slides(-c[1] * sign(free[1])),
         ]
     }
 }
@@ -193,7 +192,7 @@ mod tests {
     fn friction(b: f64) -> Friction {
         Friction {
             inertia: Inertia::new(3.27e-4, b).unwrap(),
-            coulomb_nm: 0.01,
+            coulomb_nm: [0.01; 2],
         }
     }
 

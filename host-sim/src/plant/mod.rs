@@ -9,7 +9,7 @@
 //! |---|---|
 //! | driver | TB6612FNG: slow decay (duty 0 = short brake), 0.5 Ω bridge on-resistance, coasts when disabled |
 //! | supply, PWM | 6 V; 5 000 levels (TIM3: 100 MHz / 20 kHz), rounded as the firmware does; 2 % dead-band |
-//! | motor | R_a = 4 Ω, K_t = K_e = 0.005 N·m/A = V·s/rad, rotor 1e-7 kg·m² |
+//! | motor | R_a = 4 Ω, K_t = K_e = 0.005 N·m/A = V·s/rad, rotor 1e-7 kg·m²; both wheels alike unless `[plant.motor_mismatch]` splits R_a, K_t = K_e or the frictions between them |
 //! | gearbox | 1:30, η = 0.8 (× η motoring, ÷ η back-driven) |
 //! | friction at the wheel | viscous 2e-4 N·m·s/rad, Coulomb/static 0.01 N·m |
 //! | wheel at 6 V supply | no-load 35.7 rad/s (1.16 m/s rim); stall 0.16 N·m, 1.33 A |

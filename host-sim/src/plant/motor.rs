@@ -29,7 +29,8 @@
 //! rest (ω = 0) Coulomb friction is static friction; whether it holds the wheel is decided
 //! with the other wheel's pull through the chassis ([`super::robot`]).
 //!
-//! The constants are [`MotorParams`], a scenario's `[plant.motor]`.
+//! The constants are [`MotorParams`], a scenario's `[plant.motor]`, each wheel with its
+//! share of `[plant.motor_mismatch]` ([`MotorMismatch`](robot_files::plant::MotorMismatch)).
 
 use robot_files::plant::MotorParams;
 

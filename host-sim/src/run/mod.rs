@@ -182,6 +182,7 @@ pub fn plant_params(scenario: &Scenario) -> PlantParams {
     let split = m.wheel_radius_left_right_pct / 200.0;
     PlantParams {
         motor: scenario.plant.motor,
+        motor_mismatch: scenario.plant.motor_mismatch,
         driver: scenario.plant.driver,
         gear_ratio: f64::from(scenario.robot.gear_ratio),
         body: scenario.plant.body,

@@ -19,7 +19,7 @@ use super::schema::{
 use super::{
     Mismatch, PlantSpec, Scenario, ScenarioError, StartState, SweepSpec, MAX_CONTROL_RATE_HZ,
 };
-use crate::plant::{BodyParams, DriverKind, DriverParams, Load, MotorParams};
+use crate::plant::{BodyParams, DriverKind, DriverParams, Load, MotorMismatch, MotorParams};
 use crate::robot_file::PathContext;
 
 /// The path `[path]` describes, world frame.
@@ -248,6 +248,25 @@ fn build_plant(p: &FilePlant) -> Result<PlantSpec, ScenarioError> {
         )?,
         track_width_pct: pct("plant.mismatch.track_width_pct", p.mismatch.track_width_pct)?,
     };
+    let mm = &p.motor_mismatch;
+    let motor_mismatch = MotorMismatch {
+        resistance_left_right_pct: pct(
+            "plant.motor_mismatch.resistance_left_right_pct",
+            mm.resistance_left_right_pct,
+        )?,
+        torque_constant_left_right_pct: pct(
+            "plant.motor_mismatch.torque_constant_left_right_pct",
+            mm.torque_constant_left_right_pct,
+        )?,
+        viscous_friction_left_right_pct: pct(
+            "plant.motor_mismatch.viscous_friction_left_right_pct",
+            mm.viscous_friction_left_right_pct,
+        )?,
+        coulomb_friction_left_right_pct: pct(
+            "plant.motor_mismatch.coulomb_friction_left_right_pct",
+            mm.coulomb_friction_left_right_pct,
+        )?,
+    };
     let slip = [
         in_range(
             "plant.slip.left",
@@ -273,6 +292,7 @@ fn build_plant(p: &FilePlant) -> Result<PlantSpec, ScenarioError> {
         driver,
         body,
         mismatch,
+        motor_mismatch,
         slip,
         encoder_noise_ticks_rms,
         load: match p.load {
@@ -320,6 +340,12 @@ fn build_sweep(s: &FileSweep) -> Result<SweepSpec, ScenarioError> {
             s.coulomb_friction_pct,
             d.coulomb_friction_pct,
             100.0,
+        )?,
+        motor_left_right_pct: spread(
+            "sweep.motor_left_right_pct",
+            s.motor_left_right_pct,
+            d.motor_left_right_pct,
+            20.0,
         )?,
         slip_max: spread("sweep.slip_max", s.slip_max, d.slip_max, 0.5)?,
         encoder_noise_ticks_rms_max: spread(

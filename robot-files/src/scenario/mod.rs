@@ -54,6 +54,9 @@
 //! [plant.body]               # mass_kg, yaw_inertia_kg_m2 (about the axle midpoint),
 //!                            # wheel_inertia_kg_m2, com_ahead_of_axle_m (default 0)
 //! [plant.mismatch]           # wheel_radius_pct, wheel_radius_left_right_pct, track_width_pct
+//! [plant.motor_mismatch]     # left − right motor, % of nominal: resistance_left_right_pct,
+//!                            # torque_constant_left_right_pct (K_t and K_e),
+//!                            # viscous_friction_left_right_pct, coulomb_friction_left_right_pct
 //! [plant.slip]               # left, right (slip ratios in [0, 1))
 //!
 //! [sweep]                    # Monte-Carlo spreads for `host-sim sweep` (see SweepSpec)
@@ -104,7 +107,7 @@ use controller_core::reference::ReferenceMode;
 use controller_core::supervisor::SupervisorConfig;
 
 use crate::faults::Fault;
-use crate::plant::{BodyParams, DriverParams, Load, MotorParams};
+use crate::plant::{BodyParams, DriverParams, Load, MotorMismatch, MotorParams};
 use crate::robot_file::{param_error, SectionError};
 pub use gyro::{GyroSensor, GyroSetup, GyroSweep, HeadingChoice};
 use schema::ScenarioFile;
@@ -228,6 +231,8 @@ pub struct PlantSpec {
     pub body: BodyParams,
     /// True geometry against believed geometry.
     pub mismatch: Mismatch,
+    /// The left and right motors' difference about [`PlantSpec::motor`].
+    pub motor_mismatch: MotorMismatch,
     /// Longitudinal slip ratios [left, right], in [0, 1).
     pub slip: [f64; 2],
     /// Encoder edge jitter, ticks RMS (0 = ideal).
@@ -243,6 +248,7 @@ impl Default for PlantSpec {
             driver: DriverParams::DEFAULT,
             body: BodyParams::DEFAULT,
             mismatch: Mismatch::default(),
+            motor_mismatch: MotorMismatch::NONE,
             slip: [0.0; 2],
             encoder_noise_ticks_rms: 0.0,
             load: Load::Ground,
@@ -264,6 +270,8 @@ pub struct SweepSpec {
     pub supply_pct: f64,
     /// Coulomb friction, ± %.
     pub coulomb_friction_pct: f64,
+    /// Left/right difference of the motors' torque constant (K_t and K_e), ± %.
+    pub motor_left_right_pct: f64,
     /// Slip ratio of each wheel, drawn in [0, slip_max].
     pub slip_max: f64,
     /// Encoder edge jitter, drawn in [0, max] ticks RMS.
@@ -276,13 +284,15 @@ pub struct SweepSpec {
 
 impl SweepSpec {
     /// ±1 % radius, ±0.5 % left/right, ±2 % track, ±10 % supply, ±50 % Coulomb friction,
-    /// up to 1 % slip per wheel, up to 0.5 tick jitter, ±0.1 m and ±0.2 rad of start pose.
+    /// ±2 % left/right motor constant, up to 1 % slip per wheel, up to 0.5 tick jitter,
+    /// ±0.1 m and ±0.2 rad of start pose.
     pub const DEFAULT: SweepSpec = SweepSpec {
         wheel_radius_pct: 1.0,
         wheel_radius_left_right_pct: 0.5,
         track_width_pct: 2.0,
         supply_pct: 10.0,
         coulomb_friction_pct: 50.0,
+        motor_left_right_pct: 2.0,
         slip_max: 0.01,
         encoder_noise_ticks_rms_max: 0.5,
         start_position_m: 0.1,

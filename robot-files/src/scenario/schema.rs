@@ -116,6 +116,15 @@ pub(super) struct FileMismatch {
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
+pub(super) struct FileMotorMismatch {
+    pub(super) resistance_left_right_pct: Option<f64>,
+    pub(super) torque_constant_left_right_pct: Option<f64>,
+    pub(super) viscous_friction_left_right_pct: Option<f64>,
+    pub(super) coulomb_friction_left_right_pct: Option<f64>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
 pub(super) struct FileSlip {
     pub(super) left: Option<f64>,
     pub(super) right: Option<f64>,
@@ -151,6 +160,8 @@ pub(super) struct FilePlant {
     #[serde(default)]
     pub(super) mismatch: FileMismatch,
     #[serde(default)]
+    pub(super) motor_mismatch: FileMotorMismatch,
+    #[serde(default)]
     pub(super) slip: FileSlip,
 }
 
@@ -162,6 +173,7 @@ pub(super) struct FileSweep {
     pub(super) track_width_pct: Option<f64>,
     pub(super) supply_pct: Option<f64>,
     pub(super) coulomb_friction_pct: Option<f64>,
+    pub(super) motor_left_right_pct: Option<f64>,
     pub(super) slip_max: Option<f64>,
     pub(super) encoder_noise_ticks_rms_max: Option<f64>,
     pub(super) start_position_m: Option<f64>,

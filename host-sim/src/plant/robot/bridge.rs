@@ -72,7 +72,7 @@ impl Plant {
             if self.coasting[i] {
                 0.0
             } else {
-                self.drive.current_a(self.volts[i], self.speed[i])
+                self.drives[i].current_a(self.volts[i], self.speed[i])
             }
         })
     }
@@ -80,8 +80,8 @@ impl Plant {
     /// Re-derives each wheel's bridge output and its constant terms from the duties,
     /// supply, enable line and connections.
     pub(super) fn update_bridge(&mut self) {
-        let d = &self.drive;
         for i in 0..2 {
+            let d = &self.drives[i];
             self.coasting[i] = !(self.enabled && self.connected[i]);
             let u = if self.coasting[i] {
                 0.0

@@ -87,9 +87,9 @@ impl Plant {
             let electrical = if self.coasting[i] {
                 0.0
             } else {
-                self.drive.electrical_torque_nm(self.volts[i], w[i])
+                self.drives[i].electrical_torque_nm(self.volts[i], w[i])
             };
-            *t = electrical - self.drive.viscous_nm_s_per_rad * w[i];
+            *t = electrical - self.drives[i].viscous_nm_s_per_rad * w[i];
         }
         if self.mass_com != 0.0 {
             let v = 0.5 * self.radius_m * (w[0] + w[1]);

@@ -46,6 +46,11 @@ const FLOWS: [PowerFlow; 3] = [
     PowerFlow::BackDriven,
 ];
 
+/// The power flows [left, right] of the regime pair at `index` (3 · left + right).
+pub(super) const fn flow_index_pair(index: usize) -> [PowerFlow; 2] {
+    [FLOWS[(index / 3) % 3], FLOWS[index % 3]]
+}
+
 /// The affine model ω̇ = A ω + b of one regime (both wheels' directions and power
 /// flows) under the present bridge state, ready for its [`Propagator`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -60,15 +65,20 @@ pub(super) struct Affine {
 
 /// Added to the closed form's reach (rad/s) so that rounding in the stage points cannot
 /// cross a regime boundary the exact arithmetic does not.
-const ROUNDING_MARGIN_RAD_S: f64 = 1e-9;
+pub(super) const ROUNDING_MARGIN_RAD_S: f64 = 1e-9;
 
 impl Plant {
     /// The closed-form RK4 of every regime pair for step `h` (s).
-    pub(super) fn propagators(drive: &WheelDrive, inertia: &Inertia, h: f64) -> [Propagator; 9] {
+    pub(super) fn propagators(
+        drives: &[WheelDrive; 2],
+        inertia: &Inertia,
+        h: f64,
+    ) -> [Propagator; 9] {
         core::array::from_fn(|k| {
+            let [left, right] = flow_index_pair(k);
             let damping = [
-                drive.damping_nm_s_per_rad(FLOWS[k / 3]),
-                drive.damping_nm_s_per_rad(FLOWS[k % 3]),
+                drives[0].damping_nm_s_per_rad(left),
+                drives[1].damping_nm_s_per_rad(right),
             ];
             Propagator::new(inertia.inv_p, inertia.inv_q, damping, h)
         })
@@ -107,13 +117,14 @@ impl Plant {
         (next, dphi)
     }
 
-    /// The affine model ω̇ = A ω + b of the regime both wheels are in at speeds `w`
-    /// (both non-zero): their directions and power flows.
-    pub(super) fn affine(&self, w: [f64; 2]) -> Affine {
-        let d = &self.drive;
+    /// The regime both wheels are in at speeds `w` (both non-zero) — its index into the
+    /// propagator tables, 3 · flow(left) + flow(right) — and the constant part of
+    /// ω̇ = A ω + b there, b = M⁻¹ τ₀ with τ₀ the electrical torque at ω = 0 minus the
+    /// Coulomb friction [left, right] (rad/s²).
+    pub(super) fn regime(&self, w: [f64; 2]) -> (usize, [f64; 2]) {
         let mut index = 0;
         let mut torque_at_rest = [0.0; 2];
-        for i in 0..2 {
+        for (i, d) in self.drives.iter().enumerate() {
             let (flow, electrical) = if self.coasting[i] {
                 (PowerFlow::Coasting, 0.0)
             } else {
@@ -130,13 +141,25 @@ impl Plant {
             torque_at_rest[i] = electrical - coulomb;
             index = 3 * index + flow_index(flow);
         }
+        (index, self.friction.inertia.solve(torque_at_rest))
+    }
+
+    /// The affine model ω̇ = A ω + b of the regime both wheels are in at speeds `w`
+    /// (both non-zero), ready for its RK4 [`Propagator`].
+    pub(super) fn affine(&self, w: [f64; 2]) -> Affine {
+        let (index, b) = self.regime(w);
         let (sb, tb) = self
             .propagators
             .get(index)
-            .map_or(([0.0; 2], [0.0; 2]), |p| {
-                p.forcing(self.friction.inertia.solve(torque_at_rest))
-            });
+            .map_or(([0.0; 2], [0.0; 2]), |p| p.forcing(b));
         Affine { index, sb, tb }
+    }
+
+    /// Whether wheel `i` at speed `w_i` (rad/s) is farther than `reach` (rad/s) from
+    /// both boundaries of its regime: rest, and its zero-current speed (∞ coasting).
+    #[inline]
+    pub(super) fn clear_of_boundaries(&self, i: usize, w_i: f64, reach: f64) -> bool {
+        w_i.abs() > reach && (w_i - self.zero_current_speed[i]).abs() > reach
     }
 
     /// The closed-form RK4 step from `w` in the regime `affine` (which must be the regime
@@ -152,10 +175,7 @@ impl Plant {
         let propagator = self.propagators.get(affine.index)?;
         let (next, dphi) = propagator.step(w, affine.sb, affine.tb);
         let reach = propagator.reach([next[0] - w[0], next[1] - w[1]]) + ROUNDING_MARGIN_RAD_S;
-        // A coasting wheel's zero-current speed is infinite: no boundary.
-        let stays =
-            |i: usize| w[i].abs() > reach && (w[i] - self.zero_current_speed[i]).abs() > reach;
-        if stays(0) && stays(1) {
+        if self.clear_of_boundaries(0, w[0], reach) && self.clear_of_boundaries(1, w[1], reach) {
             Some((next, dphi))
         } else {
             None
@@ -165,7 +185,7 @@ impl Plant {
     /// Advances `steps` RK4 steps of `dt_s` seconds each with the bridge state last set.
     pub fn advance(&mut self, dt_s: f64, steps: u32) {
         if self.propagator_dt_s != dt_s {
-            self.propagators = Self::propagators(&self.drive, &self.friction.inertia, dt_s);
+            self.propagators = Self::propagators(&self.drives, &self.friction.inertia, dt_s);
             self.propagator_dt_s = dt_s;
         }
         let closed_form = self.use_closed_form && self.mass_com == 0.0;

@@ -30,7 +30,7 @@ mod pose;
 #[cfg(test)]
 mod tests;
 
-use robot_files::plant::Load;
+use robot_files::plant::{Load, Wheel};
 
 use self::chassis::inertia_matrix_kg_m2;
 use self::pose::PoseTrack;
@@ -46,7 +46,8 @@ pub use self::params::{PlantError, PlantParams, TrueGeometry};
 pub struct Plant {
     // Parameters and the chassis coupling (`params`, `chassis`).
     params: PlantParams,
-    drive: WheelDrive,
+    /// Each wheel's motor, gearbox and bridge resistance [left, right].
+    drives: [WheelDrive; 2],
     /// The chassis' inertia matrix and the wheels' Coulomb/static friction.
     friction: Friction,
     /// m · d, kg·m (0: centre of mass on the axle, no centre-of-mass terms).
@@ -106,16 +107,18 @@ impl Plant {
         let r = 0.5 * (g.wheel_radius_left_m + g.wheel_radius_right_m);
         let [a, b] = inertia_matrix_kg_m2(&params);
         let inertia = Inertia::new(a, b).ok_or(PlantError::SingularInertia)?;
-        let drive = WheelDrive::new(
-            &params.motor,
-            params.gear_ratio,
-            params.driver.kind.on_resistance_ohm(),
-        );
+        let drives = [Wheel::Left, Wheel::Right].map(|wheel| {
+            WheelDrive::new(
+                &params.motor_mismatch.wheel_motor(&params.motor, wheel),
+                params.gear_ratio,
+                params.driver.kind.on_resistance_ohm(),
+            )
+        });
         let mut plant = Self {
-            drive,
+            drives,
             friction: Friction {
                 inertia,
-                coulomb_nm: drive.coulomb_nm,
+                coulomb_nm: drives.map(|d| d.coulomb_nm),
             },
             // Lifted, the chassis does not move: no centre-of-mass terms.
             mass_com: match params.load {
@@ -124,7 +127,7 @@ impl Plant {
             },
             radius_m: r,
             track_m: g.track_width_m,
-            propagators: Self::propagators(&drive, &inertia, 0.0),
+            propagators: Self::propagators(&drives, &inertia, 0.0),
             propagator_dt_s: 0.0,
             use_closed_form: true,
             speed: [0.0; 2],
@@ -155,9 +158,9 @@ impl Plant {
         &self.params
     }
 
-    /// The motor, gearbox and bridge resistance folded into wheel-shaft quantities.
-    pub fn drive(&self) -> &WheelDrive {
-        &self.drive
+    /// `wheel`'s motor, gearbox and bridge resistance folded into wheel-shaft quantities.
+    pub fn drive(&self, wheel: Wheel) -> &WheelDrive {
+        &self.drives[wheel.index()]
     }
 
     /// True wheel speeds [left, right], rad/s.

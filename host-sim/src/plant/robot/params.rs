@@ -1,13 +1,14 @@
 //! What defines the simulated robot ([`PlantParams`]) and the rule for a valid one.
 //!
 //! Contract: [`validate`] accepts a parameter set only when every quantity is in its
-//! physical range, which NaN never is (resistances, constants, the gear ratio, the supply, the PWM
-//! levels and the radii positive; inertias, mass and frictions ≥ 0; efficiency in
-//! (0, 1]; dead-band and slip in [0, 1); the centre of mass no farther off the axle than
+//! physical range, which NaN never is (each wheel's motor, with its share of the
+//! mismatch, has positive resistance and constants, frictions ≥ 0 and efficiency in
+//! (0, 1]; the gear ratio, the supply, the PWM levels and the radii positive; inertias
+//! and mass ≥ 0; dead-band and slip in [0, 1); the centre of mass no farther off the axle than
 //! the yaw inertia allows, m d² ≤ I), and names the first offending one. `Plant::new`
 //! refuses anything else, and a positive-definite inertia matrix is checked there.
 
-use robot_files::plant::{BodyParams, DriverParams, Load, MotorParams};
+use robot_files::plant::{BodyParams, DriverParams, Load, MotorMismatch, MotorParams, Wheel};
 
 /// The robot's true geometry (which may differ from what the controller believes), m.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -23,8 +24,12 @@ pub struct TrueGeometry {
 /// Everything that defines the simulated robot, SI units. See [`crate::plant`] for defaults.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlantParams {
-    /// Motor and gearbox of each wheel (both wheels identical).
+    /// The nominal motor and gearbox; each wheel's own is this with its share of
+    /// `motor_mismatch` ([`MotorMismatch::wheel_motor`]).
     pub motor: MotorParams,
+    /// How the left and right motors differ about `motor` ([`MotorMismatch::NONE`]: both
+    /// nominal).
+    pub motor_mismatch: MotorMismatch,
     /// H-bridge, supply and PWM.
     pub driver: DriverParams,
     /// Gearbox ratio N, motor turns per wheel turn.
@@ -73,25 +78,11 @@ pub enum PlantError {
 /// The rule of [`PlantParams`] (module doc): `Ok` for a valid set, otherwise the first
 /// out-of-range parameter by name.
 pub(super) fn validate(params: &PlantParams) -> Result<(), PlantError> {
-    let m = &params.motor;
+    for wheel in [Wheel::Left, Wheel::Right] {
+        validate_motor(&params.motor_mismatch.wheel_motor(&params.motor, wheel))?;
+    }
     let body = &params.body;
     let checks = [
-        ("motor.resistance_ohm", m.resistance_ohm > 0.0),
-        (
-            "motor.torque_constant_nm_per_a",
-            m.torque_constant_nm_per_a > 0.0,
-        ),
-        ("motor.back_emf_v_s_per_rad", m.back_emf_v_s_per_rad > 0.0),
-        ("motor.rotor_inertia_kg_m2", m.rotor_inertia_kg_m2 >= 0.0),
-        (
-            "motor.gear_efficiency",
-            m.gear_efficiency > 0.0 && m.gear_efficiency <= 1.0,
-        ),
-        (
-            "motor.viscous_friction_nm_s_per_rad",
-            m.viscous_friction_nm_s_per_rad >= 0.0,
-        ),
-        ("motor.coulomb_friction_nm", m.coulomb_friction_nm >= 0.0),
         ("gear_ratio", params.gear_ratio > 0.0),
         ("driver.supply_v", params.driver.supply_v > 0.0),
         ("driver.pwm_levels", params.driver.pwm_levels > 0),
@@ -122,9 +113,36 @@ pub(super) fn validate(params: &PlantParams) -> Result<(), PlantError> {
                     <= body.yaw_inertia_kg_m2,
         ),
     ];
-    // `x > 0.0` is false for NaN, so the checks above also reject NaN.
-    if let Some((name, _)) = checks.iter().find(|(_, ok)| !ok) {
-        return Err(PlantError::OutOfRange(name));
+    first_failed(&checks)
+}
+
+/// The rule for one wheel's motor `m` (with its share of the mismatch).
+fn validate_motor(m: &MotorParams) -> Result<(), PlantError> {
+    first_failed(&[
+        ("motor.resistance_ohm", m.resistance_ohm > 0.0),
+        (
+            "motor.torque_constant_nm_per_a",
+            m.torque_constant_nm_per_a > 0.0,
+        ),
+        ("motor.back_emf_v_s_per_rad", m.back_emf_v_s_per_rad > 0.0),
+        ("motor.rotor_inertia_kg_m2", m.rotor_inertia_kg_m2 >= 0.0),
+        (
+            "motor.gear_efficiency",
+            m.gear_efficiency > 0.0 && m.gear_efficiency <= 1.0,
+        ),
+        (
+            "motor.viscous_friction_nm_s_per_rad",
+            m.viscous_friction_nm_s_per_rad >= 0.0,
+        ),
+        ("motor.coulomb_friction_nm", m.coulomb_friction_nm >= 0.0),
+    ])
+}
+
+/// `Ok` when every check holds, else the name of the first that does not. (`x > 0.0` is
+/// false for NaN, so the checks also reject NaN.)
+fn first_failed(checks: &[(&'static str, bool)]) -> Result<(), PlantError> {
+    match checks.iter().find(|(_, ok)| !ok) {
+        Some((name, _)) => Err(PlantError::OutOfRange(name)),
+        None => Ok(()),
     }
-    Ok(())
 }

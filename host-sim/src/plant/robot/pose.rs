@@ -129,16 +129,21 @@ impl Plant {
     /// it rolls).
     pub fn start_in_motion(&mut self, v_m_s: f64, omega_rad_s: f64) -> Result<(), PlantError> {
         let speeds = self.wheel_speeds_for(v_m_s, omega_rad_s);
-        let no_load_rad_s = self.drive.steady_speed_rad_s(self.supply_v);
-        // `≤` is false for NaN: a NaN speed is refused too. The faster wheel is named.
-        let within = speeds.iter().all(|w| w.abs() <= no_load_rad_s);
-        let i = usize::from(speeds[1].abs() > speeds[0].abs());
-        if !within {
+        let no_load_rad_s = self.drives.map(|d| d.steady_speed_rad_s(self.supply_v));
+        // `≤` is false for NaN: a NaN speed is refused too. The wheel beyond its no-load
+        // speed is named, the faster one if both are.
+        let within = [0, 1].map(|i| speeds[i].abs() <= no_load_rad_s[i]);
+        let i = if within[0] || within[1] {
+            usize::from(within[0])
+        } else {
+            usize::from(speeds[1].abs() > speeds[0].abs())
+        };
+        if !within[i] {
             return Err(PlantError::BeyondNoLoadSpeed {
                 wheel: ["left", "right"][i],
                 needed_rad_s: speeds[i].abs(),
                 slip: self.slip[i],
-                no_load_rad_s,
+                no_load_rad_s: no_load_rad_s[i],
                 supply_v: self.supply_v,
             });
         }

@@ -4,7 +4,7 @@
 use super::*;
 use crate::plant::{BridgeOutput, PowerFlow};
 use core::f64::consts::PI;
-use robot_files::plant::{BodyParams, DriverParams, MotorParams, Wheel};
+use robot_files::plant::{BodyParams, DriverParams, MotorMismatch, MotorParams, Wheel};
 use robot_files::rng::Rng;
 use robot_files::truth::TruePose;
 
@@ -13,6 +13,7 @@ const H: f64 = 1e-4;
 fn params() -> PlantParams {
     PlantParams {
         motor: MotorParams::DEFAULT,
+        motor_mismatch: MotorMismatch::NONE,
         driver: DriverParams::DEFAULT,
         gear_ratio: 30.0,
         body: BodyParams::DEFAULT,
@@ -52,12 +53,54 @@ fn full_duty_reaches_the_no_load_speed() {
     for _ in 0..2000 {
         p.advance(H, 10);
     }
-    let expected = p.drive().steady_speed_rad_s(6.0);
+    let expected = p.drive(Wheel::Left).steady_speed_rad_s(6.0);
     let w = p.wheel_speeds();
     assert!((w[0] - expected).abs() < 1e-6 && (w[1] - expected).abs() < 1e-6);
     // Straight line: no yaw, moved along x.
     let pose = p.pose();
     assert!(pose.theta_rad.abs() < 1e-12 && pose.y_m.abs() < 1e-12 && pose.x_m > 1.0);
+}
+
+#[test]
+fn each_wheel_has_its_own_motor() {
+    // The left motor's K_t = K_e 10 % above the right's, its Coulomb friction 20 % below.
+    let mut pp = params();
+    pp.motor_mismatch = MotorMismatch {
+        torque_constant_left_right_pct: 10.0,
+        coulomb_friction_left_right_pct: -20.0,
+        ..MotorMismatch::NONE
+    };
+    let (left, right) = {
+        let p = Plant::new(pp).unwrap();
+        (*p.drive(Wheel::Left), *p.drive(Wheel::Right))
+    };
+    assert!(left.coulomb_nm < right.coulomb_nm);
+    // Lifted, the wheels are not coupled: each settles at its own motor's speed.
+    let mut lifted = Plant::new(PlantParams {
+        load: Load::Lifted,
+        ..pp
+    })
+    .unwrap();
+    lifted.set_duty(0.5, 0.5);
+    lifted.advance(H, 20_000);
+    let w = lifted.wheel_speeds();
+    assert!((w[0] - left.steady_speed_rad_s(3.0)).abs() < 1e-6, "{w:?}");
+    assert!((w[1] - right.steady_speed_rad_s(3.0)).abs() < 1e-6, "{w:?}");
+    assert!(w[0] != w[1]);
+    // On the ground the same duties turn the robot: the left motor's larger back-EMF
+    // constant gives it the lower speed per volt, so the robot turns left (heading
+    // increasing).
+    let mut ground = Plant::new(pp).unwrap();
+    ground.set_duty(0.5, 0.5);
+    ground.advance(H, 10_000);
+    let pose = ground.pose();
+    assert!(w[0] < w[1]);
+    assert!(pose.theta_rad > 0.01 && pose.x_m > 0.1, "{pose:?}");
+    // With no mismatch the same robot drives straight.
+    let mut nominal = Plant::new(params()).unwrap();
+    nominal.set_duty(0.5, 0.5);
+    nominal.advance(H, 10_000);
+    assert_eq!(nominal.pose().theta_rad, 0.0);
 }
 
 #[test]
@@ -67,7 +110,7 @@ fn rk4_matches_the_first_order_solution() {
     let mut p = Plant::new(pp).unwrap();
     p.set_duty(0.5, 0.5);
     p.advance(H, 500); // 50 ms
-    let d = *p.drive();
+    let d = *p.drive(Wheel::Left);
     let r = 0.0325;
     let j = pp.body.wheel_inertia_kg_m2
         + pp.motor.rotor_inertia_kg_m2 * 900.0
@@ -92,7 +135,7 @@ fn lifted_wheels_see_only_their_own_inertia_and_the_robot_stays_put() {
     // Only the left wheel driven: the right one is not dragged along (no coupling).
     p.set_duty(0.5, 0.0);
     p.advance(H, 100); // 10 ms
-    let d = *p.drive();
+    let d = *p.drive(Wheel::Left);
     let tau = j_w / d.damping_nm_s_per_rad(PowerFlow::Motoring);
     assert!((tau - 0.0262).abs() < 1e-3, "{tau}");
     let w_inf = d.steady_speed_rad_s(3.0);
@@ -135,7 +178,7 @@ fn constant_arc_closes_a_circle() {
     let mut p = Plant::new(pp).unwrap();
     let speeds = p.wheel_speeds_for(0.25, 0.2);
     p.reset(TruePose::default(), speeds);
-    let d = *p.drive();
+    let d = *p.drive(Wheel::Left);
     let duty = |w: f64| (d.steady_volts(w) / 6.0) as f32;
     p.set_duty(duty(speeds[0]), duty(speeds[1]));
     let period_steps = (2.0 * PI / 0.2 / H).round() as u32;
@@ -148,7 +191,7 @@ fn constant_arc_closes_a_circle() {
 #[test]
 fn closed_form_rk4_equals_stage_by_stage_rk4_in_every_regime() {
     let mut p = Plant::new(params()).unwrap();
-    p.propagators = Plant::propagators(&p.drive, &p.friction.inertia, H);
+    p.propagators = Plant::propagators(&p.drives, &p.friction.inertia, H);
     p.propagator_dt_s = H;
     let mut rng = Rng::new(5);
     // Regime pair × direction pattern: how often each was compared.
@@ -249,7 +292,7 @@ fn a_braked_wheel_stops_much_sooner_than_a_coasting_one() {
         p.reset(TruePose::default(), [w0, w0]);
         p.set_duty(0.0, 0.0);
         p.set_driver_enabled(enabled);
-        let d = *p.drive();
+        let d = *p.drive(Wheel::Left);
         let flow = if enabled {
             PowerFlow::BackDriven
         } else {
@@ -275,7 +318,7 @@ fn a_braked_wheel_stops_much_sooner_than_a_coasting_one() {
         assert_eq!(p.wheel_speeds(), [0.0, 0.0]);
     }
     // The default robot at 30 rad/s: the brake decelerates 12.7 × harder.
-    let d = *Plant::new(params()).unwrap().drive();
+    let d = *Plant::new(params()).unwrap().drive(Wheel::Left);
     let ratio = (d.damping_nm_s_per_rad(PowerFlow::BackDriven) * w0 + d.coulomb_nm)
         / (d.viscous_nm_s_per_rad * w0 + d.coulomb_nm);
     assert!((initial_decel[0] / initial_decel[1] / ratio - 1.0).abs() < 2e-3);
@@ -297,7 +340,7 @@ fn disabled_driver_and_disconnected_motor_coast() {
     assert_eq!(p.currents_a(), [0.0, 0.0]);
     let mut coasting = p.clone();
     coasting.advance(H, 1);
-    let d = *p.drive();
+    let d = *p.drive(Wheel::Left);
     let j = p.friction.inertia.a + p.friction.inertia.b;
     let decel = (15.0 - coasting.wheel_speeds()[0]) / H;
     let expected = (d.viscous_nm_s_per_rad * 15.0 + d.coulomb_nm) / j;
@@ -352,7 +395,7 @@ fn a_wheel_at_rest_is_dragged_only_when_the_coupling_beats_static_friction() {
     heavy_yaw.body.yaw_inertia_kg_m2 = 5e-3;
     for pp in [params(), heavy_yaw] {
         let p = Plant::new(pp).unwrap();
-        let d = *p.drive();
+        let d = *p.drive(Wheel::Left);
         let (a, b) = (p.friction.inertia.a, p.friction.inertia.b);
         let stall_per_duty = d.efficiency * d.torque_per_volt * pp.driver.supply_v;
         let duty_for_pull = |pull: f64| {
@@ -380,7 +423,7 @@ fn a_blocked_wheel_stays_at_zero_and_the_robot_pivots_about_it() {
     assert_eq!(p.wheel_speeds()[0], 0.0);
     assert_eq!(p.wheel_angles()[0], 0.0);
     // Held, the right wheel alone sees inertia a: it settles at its own steady speed.
-    let steady = p.drive().steady_speed_rad_s(0.6 * 6.0);
+    let steady = p.drive(Wheel::Left).steady_speed_rad_s(0.6 * 6.0);
     assert!((p.wheel_speeds()[1] - steady).abs() < 1e-6);
     // The left contact point (0, L/2) has not moved.
     let pose = p.pose();
@@ -480,7 +523,7 @@ fn supply_sag_lowers_the_voltage_and_the_speed() {
     assert_eq!(p.bridge_outputs(), [BridgeOutput::Drive { volts: 4.0 }; 2]);
     p.advance(H, 30_000);
     let sagged = p.wheel_speeds()[0];
-    assert!((sagged - p.drive().steady_speed_rad_s(4.0)).abs() < 1e-6);
+    assert!((sagged - p.drive(Wheel::Left).steady_speed_rad_s(4.0)).abs() < 1e-6);
     assert!(sagged < 0.7 * full, "{sagged} {full}");
     for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
         assert!(p.set_supply_v(bad).is_err());

@@ -138,7 +138,12 @@ pub fn run(scenario: &Scenario, law: LawKind, options: &PilOptions) -> Result<Pi
         stop.store(true, Ordering::SeqCst);
         let station = join_station(station);
         relay.stop();
-        let result = run?;
+        // A station that failed before arming leaves the firmware waiting: its own error
+        // is the cause, so it is reported first.
+        let result = match (run, &station) {
+            (Err(run), Err(station)) => bail!("{station:#}\n(and so: {run})"),
+            (run, _) => run?,
+        };
         let board = board.context("no report")??;
         Ok(PilOutcome {
             result,

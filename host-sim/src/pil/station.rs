@@ -269,13 +269,17 @@ impl Session {
 
 impl Session {
     /// Sends `request` until its reply comes (or [`ATTEMPTS`] times); the reply.
+    ///
+    /// Every attempt carries the same `seq`, as `station`'s client does: a reply that comes
+    /// late answers the attempt still waiting, and the robot handles a repeat as a repeat
+    /// (a fresh `seq` would make a late `Arm` look refused as "already armed").
     fn request(&mut self, request: Request) -> Result<Result<Reply, Refusal>> {
+        self.seq = self.seq.wrapping_add(1);
+        let seq = self.seq;
         for attempt in 0..ATTEMPTS {
             if attempt > 0 {
                 self.report.resent += 1;
             }
-            self.seq = self.seq.wrapping_add(1);
-            let seq = self.seq;
             self.send(&Downlink {
                 seq,
                 request: request.clone(),

@@ -92,6 +92,7 @@ fn main() {
             expected_hz: u32::MAX,
         },
         brown_out_reset: BrownOutReset::Level3,
+        reset_cause: ResetCause::Unknown,
     };
     let panic_record = PanicReport {
         kind: FailureKind::Panic,

@@ -26,7 +26,8 @@ pub struct AppConfig {
     pub reference: Reference,
     /// The steering law.
     pub law: LawKind,
-    /// Why the chip last reset (auto-arm only after a power-on or pin reset).
+    /// Why the chip last reset (auto-arm only after a power-on or pin reset; `Info`
+    /// reports it).
     pub reset: ResetCause,
     /// Who the robot is, for `Info`.
     pub identity: Identity,
@@ -96,6 +97,7 @@ pub fn start(
         LinkService::new(
             link_end,
             config.identity,
+            config.reset,
             config.params,
             config.link,
             config.bridge,

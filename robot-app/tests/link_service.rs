@@ -13,7 +13,7 @@ use link::{
 };
 use robot_app::panic_record::{PanicRecord, PanicRecordStore};
 use robot_app::{service::TX_CAPACITY, BoardStats, Channels};
-use support::{default_params, Rig, IDENTITY};
+use support::{app_config, default_params, Rig, IDENTITY};
 
 const BAUD: u32 = 921_600;
 
@@ -56,6 +56,25 @@ fn info_names_the_robot_and_its_parameters() {
         rig.ask(Request::GetParams),
         Ok(Reply::Params(default_params()))
     );
+}
+
+#[test]
+fn info_reports_why_the_chip_last_reset() {
+    use controller_core::supervisor::ResetCause;
+    for cause in [
+        ResetCause::Watchdog,
+        ResetCause::BrownOut,
+        ResetCause::PowerOn,
+    ] {
+        let mut channels = Channels::new();
+        let mut config = app_config(BAUD, false);
+        config.reset = cause;
+        let mut rig = Rig::with_config(&mut channels, config);
+        let Ok(Reply::Info(info)) = rig.ask(Request::Info) else {
+            panic!("no info");
+        };
+        assert_eq!(info.reset_cause, cause);
+    }
 }
 
 /// A board whose RAM holds a panic record, as the firmware's does after a panic.

@@ -5,7 +5,7 @@ use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::law::LawKind;
 use controller_core::path::Path;
 use controller_core::reference::ReferenceMode;
-use controller_core::supervisor::{DisarmReason, Event};
+use controller_core::supervisor::{DisarmReason, Event, ResetCause};
 use std::time::Duration;
 
 use link::{
@@ -167,12 +167,31 @@ pub fn describe_robot(info: &RobotInfo, failure: Option<&PanicReport>, link: &st
         ("parameters", format!("hash 0x{:08x}", info.params_hash)),
         ("clock", info.clock.to_string()),
         ("brown-out", brown_out_text(info.brown_out_reset)),
+        ("last reset", reset_text(info.reset_cause).to_string()),
         ("last failure", failure),
         ("link", link.to_string()),
     ]
     .iter()
     .map(|(label, value)| format!("{label:<13}{value}\n"))
     .collect()
+}
+
+/// Why the chip last reset, and what it says about the run before.
+fn reset_text(cause: ResetCause) -> &'static str {
+    match cause {
+        ResetCause::PowerOn => "power-on",
+        ResetCause::Pin => "the reset pin (the board's button or a probe)",
+        ResetCause::Software => "a software reset",
+        ResetCause::Watchdog => {
+            "the watchdog: the control loop stalled in the run before (see the last failure)"
+        }
+        ResetCause::BrownOut => {
+            "brown-out: the supply sagged below the brown-out level while running (check the \
+             battery and its connector)"
+        }
+        ResetCause::LowPower => "a low-power-management reset",
+        ResetCause::Unknown => "unknown (no reset flag set)",
+    }
 }
 
 /// The brown-out reset level with its thresholds, and what it means for persisting.
@@ -482,6 +501,7 @@ mod tests {
             params_hash: 0x1234_5678,
             clock,
             brown_out_reset,
+            reset_cause: ResetCause::Watchdog,
         }
     }
 
@@ -506,6 +526,10 @@ mod tests {
         );
         assert_eq!(line(&text, "last failure"), "none recorded");
         assert_eq!(line(&text, "parameters"), "hash 0x12345678");
+        assert!(
+            line(&text, "last reset").starts_with("the watchdog"),
+            "{text}"
+        );
 
         let fallen_back = info(
             ClockSource::InternalFallback {

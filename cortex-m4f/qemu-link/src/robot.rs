@@ -62,6 +62,7 @@ impl TestRobot {
                 params_hash: params_hash(&self.params),
                 clock: ClockSource::Simulated,
                 brown_out_reset: BrownOutReset::NotApplicable,
+                reset_cause: link::ResetCause::Unknown,
             })),
             Request::Ping { nonce } => Ok(Reply::Pong { nonce: *nonce }),
             Request::GetParams => Ok(Reply::Params(self.params)),

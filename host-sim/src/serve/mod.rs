@@ -642,6 +642,9 @@ pub fn serve(
     let mut hosts = Hosts::default();
     let started = Instant::now();
     let mut steps: u64 = 0;
+    // Steps the robot fell behind its pace and will never run: time the host process
+    // lost is lost to the robot too, as it is to the station.
+    let mut forgone: u64 = 0;
     let mut buf = [0u8; 4096];
     loop {
         if options.max_steps.is_some_and(|max| steps >= max) {
@@ -658,10 +661,17 @@ pub fn serve(
             Err(e) if e.kind() == ErrorKind::WouldBlock => {}
             Err(e) => return Err(e),
         }
-        // Steps due by now; at most 50 ms of simulated time at once, so a stalled host
-        // process slows the robot down instead of bursting it.
-        let due = (started.elapsed().as_secs_f64() * rate * speed) as u64;
-        let batch = due.saturating_sub(steps).min((rate * 0.05).max(1.0) as u64);
+        // Steps due by now; at most 50 ms of simulated time at once, and a robot further
+        // behind forgoes the rest: a stalled host process slows the robot down instead of
+        // bursting it. A burst would run the robot's heartbeat timeout (counted in its
+        // steps) out faster than any station paced by its telemetry could answer.
+        let most = (rate * 0.05).max(1.0) as u64;
+        let due = ((started.elapsed().as_secs_f64() * rate * speed) as u64).saturating_sub(forgone);
+        let behind = due.saturating_sub(steps);
+        if behind > most {
+            forgone += behind - most;
+        }
+        let batch = behind.min(most);
         if batch == 0 {
             std::thread::sleep(Duration::from_micros(500));
             continue;

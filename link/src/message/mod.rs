@@ -43,7 +43,7 @@ mod telemetry;
 use controller_core::kinematics::{BodyVelocity, WheelSpeeds};
 use controller_core::params::RobotConfig;
 use controller_core::supervisor::{Event, SupervisorConfig};
-pub use controller_core::supervisor::{Wheel, MOTOR_TEST_MAX_MS, MOTOR_TEST_MAX_VOLTS};
+pub use controller_core::supervisor::{ResetCause, Wheel, MOTOR_TEST_MAX_MS, MOTOR_TEST_MAX_VOLTS};
 use heapless::String;
 use postcard_schema::Schema;
 use serde::de::DeserializeOwned;
@@ -411,6 +411,9 @@ pub struct RobotInfo {
     pub clock: ClockSource,
     /// The robot's brown-out reset level.
     pub brown_out_reset: BrownOutReset,
+    /// Why the chip last reset, as its reset flags said at boot (a watchdog or brown-out
+    /// reset means the previous run ended badly; the panic record may say how).
+    pub reset_cause: ResetCause,
 }
 
 /// `text` as a bounded string, cut at a character boundary when longer than `N` bytes.

@@ -33,7 +33,7 @@ mod tx;
 use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::path::{Segment, MAX_SEGMENTS};
 use controller_core::supervisor::{
-    ArmRequest, Command, MotorTestRequest, RunMode, State, Wheel, MOTOR_TEST_MAX_MS,
+    ArmRequest, Command, MotorTestRequest, ResetCause, RunMode, State, Wheel, MOTOR_TEST_MAX_MS,
     MOTOR_TEST_MAX_VOLTS,
 };
 use link::{
@@ -159,6 +159,8 @@ pub struct LinkService<'a> {
     uploads: UploadState,
     tx: TxBuffer,
     identity: Identity,
+    /// Why the chip last reset, for `Info`.
+    reset_cause: ResetCause,
     /// The configuration in force (the control side confirmed it).
     active: ParamSet,
     active_hash: u32,
@@ -184,11 +186,13 @@ pub struct LinkService<'a> {
 
 impl<'a> LinkService<'a> {
     /// The link side talking to the control side through `end`, with `active` the
-    /// configuration the control side was built with, on a board with `bridge`.
+    /// configuration the control side was built with, on a board with `bridge` that last
+    /// reset for `reset_cause`.
     /// [`crate::start`] builds both sides from one configuration.
     pub fn new(
         end: LinkEnd<'a>,
         identity: Identity,
+        reset_cause: ResetCause,
         active: ParamSet,
         options: LinkOptions,
         bridge: BridgeChip,
@@ -201,6 +205,7 @@ impl<'a> LinkService<'a> {
             uploads: UploadState::new(),
             tx: TxBuffer::new(),
             identity,
+            reset_cause,
             active,
             active_hash: params_hash(&active),
             active_path: None,
@@ -483,6 +488,7 @@ impl<'a> LinkService<'a> {
             params_hash: self.active_hash,
             clock: id.clock,
             brown_out_reset: id.brown_out_reset,
+            reset_cause: self.reset_cause,
         }
     }
 

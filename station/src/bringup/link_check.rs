@@ -1,5 +1,6 @@
 //! Step 1: the link answers; who the robot is, what its clock runs from, its brown-out
-//! level and the record of a failure that ended an earlier run (shown, then cleared).
+//! level, why it last reset and the record of a failure that ended an earlier run (the
+//! robot keeps it, across resets, until a host has read it: shown here, then cleared).
 
 use super::{BringupError, Finding, Session};
 use crate::ops;
@@ -24,8 +25,8 @@ pub fn run<T: Transport>(s: &mut Session<'_, T>) -> Result<Finding, BringupError
         )));
     }
     let mut summary = format!(
-        "{} on {}, clock: {}, brown-out reset {}",
-        info.robot_name, info.chip, info.clock, info.brown_out_reset
+        "{} on {}, clock: {}, brown-out reset {}, last reset: {:?}",
+        info.robot_name, info.chip, info.clock, info.brown_out_reset, info.reset_cause
     );
     summary.push_str(match failure {
         Some(_) => ", a panic record (shown above, now cleared)",

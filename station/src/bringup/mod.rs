@@ -5,8 +5,8 @@
 //! diff, then sent and persisted once confirmed. The steps, each runnable alone
 //! (`station bringup encoders`):
 //!
-//! 1. [`link_check`]: the link, who the robot is, its clock, brown-out level and panic
-//!    record;
+//! 1. [`link_check`]: the link, who the robot is, its clock, brown-out level, reset
+//!    cause and panic record;
 //! 2. [`button`]: the button and the LED;
 //! 3. [`supply`]: the supply against the multimeter gives the divider's scale;
 //! 4. [`encoders`]: each wheel turned one turn by hand gives its encoder's input, sign and
@@ -49,7 +49,7 @@ use self::state::State;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize, ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum Step {
-    /// The link, info, chip, clock, brown-out level, panic record.
+    /// The link, info, chip, clock, brown-out level, reset cause, panic record.
     Link,
     /// The button and the LED.
     Button,

@@ -176,8 +176,9 @@ pub fn describe_robot(info: &RobotInfo, failure: Option<&PanicReport>, link: &st
     .collect()
 }
 
-/// Why the chip last reset, and what it says about the run before.
-fn reset_text(cause: ResetCause) -> &'static str {
+/// Why the chip last reset, and what it says about the run before (one phrase, for
+/// `station info` and bring-up).
+pub fn reset_text(cause: ResetCause) -> &'static str {
     match cause {
         ResetCause::PowerOn => "power-on",
         ResetCause::Pin => "the reset pin (the board's button or a probe)",

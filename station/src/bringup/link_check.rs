@@ -25,8 +25,12 @@ pub fn run<T: Transport>(s: &mut Session<'_, T>) -> Result<Finding, BringupError
         )));
     }
     let mut summary = format!(
-        "{} on {}, clock: {}, brown-out reset {}, last reset: {:?}",
-        info.robot_name, info.chip, info.clock, info.brown_out_reset, info.reset_cause
+        "{} on {}, clock: {}, brown-out reset {}, last reset: {}",
+        info.robot_name,
+        info.chip,
+        info.clock,
+        info.brown_out_reset,
+        ops::reset_text(info.reset_cause)
     );
     summary.push_str(match failure {
         Some(_) => ", a panic record (shown above, now cleared)",

@@ -46,11 +46,6 @@ const FLOWS: [PowerFlow; 3] = [
     PowerFlow::BackDriven,
 ];
 
-/// The power flows [left, right] of the regime pair at `index` (3 · left + right).
-pub(super) const fn flow_index_pair(index: usize) -> [PowerFlow; 2] {
-    [FLOWS[(index / 3) % 3], FLOWS[index % 3]]
-}
-
 /// The affine model ω̇ = A ω + b of one regime (both wheels' directions and power
 /// flows) under the present bridge state, ready for its [`Propagator`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -65,7 +60,7 @@ pub(super) struct Affine {
 
 /// Added to the closed form's reach (rad/s) so that rounding in the stage points cannot
 /// cross a regime boundary the exact arithmetic does not.
-pub(super) const ROUNDING_MARGIN_RAD_S: f64 = 1e-9;
+const ROUNDING_MARGIN_RAD_S: f64 = 1e-9;
 
 impl Plant {
     /// The closed-form RK4 of every regime pair for step `h` (s).
@@ -75,10 +70,9 @@ impl Plant {
         h: f64,
     ) -> [Propagator; 9] {
         core::array::from_fn(|k| {
-            let [left, right] = flow_index_pair(k);
             let damping = [
-                drives[0].damping_nm_s_per_rad(left),
-                drives[1].damping_nm_s_per_rad(right),
+                drives[0].damping_nm_s_per_rad(FLOWS[k / 3]),
+                drives[1].damping_nm_s_per_rad(FLOWS[k % 3]),
             ];
             Propagator::new(inertia.inv_p, inertia.inv_q, damping, h)
         })
@@ -117,11 +111,9 @@ impl Plant {
         (next, dphi)
     }
 
-    /// The regime both wheels are in at speeds `w` (both non-zero) — its index into the
-    /// propagator tables, 3 · flow(left) + flow(right) — and the constant part of
-    /// ω̇ = A ω + b there, b = M⁻¹ τ₀ with τ₀ the electrical torque at ω = 0 minus the
-    /// Coulomb friction [left, right] (rad/s²).
-    pub(super) fn regime(&self, w: [f64; 2]) -> (usize, [f64; 2]) {
+    /// The affine model ω̇ = A ω + b of the regime both wheels are in at speeds `w`
+    /// (both non-zero): their directions and power flows.
+    pub(super) fn affine(&self, w: [f64; 2]) -> Affine {
         let mut index = 0;
         let mut torque_at_rest = [0.0; 2];
         for (i, d) in self.drives.iter().enumerate() {
@@ -141,25 +133,13 @@ impl Plant {
             torque_at_rest[i] = electrical - coulomb;
             index = 3 * index + flow_index(flow);
         }
-        (index, self.friction.inertia.solve(torque_at_rest))
-    }
-
-    /// The affine model ω̇ = A ω + b of the regime both wheels are in at speeds `w`
-    /// (both non-zero), ready for its RK4 [`Propagator`].
-    pub(super) fn affine(&self, w: [f64; 2]) -> Affine {
-        let (index, b) = self.regime(w);
         let (sb, tb) = self
             .propagators
             .get(index)
-            .map_or(([0.0; 2], [0.0; 2]), |p| p.forcing(b));
+            .map_or(([0.0; 2], [0.0; 2]), |p| {
+                p.forcing(self.friction.inertia.solve(torque_at_rest))
+            });
         Affine { index, sb, tb }
-    }
-
-    /// Whether wheel `i` at speed `w_i` (rad/s) is farther than `reach` (rad/s) from
-    /// both boundaries of its regime: rest, and its zero-current speed (∞ coasting).
-    #[inline]
-    pub(super) fn clear_of_boundaries(&self, i: usize, w_i: f64, reach: f64) -> bool {
-        w_i.abs() > reach && (w_i - self.zero_current_speed[i]).abs() > reach
     }
 
     /// The closed-form RK4 step from `w` in the regime `affine` (which must be the regime
@@ -175,7 +155,10 @@ impl Plant {
         let propagator = self.propagators.get(affine.index)?;
         let (next, dphi) = propagator.step(w, affine.sb, affine.tb);
         let reach = propagator.reach([next[0] - w[0], next[1] - w[1]]) + ROUNDING_MARGIN_RAD_S;
-        if self.clear_of_boundaries(0, w[0], reach) && self.clear_of_boundaries(1, w[1], reach) {
+        // A coasting wheel's zero-current speed is infinite: no boundary.
+        let stays =
+            |i: usize| w[i].abs() > reach && (w[i] - self.zero_current_speed[i]).abs() > reach;
+        if stays(0) && stays(1) {
             Some((next, dphi))
         } else {
             None

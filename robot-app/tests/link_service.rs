@@ -164,6 +164,11 @@ fn corrupted_bytes_never_panic_and_are_counted() {
     let Ok(Reply::Stats(stats)) = rig.ask(Request::GetStats) else {
         panic!("no stats");
     };
+    assert_eq!(
+        (stats.max_step_cycles, stats.stack_high_water_bytes),
+        (0, 0),
+        "a board that measures neither says 0, which the station shows as not measured"
+    );
     let rx = stats.link.received;
     assert_eq!(rx.frames_ok, 11, "10 good pings and this GetStats");
     assert!(

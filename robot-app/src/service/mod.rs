@@ -45,8 +45,7 @@ use link::{
 
 use crate::channel::mailbox::Sender;
 use crate::channel::{
-    ControlRefusal, ControlStatus, LinkEnd, Op, OpKind, Report, Staged, ToControl, ToLink,
-    COMMAND_CAPACITY,
+    ControlRefusal, LinkEnd, Op, OpKind, Report, Staged, ToControl, ToLink, COMMAND_CAPACITY,
 };
 use crate::panic_record::{PanicRecord, PanicRecordStore};
 use crate::stm32f4::bridge::BridgeChip;
@@ -236,11 +235,6 @@ impl<'a> LinkService<'a> {
     /// What the link side counted.
     pub const fn counters(&self) -> ServiceCounters {
         self.counters
-    }
-
-    /// The control side's state and counters as last published.
-    pub fn control_status(&self) -> ControlStatus {
-        self.end.control_status()
     }
 
     /// The statistics `GetStats` reports, with the board's figures from `board`. Not

@@ -337,9 +337,10 @@ pub fn corrected(set: &ParamSet, estimate: &Estimate, scale: f64) -> ParamSet {
 
 /// Where the end points come from.
 pub enum Measure<'a> {
-    /// Ask on the terminal.
-    Ask,
-    /// Lines of a file.
+    /// Asked of the operator, a question at a time: the function shows the question and
+    /// returns the line they answer (the terminal, or a bring-up's answers).
+    Asked(&'a mut dyn FnMut(&str) -> Result<String, String>),
+    /// Lines of a file, one per run, read without waiting.
     File(std::vec::IntoIter<String>),
     /// The virtual robot's ground truth plus Gaussian noise of this σ (m; heading 0.2°).
     Simulated {
@@ -351,18 +352,12 @@ pub enum Measure<'a> {
 }
 
 impl Measure<'_> {
-    /// Waits until the operator has put the robot back at the start of `label` (asked on
-    /// the terminal; at once for a file or the virtual robot, which its path upload
-    /// places).
-    fn ready(&mut self, label: &str) -> Result<(), String> {
-        if let Measure::Ask = self {
-            eprint!("{label}: put the robot back at the start, then press Enter: ");
-            let _ = std::io::stderr().flush();
-            let mut line = String::new();
-            std::io::stdin()
-                .lock()
-                .read_line(&mut line)
-                .map_err(|e| e.to_string())?;
+    /// Gives the operator `instruction` (where to put the robot) and waits until they
+    /// say it is done; at once for a file or the virtual robot, whose path upload places
+    /// it.
+    fn ready(&mut self, instruction: &str) -> Result<(), String> {
+        if let Measure::Asked(ask) = self {
+            ask(&format!("{instruction}, then press Enter"))?;
         }
         Ok(())
     }
@@ -394,21 +389,52 @@ impl Measure<'_> {
                     .ok_or(format!("the measurements file has no line for {label}"))?;
                 parse_end(&line, odometry, label)
             }
-            Measure::Ask => {
-                eprint!(
-                    "{label}: odometry ended at x {:+.4} m, y {:+.4} m. Measured true end `x_m y_m [theta_deg]` (start frame): ",
+            Measure::Asked(ask) => {
+                let line = ask(&format!(
+                    "{label}: odometry ended at x {:+.4} m, y {:+.4} m. Measured true end \
+`x_m y_m [theta_deg]` (start frame)",
                     odometry.x_m, odometry.y_m
-                );
-                let _ = std::io::stderr().flush();
-                let mut line = String::new();
-                std::io::stdin()
-                    .lock()
-                    .read_line(&mut line)
-                    .map_err(|e| e.to_string())?;
+                ))?;
                 parse_end(&line, odometry, label)
             }
         }
     }
+
+    /// The tape's distance of the straight run, m, whose odometry says `odo_m`.
+    fn tape_m(&mut self, odo_m: f64, truth: Option<Pose>) -> Result<f64, String> {
+        match self {
+            Measure::Simulated { noise_m, rng } => {
+                let t = truth.ok_or("no ground truth")?;
+                Ok(f64::from(t.x_m).hypot(f64::from(t.y_m)) + *noise_m * rng.normal())
+            }
+            Measure::File(lines) => lines
+                .next()
+                .and_then(|l| l.trim().parse().ok())
+                .ok_or_else(|| "the measurements file has no distance for the straight run".into()),
+            Measure::Asked(ask) => {
+                let line = ask(&format!(
+                    "straight run: odometry says {odo_m:.4} m. Distance on the tape, m"
+                ))?;
+                let first = line.split_whitespace().next().unwrap_or_default();
+                first
+                    .trim_end_matches('m')
+                    .parse()
+                    .map_err(|_| format!("not a distance: `{}`", line.trim()))
+            }
+        }
+    }
+}
+
+/// Asks on the terminal: the question on standard error, the answer from standard input.
+pub fn ask_on_terminal(question: &str) -> Result<String, String> {
+    eprint!("{question}: ");
+    let _ = std::io::stderr().flush();
+    let mut line = String::new();
+    std::io::stdin()
+        .lock()
+        .read_line(&mut line)
+        .map_err(|e| e.to_string())?;
+    Ok(line)
 }
 
 fn parse_end(line: &str, odometry: Pose, label: &str) -> Result<EndPoint, String> {
@@ -529,9 +555,9 @@ fn procedure<T: Transport>(
     ] {
         for i in 0..args.runs {
             let label = format!("{name} square {}/{}", i + 1, args.runs);
-            say(&format!(
+            measure.ready(&format!(
                 "{label}: put the robot at the start mark, heading along the first side"
-            ));
+            ))?;
             let (odometry, truth) = drive(client, scenario, &label, measure, say)?;
             let end = measure.end_point(odometry, truth, &label)?;
             let (ex, ey) = end.error();
@@ -550,31 +576,10 @@ fn procedure<T: Transport>(
     crate::ops::set_params(client, geometry)?;
     // The straight run against the tape, with the corrected ratio and track.
     let line = straight(base, args.straight_m)?;
-    say("straight run: put the robot at the tape's zero, heading along it");
+    measure.ready("straight run: put the robot at the tape's zero, heading along it")?;
     let (odometry, truth) = drive(client, &line, "straight run", measure, say)?;
     let odo_m = f64::from(odometry.x_m).hypot(f64::from(odometry.y_m));
-    let tape_m = match measure {
-        Measure::Simulated { noise_m, rng } => {
-            let t = truth.ok_or("no ground truth")?;
-            f64::from(t.x_m).hypot(f64::from(t.y_m)) + *noise_m * rng.normal()
-        }
-        Measure::File(lines) => lines
-            .next()
-            .and_then(|l| l.trim().parse().ok())
-            .ok_or("the measurements file has no distance for the straight run")?,
-        Measure::Ask => {
-            eprint!("straight run: odometry says {odo_m:.4} m. Distance on the tape, m: ");
-            let _ = std::io::stderr().flush();
-            let mut l = String::new();
-            std::io::stdin()
-                .lock()
-                .read_line(&mut l)
-                .map_err(|e| e.to_string())?;
-            l.trim()
-                .parse()
-                .map_err(|_| format!("not a distance: `{}`", l.trim()))?
-        }
-    };
+    let tape_m = measure.tape_m(odo_m, truth)?;
     let scale = if odo_m > 0.0 { tape_m / odo_m } else { 1.0 };
     let after = corrected(before, &estimate, scale);
     crate::ops::set_params(client, after)?;
@@ -607,7 +612,7 @@ fn drive<T: Transport>(
                 "{label}: the run ended by {why}, not at its time limit; driving it again \
 from the start"
             ));
-            measure.ready(label)?;
+            measure.ready(&format!("{label}: put the robot back at its start"))?;
         }
         let mut progress = |_: u64, _: u64| {};
         let recorded = record::run(
@@ -698,7 +703,7 @@ pub fn command<T: Transport>(
             noise_m,
             rng: &mut rng,
         },
-        (None, None) => Measure::Ask,
+        (None, None) => Measure::Asked(&mut ask_on_terminal),
     };
     let mut say = |line: &str| eprintln!("{line}");
     let outcome = match calibrate(&mut client, &base, args, &mut measure, &mut say) {

@@ -6,7 +6,9 @@
 //! paper-circle` settles within 5 % of the correctly wired robot's settle time.
 //!
 //! CI runs a few cases; `cargo xtask bringup-matrix` runs every single miswiring and a
-//! few pairs (`the_whole_matrix`, ignored otherwise).
+//! few pairs (`the_whole_matrix`, ignored otherwise), and the two steps the matrix leaves
+//! out, the tune and the calibration, on a robot whose wheels and track are off
+//! (`the_tune_and_the_calibration`, ignored otherwise).
 
 use std::io::{BufRead, BufReader, Write};
 use std::net::TcpListener;
@@ -42,7 +44,15 @@ fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
 /// A virtual robot of paper-circle miswired as `miswiring`, serving on a free port for at
 /// most `max_s` simulated seconds, and the remote of its hands.
 fn virtual_robot(miswiring: Miswiring, max_s: f64) -> (String, HandsRemote) {
-    let scenario = Scenario::load("paper-circle").expect("built in");
+    served(
+        Scenario::load("paper-circle").expect("built in"),
+        miswiring,
+        max_s,
+    )
+}
+
+/// A virtual robot of `scenario`, as [`virtual_robot`].
+fn served(scenario: Scenario, miswiring: Miswiring, max_s: f64) -> (String, HandsRemote) {
     let listener = TcpListener::bind("127.0.0.1:0").expect("a free port");
     let address = listener.local_addr().expect("bound").to_string();
     let (remote, bench_hands) = hands();
@@ -65,6 +75,18 @@ fn wait_for(remote: &HandsRemote) -> HandAnswer {
         .answers
         .recv_timeout(Duration::from_secs(30))
         .expect("the hands answer")
+}
+
+/// Where the robot stands, measured on the floor.
+fn tape(remote: &HandsRemote) -> robot_files::truth::TruePose {
+    remote
+        .commands
+        .send(HandCommand::MeasurePose)
+        .expect("hands");
+    match wait_for(remote) {
+        HandAnswer::Pose(p) => p,
+        other => panic!("the tape: {other:?}"),
+    }
 }
 
 /// What the user answers to `question`, doing with the hands what it asks first.
@@ -103,8 +125,15 @@ fn answer(question: &str, remote: &HandsRemote, supply_v: f64) -> String {
             }
             other => panic!("the LED: {other:?}"),
         }
-    } else if question.contains("lift the robot") {
+    } else if question.contains("lift the robot") || question.contains("put the robot") {
+        // The virtual robot's path upload puts it at the start.
         "done".into()
+    } else if question.contains("Measured true end") {
+        let p = tape(remote);
+        format!("{:.4} {:.4} {:.2}", p.x_m, p.y_m, p.theta_rad.to_degrees())
+    } else if question.contains("Distance on the tape") {
+        let p = tape(remote);
+        format!("{:.4}", p.x_m.hypot(p.y_m))
     } else {
         panic!("a question the bench has no answer for: {question}")
     }
@@ -124,9 +153,19 @@ fn lines_of(stream: impl std::io::Read + Send + 'static) -> Receiver<String> {
     rx
 }
 
-/// `station bringup` of the robot at `address`, the hands played by `remote`; what it
-/// printed.
+/// `station bringup` of the robot at `address` (the matrix's steps), the hands played
+/// by `remote`; what it printed.
 fn bring_up(address: &str, remote: &HandsRemote, out: &std::path::Path) -> String {
+    bring_up_steps(address, remote, out, &STEPS)
+}
+
+/// `station bringup STEPS…` of the robot at `address`, as [`bring_up`].
+fn bring_up_steps(
+    address: &str,
+    remote: &HandsRemote,
+    out: &std::path::Path,
+    steps: &[&str],
+) -> String {
     let supply_v = Scenario::load("paper-circle")
         .expect("built in")
         .plant
@@ -134,7 +173,7 @@ fn bring_up(address: &str, remote: &HandsRemote, out: &std::path::Path) -> Strin
         .supply_v;
     let mut child = Command::new(env!("CARGO_BIN_EXE_station"))
         .args(["--connect", address, "bringup"])
-        .args(STEPS)
+        .args(steps)
         .args(["--answers", "/dev/stdin", "--yes", "--restart", "--out"])
         .arg(out)
         .stdin(Stdio::piped())
@@ -145,7 +184,7 @@ fn bring_up(address: &str, remote: &HandsRemote, out: &std::path::Path) -> Strin
     let mut stdin = child.stdin.take().expect("piped");
     let lines = lines_of(child.stdout.take().expect("piped"));
     let mut printed = String::new();
-    while let Ok(line) = lines.recv_timeout(Duration::from_secs(120)) {
+    while let Ok(line) = lines.recv_timeout(Duration::from_secs(300)) {
         printed.push_str(&line);
         printed.push('\n');
         if let Some(question) = line.strip_prefix("> ") {
@@ -318,4 +357,40 @@ fn the_whole_matrix() {
         "right-encoder-inverted,motors-swapped",
         "cpr=x2,supply-scale=0.9",
     ]);
+}
+
+#[test]
+#[ignore = "about three minutes of simulated runs: cargo xtask bringup-matrix"]
+fn the_tune_and_the_calibration() {
+    let _one = one_at_a_time();
+    let mut scenario = Scenario::load("paper-circle").expect("built in");
+    scenario.plant.mismatch.wheel_radius_left_right_pct = 1.0;
+    scenario.plant.mismatch.track_width_pct = 3.0;
+    let truth = host_sim::run::plant_params(&scenario).geometry;
+    let (address, remote) = served(scenario, Miswiring::default(), 2000.0);
+    let dir = std::env::temp_dir().join(format!("station-tune-calibrate-{}", std::process::id()));
+    let before = robot_params(&address);
+    let printed = bring_up_steps(&address, &remote, &dir, &["tune", "calibrate"]);
+    let after = robot_params(&address);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_ne!(
+        (after.robot.left_wheel, after.robot.right_wheel),
+        (before.robot.left_wheel, before.robot.right_wheel),
+        "tuned:\n{printed}"
+    );
+    let ratio = |r: &controller_core::params::RobotConfig| {
+        f64::from(r.wheel_radius_right_m) / f64::from(r.wheel_radius_left_m)
+    };
+    let true_ratio = truth.wheel_radius_right_m / truth.wheel_radius_left_m;
+    let track_error = f64::from(after.robot.track_width_m) / truth.track_width_m - 1.0;
+    let ratio_error = ratio(&after.robot) / true_ratio - 1.0;
+    println!(
+        "tune and calibration: track width {:+.2} % off the plant's (was {:+.2} %), wheel radius ratio {:+.3} % (was {:+.3} %)",
+        track_error * 100.0,
+        (f64::from(before.robot.track_width_m) / truth.track_width_m - 1.0) * 100.0,
+        ratio_error * 100.0,
+        (ratio(&before.robot) / true_ratio - 1.0) * 100.0,
+    );
+    assert!(track_error.abs() < 0.01, "{printed}");
+    assert!(ratio_error.abs() < 0.002, "{printed}");
 }

@@ -4,7 +4,7 @@
 //! |---|---|
 //! | `ci` | every check, in order: set-up, fmt, clippy (host, firmware, QEMU programs), host tests, Miri on the lock-free channels, the station end to end, firmware build and size budget, the first-flash programs (hello under QEMU), the panic check, the core and the link on an emulated Cortex-M4F, the firmware in the loop (`pil`), the docs, the protocol page and its client, the velocity mode's figures, the Foxglove file and live stream, the ROS 2 bridge against a Cyclone DDS peer, the figures. Ends with `N passed, N failed`. `.ci/run` runs exactly this. |
 //! | `e2e` | the station against the virtual robot: in process, and the binary over TCP (same result as `host-sim run`, link loss, corruption, refusals), and two guided bring-ups of miswired robots |
-//! | `bringup-matrix` | `station bringup` against the virtual robot miswired every single way and a few pairs: each detected and corrected, then paper-circle settling within 5 % of the correctly wired robot; prints `bring-up matrix: N of N miswirings detected and corrected` (about two minutes; `e2e` runs two cases) |
+//! | `bringup-matrix` | `station bringup` against the virtual robot miswired every single way and a few pairs: each detected and corrected, then paper-circle settling within 5 % of the correctly wired robot; prints `bring-up matrix: N of N miswirings detected and corrected`; then the tune and calibration steps on a robot whose wheels and track are off (about five minutes; `e2e` runs two matrix cases) |
 //! | `setup` | installs what is missing: the ARM target, `flip-link`, `qemu-system-arm` (the `miri` step sets up its own toolchain) |
 //! | `miri` | `robot-app`'s lock-free channels (`robot_app::channel`, its only `unsafe` code) under Miri: the channel modules' unit tests (including every interleaving of the mailbox's handshake and of the ring) and the integration tests that take the channels through the robot cheaply; each must run and pass. Sets itself up: installs the nightly toolchain with its `miri` and `rust-src` components when missing (rustup), then `cargo +nightly miri setup`; without a network, fails naming what is missing. Prints its times; under two minutes from a fresh clone on 2 cores |
 //! | `size` | builds the firmware and checks it against the flash and RAM budget |
@@ -68,7 +68,8 @@ commands:
   setup   install what is missing: ARM target, flip-link, qemu-system-arm
   bringup-matrix
           station bringup against the virtual robot miswired every single way and a few
-          pairs: detected, corrected, paper-circle settling as the correctly wired robot
+          pairs: detected, corrected, paper-circle settling as the correctly wired robot;
+          then the tune and calibration steps on a robot whose geometry is off
   miri    robot-app's lock-free channels under Miri (their unit tests, every interleaving
           of the mailbox and the ring, cheap integration tests); installs the nightly
           toolchain with miri when missing and runs `cargo +nightly miri setup`

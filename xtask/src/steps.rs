@@ -417,10 +417,12 @@ pub fn end_to_end() -> Step {
 }
 
 /// The guided bring-up against every single miswiring of the virtual robot and a few
-/// pairs (`station/tests/bringup_matrix.rs`, its ignored test): each detected and
+/// pairs (`station/tests/bringup_matrix.rs`, its ignored tests): each detected and
 /// corrected, then paper-circle settling within 5 % of the correctly wired robot. Prints
-/// `bring-up matrix: N of N miswirings detected and corrected`. About two minutes; CI
-/// runs two of its cases in the end-to-end step.
+/// `bring-up matrix: N of N miswirings detected and corrected`; then the tune and the
+/// calibration steps on a robot whose wheels and track are off, which print how far the
+/// calibrated geometry is from the plant's. About five minutes; CI runs two of the
+/// matrix's cases in the end-to-end step.
 pub fn bringup_matrix() -> Step {
     Step::new(
         "bring-up matrix: station bringup against every miswiring of the virtual robot",
@@ -434,7 +436,7 @@ pub fn bringup_matrix() -> Step {
                 "--",
                 "--ignored",
                 "--nocapture",
-                "the_whole_matrix",
+                "--test-threads=1",
             ]))
         },
     )

@@ -1,9 +1,9 @@
 //! The operator's hands at the virtual robot, for tests only: turning a wheel by hand,
-//! pressing the button and looking at the LED, so that what a guided bring-up finds
-//! comes from the robot's own signals, as on a real robot. A test holds the
-//! [`HandsRemote`]; `host-sim serve --hands` reads the same commands from its standard
-//! input, one a line (`turn left 1`, `press 2000`, `led`), and answers each on its
-//! standard output with a line that starts `hands: `.
+//! pressing the button, looking at the LED and measuring where the robot stands with a
+//! tape, so that what a guided bring-up finds comes from the robot's own signals, as on a
+//! real robot. A test holds the [`HandsRemote`]; `host-sim serve --hands` reads the same
+//! commands from its standard input, one a line (`turn left 1`, `press 2000`, `led`,
+//! `measure`), and answers each on its standard output with a line that starts `hands: `.
 //!
 //! A wheel turned by hand turns the plant's encoder, not the plant: the robot stands
 //! lifted while its wheels are turned, and its pose is not the simulator's truth.
@@ -14,6 +14,7 @@ use std::sync::mpsc::{channel, Receiver, Sender};
 
 use controller_core::controller::TickDeltas;
 use controller_core::supervisor::Wheel;
+use robot_files::truth::TruePose;
 
 /// How fast a hand turns a wheel, turns per second.
 pub const HAND_TURNS_PER_S: f64 = 2.0;
@@ -37,6 +38,8 @@ pub enum HandCommand {
     },
     /// Look at the LED.
     ReadLed,
+    /// Measure the robot's pose on the floor (the plant's true pose, world frame).
+    MeasurePose,
 }
 
 /// What the hands did, once done.
@@ -58,6 +61,8 @@ pub enum HandAnswer {
         /// Steps watched.
         of_steps: u32,
     },
+    /// Where the robot stands on the floor.
+    Pose(TruePose),
 }
 
 impl fmt::Display for HandAnswer {
@@ -70,6 +75,13 @@ impl fmt::Display for HandAnswer {
             HandAnswer::Led { on_steps, of_steps } => {
                 write!(f, "hands: led on {on_steps} of {of_steps} steps")
             }
+            HandAnswer::Pose(p) => write!(
+                f,
+                "hands: pose x {:.4} m, y {:.4} m, heading {:.3} deg",
+                p.x_m,
+                p.y_m,
+                p.theta_rad.to_degrees()
+            ),
         }
     }
 }
@@ -84,10 +96,12 @@ fn wheel_word(wheel: Wheel) -> &'static str {
 impl std::str::FromStr for HandCommand {
     type Err = String;
 
-    /// `turn left|right TURNS`, `press MS` or `led`.
+    /// `turn left|right TURNS`, `press MS`, `led` or `measure`.
     fn from_str(line: &str) -> Result<Self, Self::Err> {
         let words: Vec<&str> = line.split_whitespace().collect();
-        let bad = || format!("hands: cannot read {line:?} (turn left|right TURNS, press MS, led)");
+        let bad = || {
+            format!("hands: cannot read {line:?} (turn left|right TURNS, press MS, led, measure)")
+        };
         match words.as_slice() {
             ["turn", side, turns] => {
                 let wheel = match *side {
@@ -105,6 +119,7 @@ impl std::str::FromStr for HandCommand {
                 ms: ms.parse().map_err(|_| bad())?,
             }),
             ["led"] => Ok(HandCommand::ReadLed),
+            ["measure"] => Ok(HandCommand::MeasurePose),
             _ => Err(bad()),
         }
     }
@@ -165,10 +180,16 @@ pub fn hands() -> (HandsRemote, Hands) {
 }
 
 impl Hands {
-    /// One control step at `rate_hz` of an encoder of `ticks_per_turn`: takes new commands
-    /// (one at a time: a turn or press in progress finishes first), and returns the ticks
-    /// the hand turned each wheel by in this step and whether the button is held.
-    pub fn step(&mut self, rate_hz: f64, ticks_per_turn: f64) -> (TickDeltas, bool) {
+    /// One control step at `rate_hz` of an encoder of `ticks_per_turn`, the robot standing
+    /// at `pose` (world frame): takes new commands (one at a time: a turn or press in
+    /// progress finishes first), and returns the ticks the hand turned each wheel by in
+    /// this step and whether the button is held.
+    pub fn step(
+        &mut self,
+        rate_hz: f64,
+        ticks_per_turn: f64,
+        pose: &TruePose,
+    ) -> (TickDeltas, bool) {
         if self.turning.is_none() && self.press_steps_left == 0 {
             if let Ok(command) = self.commands.try_recv() {
                 match command {
@@ -192,6 +213,9 @@ impl Hands {
                             on_steps: on,
                             of_steps: self.led.len() as u32,
                         });
+                    }
+                    HandCommand::MeasurePose => {
+                        let _ = self.answers.send(HandAnswer::Pose(*pose));
                     }
                 }
             }
@@ -247,7 +271,7 @@ mod tests {
         let mut total = 0;
         let mut steps = 0;
         while remote.answers.try_recv().is_err() {
-            let (ticks, pressed) = hands.step(1000.0, 1440.0);
+            let (ticks, pressed) = hands.step(1000.0, 1440.0, &TruePose::default());
             assert_eq!(ticks.left, 0);
             assert!(!pressed);
             total += ticks.right;
@@ -265,9 +289,27 @@ mod tests {
             .commands
             .send(HandCommand::Press { ms: 30 })
             .expect("open");
-        let held = (0..100).filter(|_| hands.step(1000.0, 1440.0).1).count();
+        let held = (0..100)
+            .filter(|_| hands.step(1000.0, 1440.0, &TruePose::default()).1)
+            .count();
         assert_eq!(held, 30);
         assert_eq!(remote.answers.try_recv(), Ok(HandAnswer::Released));
+    }
+
+    #[test]
+    fn a_tape_measures_where_the_robot_stands() {
+        let (remote, mut hands) = hands();
+        remote
+            .commands
+            .send(HandCommand::MeasurePose)
+            .expect("open");
+        let at = TruePose {
+            x_m: 1.25,
+            y_m: -0.5,
+            theta_rad: 0.1,
+        };
+        let _ = hands.step(1000.0, 1440.0, &at);
+        assert_eq!(remote.answers.try_recv(), Ok(HandAnswer::Pose(at)));
     }
 
     #[test]
@@ -281,6 +323,7 @@ mod tests {
         );
         assert_eq!("press 2000".parse(), Ok(HandCommand::Press { ms: 2000 }));
         assert_eq!("led".parse(), Ok(HandCommand::ReadLed));
+        assert_eq!("measure".parse(), Ok(HandCommand::MeasurePose));
         assert!("turn up 1".parse::<HandCommand>().is_err());
         assert!("wave".parse::<HandCommand>().is_err());
     }

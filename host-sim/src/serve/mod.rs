@@ -46,7 +46,7 @@
 //! inverted or swapped, encoders of another resolution or a supply reading that is off,
 //! exactly where a real robot's wiring would have them; the robot's own wiring
 //! corrections are what undoes them. For tests only, [`hands`] turn a wheel by hand,
-//! press the button and watch the LED.
+//! press the button, watch the LED and measure the pose with a tape.
 //!
 //! It reports its brown-out reset at level 3, as a set-up robot does.
 //!
@@ -411,7 +411,7 @@ impl<'a> VirtualRobot<'a> {
                 let c = &self.scenario.robot;
                 let ticks_per_turn =
                     f64::from(c.encoder_lines_per_motor_rev) * 4.0 * f64::from(c.gear_ratio);
-                hands.step(f64::from(c.control_rate_hz), ticks_per_turn)
+                hands.step(f64::from(c.control_rate_hz), ticks_per_turn, &pose)
             }
             None => (Default::default(), false),
         };

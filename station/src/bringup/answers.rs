@@ -101,26 +101,6 @@ impl Answers {
         }
     }
 
-    /// Every answer left in the file (blank and `#` lines left out); `None` at the
-    /// terminal.
-    pub fn remaining_lines(&mut self) -> Result<Option<Vec<String>>, BringupError> {
-        if self.source.is_none() {
-            return Ok(None);
-        }
-        let mut lines = Vec::new();
-        loop {
-            let mut line = String::new();
-            if self.lines.read_line(&mut line)? == 0 {
-                break;
-            }
-            let text = line.trim();
-            if !text.is_empty() && !text.starts_with('#') {
-                lines.push(text.to_string());
-            }
-        }
-        Ok(Some(lines))
-    }
-
     /// An answer that is not what was asked: from a file, an error naming its line; at
     /// the terminal, the question comes again.
     fn not_understood(&self, answer: &str) -> Result<(), BringupError> {

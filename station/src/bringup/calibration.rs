@@ -1,7 +1,10 @@
 //! Step 7: the odometry calibration (`station calibrate`'s code: UMBmark squares both
-//! ways, then a straight run against a tape). The measured end points are the user's:
-//! typed at the terminal, or, with `--answers`, the answers file's remaining lines, one
-//! per run as `station calibrate --measurements` reads them.
+//! ways, then a straight run against a tape). Before each run the user puts the robot at
+//! its start and says so; after it, they type the measured end point (or, for the
+//! straight run, the tape's distance): asked like every other answer, at the terminal or
+//! from `--answers`.
+
+use std::cell::RefCell;
 
 use robot_files::scenario::Scenario;
 
@@ -23,16 +26,25 @@ pub fn run<T: Transport>(s: &mut Session<'_, T>) -> Result<Finding, BringupError
         simulated_noise_m: None,
         no_persist: true,
     };
-    let mut measure = match s.answers.remaining_lines()? {
-        Some(lines) => Measure::File(lines.into_iter()),
-        None => Measure::Ask,
+    // The questions and the progress lines share the terminal.
+    let out = RefCell::new(&mut *s.out);
+    let answers = &mut s.answers;
+    let mut ask = |question: &str| {
+        answers
+            .ask(&mut **out.borrow_mut(), question)
+            .map_err(|e| e.to_string())
     };
-    let out = &mut *s.out;
     let mut say = |line: &str| {
-        let _ = writeln!(out, "  {line}");
+        let _ = writeln!(out.borrow_mut(), "  {line}");
     };
-    let outcome = calibrate::calibrate(s.client, &base, &args, &mut measure, &mut say)
-        .map_err(|e| BringupError::Found(e.to_string()))?;
+    let outcome = calibrate::calibrate(
+        s.client,
+        &base,
+        &args,
+        &mut Measure::Asked(&mut ask),
+        &mut say,
+    )
+    .map_err(|e| BringupError::Found(e.to_string()))?;
     for line in calibrate::table(&outcome).lines() {
         writeln!(s.out, "  {line}")?;
     }

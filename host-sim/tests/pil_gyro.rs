@@ -37,6 +37,7 @@ fn a_gyro_reading_in_the_held_first_step_is_refused_naming_the_latency() {
         Duration::from_secs(1),
         Arc::new(LinkSwitch::default()),
         None,
+        None,
     )
     .unwrap();
     let reading = GyroSample {

@@ -2,7 +2,7 @@
 //! under `qemu-system-arm` against `host-sim`'s plant in lockstep (`host-sim pil`), and
 //! `host-sim`'s built-in station configures it, uploads the path and arms it over the link.
 //!
-//! Five runs:
+//! Six runs:
 //!
 //! 1. `paper-circle`, then `longest-path` (the most segments a path may have, followed by
 //!    projection: the control interrupt's worst case), each for its whole duration: each
@@ -13,16 +13,20 @@
 //!    motors must reach duty 0 within the fault suite's limit for that fault, and the
 //!    summary and digest must equal host-sim's for the same fault.
 //! 3. `paper-circle` with the link cut 1 s after arming, [`FAULT_RUN_S`] long: the motors
-//!    must reach duty 0 within the heartbeat timeout (plus 20 ms for link bytes still in
-//!    the emulator at the cut; `host_sim::pil::verdict`).
+//!    must reach duty 0 within the heartbeat timeout (`host_sim::pil::verdict`).
 //! 4. `paper-circle` on a robot with a gyro ([`GYRO_SCENARIO`], [`GYRO_RUN_S`] long):
 //!    the gyro's readings reach the firmware in the plant's step messages and go through
 //!    its heading fusion (bias, fused heading, the gyro's checks), and summary and digest
 //!    must equal host-sim's. It steers by odometry's heading, the firmware's default
 //!    heading source, which the link cannot change yet.
 //!
+//! 5. [`VELOCITY_SCENARIO`], the velocity mode driven by a timeline of (v, ω) steps and
+//!    then the command timeout: the built-in station sends each command at its control
+//!    step (`host_sim::pil::station`), so summary and digest must equal host-sim's, and
+//!    the armed figures include the velocity mode's control steps.
+//!
 //! The firmware's figures, read from each run's `pil.json` (every task's runs, longest
-//! run and total in instructions; the stack's high-water mark), the worst of the five
+//! run and total in instructions; the stack's high-water mark), the worst of the six
 //! runs', are printed as the CPU-load line and table and checked against the CPU-load
 //! budget ([`ANY_STATE_LIMIT`], [`ARMED_MEAN_LIMIT`], [`ARMED_WORST_LIMIT`]) and
 //! [`STACK_LIMIT`].
@@ -71,7 +75,10 @@ const SCENARIO: &str = "paper-circle";
 /// projection): run 1 too, for the control interrupt's worst case.
 const LONGEST_PATH: &str = "longest-path";
 
-/// Builds the firmware for the emulated board and `host-sim`, then runs the five runs.
+/// The velocity mode's built-in scenario: run 5.
+const VELOCITY_SCENARIO: &str = "velocity-steps";
+
+/// Builds the firmware for the emulated board and `host-sim`, then runs the six runs.
 pub fn check(ctx: &Context) -> Result<()> {
     let firmware = build_target_executables(ctx, "firmware", &["--features", "qemu"])?
         .into_iter()
@@ -83,7 +90,8 @@ pub fn check(ctx: &Context) -> Result<()> {
     // 1. The paper's circle and the longest path the firmware accepts, each against
     //    host-sim; 2. an encoder disconnect on the circle, against host-sim too; 3. a link
     //    loss on the circle, which has no counterpart there; 4. the circle with a gyro,
-    //    against host-sim. The figures are the worst of the five runs.
+    //    against host-sim; 5. the velocity mode, against host-sim. The figures are the
+    //    worst of the six runs.
     let fault_scenario = out.join("paper-circle-encoder-disconnect.toml");
     write_fault_scenario(&host_sim, &fault_scenario)?;
     let fault_scenario = path_str(&fault_scenario)?;
@@ -126,6 +134,12 @@ pub fn check(ctx: &Context) -> Result<()> {
             name: "gyro",
             args: vec![gyro_scenario, "--duration-s", GYRO_RUN_S],
             host_sim_scenario: Some(GYRO_SCENARIO),
+            stop_line: None,
+        },
+        PilRun {
+            name: "velocity",
+            args: vec![VELOCITY_SCENARIO],
+            host_sim_scenario: Some(VELOCITY_SCENARIO),
             stop_line: None,
         },
     ];

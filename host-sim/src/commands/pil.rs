@@ -86,12 +86,14 @@ impl fmt::Display for PilReport {
         if let Some(station) = &self.station {
             writeln!(
                 f,
-                "station: {} answered {} requests ({} re-sent), {} telemetry frames, {} heartbeats",
+                "station: {} answered {} requests ({} re-sent), {} telemetry frames, {} heartbeats, \
+                 {} velocity commands",
                 station.robot,
                 station.replies,
                 station.resent,
                 station.telemetry_frames,
-                station.heartbeats
+                station.heartbeats,
+                station.velocity_commands
             )?;
         }
         writeln!(
@@ -159,19 +161,36 @@ pub fn pil_json(outcome: &PilOutcome, lines: &[Line]) -> Value {
     })
 }
 
+/// A `[velocity]` timeline runs under processor in the loop only through the built-in
+/// station, which sends its commands in step (`crate::pil::station`), and only from the
+/// step after arming: the plant holds still at the first step while the station arms.
+fn velocity_runnable(
+    scenario: &str,
+    timeline: &robot_files::scenario::VelocityTimeline,
+    builtin_station: bool,
+) -> Result<(), Failed> {
+    if !builtin_station {
+        return Err(Failed(format!(
+            "{scenario}: a [velocity] timeline needs the built-in station (`--client builtin`), \
+             which sends its commands at their control steps"
+        )));
+    }
+    if timeline.entries.first().is_some_and(|e| e.at_step == 0) {
+        return Err(Failed(format!(
+            "{scenario}: velocity.commands[0] is at 0 s, the step at which the station arms \
+             the firmware over the link: give it a time of one control period or more"
+        )));
+    }
+    Ok(())
+}
+
 /// Says what it starts on `progress`, runs the firmware in the loop, judges the run and
 /// writes `summary.json` (the run's summary with the wall-clock time of the whole PIL
 /// run) and `pil.json`.
 pub fn run(options: &Options, progress: &mut Progress<'_>) -> Result<PilReport> {
     let mut scenario = load(&options.scenario)?;
-    // Its commands would reach the firmware over the link at wall-clock times, not at
-    // the timeline's control steps: the run could not be compared with host-sim's.
-    if scenario.velocity.is_some() {
-        return Err(Failed(format!(
-            "{}: a [velocity] timeline is not run under processor in the loop (its commands              would reach the firmware at wall-clock times); use host-sim run or velocity-check",
-            scenario.name
-        ))
-        .into());
+    if let Some(timeline) = &scenario.velocity {
+        velocity_runnable(&scenario.name, timeline, options.pil.builtin_station)?;
     }
     if let Some(duration_s) = options.duration_s {
         scenario = scenario.with_duration_s(duration_s)?;
@@ -232,6 +251,19 @@ mod tests {
             text: text.into(),
             passed,
         }
+    }
+
+    #[test]
+    fn a_velocity_timeline_needs_the_builtin_station_and_no_command_at_arming() {
+        let scenario = load("velocity-steps").expect("built in");
+        let timeline = scenario.velocity.expect("a timeline");
+        assert_eq!(velocity_runnable("v", &timeline, true), Ok(()));
+        let without = velocity_runnable("v", &timeline, false).expect_err("refused");
+        assert!(without.0.contains("--client builtin"), "{}", without.0);
+        let mut at_arming = timeline;
+        at_arming.entries[0].at_step = 0;
+        let refused = velocity_runnable("v", &at_arming, true).expect_err("refused");
+        assert!(refused.0.contains("velocity.commands[0]"), "{}", refused.0);
     }
 
     #[test]

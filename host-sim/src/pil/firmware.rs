@@ -9,6 +9,12 @@
 //! moves from there. So the run starts in the same state however long the station took, and from then on every step
 //! is the same computation as in `host-sim run`.
 //!
+//! **The station's requests after arming go in step** ([`super::station`]): before each
+//! step's sensors, the request that step is to take (a velocity command of the
+//! scenario's timeline, else a heartbeat when one is due) is handed to the built-in
+//! station, and the sensors go once the firmware has it. Nothing is handed over from
+//! the link cut of a link-loss run on.
+//!
 //! **The gyro's readings go from the step after arming on.** A reading in the repeated
 //! first step would reach the disarmed firmware again and again (its bias learned from
 //! it, its heading turned by it), where `host-sim run` sees it once; so the first step
@@ -28,7 +34,10 @@ use lockstep::{
     BoardDecoder, BoardReport, BoardStep, FromBoard, PlantStep, FINISH, PLANT_STEP_MAX_LEN,
 };
 
+use link::Request;
+
 use super::relay::LinkSwitch;
+use super::station::StepRequests;
 use crate::hardware::Sensors;
 use crate::run::{Decision, Estimate, RobotLogic, RunError};
 
@@ -47,6 +56,14 @@ pub struct LinkLoss {
     pub stopped_by: Option<String>,
 }
 
+/// The built-in station as the plant loop sees it (module doc).
+pub struct InStepStation {
+    /// Where the requests go.
+    pub requests: StepRequests,
+    /// A heartbeat every this many control steps (at least 1).
+    pub heartbeat_every_steps: u64,
+}
+
 /// The firmware behind its plant port.
 pub struct Firmware {
     plant: TcpStream,
@@ -63,17 +80,24 @@ pub struct Firmware {
     held_steps: u64,
     link: Arc<LinkSwitch>,
     link_loss: Option<LinkLoss>,
+    station: Option<InStepStation>,
+    /// Steps since the last heartbeat handed over.
+    since_heartbeat: u64,
+    /// The velocity command the next step takes.
+    velocity: Option<BodyVelocity>,
 }
 
 impl Firmware {
     /// The firmware whose plant port is `plant` (its ready byte already read), holding
     /// still for at most `arm_timeout` until armed; the link is cut through `link` at
-    /// `link_loss_at_step` (from arming), if given.
+    /// `link_loss_at_step` (from arming), if given; the requests after arming go through
+    /// `station` in step, if the built-in station runs (module doc).
     pub fn new(
         plant: TcpStream,
         arm_timeout: Duration,
         link: Arc<LinkSwitch>,
         link_loss_at_step: Option<u64>,
+        station: Option<InStepStation>,
     ) -> std::io::Result<Self> {
         plant.set_nodelay(true)?;
         plant.set_read_timeout(Some(Duration::from_millis(50)))?;
@@ -91,7 +115,39 @@ impl Firmware {
                 motors_zero_step: None,
                 stopped_by: None,
             }),
+            station,
+            since_heartbeat: 0,
+            velocity: None,
         })
+    }
+
+    /// Hands the station the request this step is to take, if any (module doc).
+    fn hand_over(&mut self) -> Result<(), RunError> {
+        let Some(station) = &self.station else {
+            return Ok(());
+        };
+        self.since_heartbeat += 1;
+        if self.holding
+            || self
+                .link_loss
+                .as_ref()
+                .is_some_and(|l| self.steps >= l.at_step)
+        {
+            self.velocity = None;
+            return Ok(());
+        }
+        let request = match self.velocity.take() {
+            Some(v) => Request::Velocity {
+                v_m_s: v.v_m_s,
+                omega_rad_s: v.omega_rad_s,
+            },
+            None if self.since_heartbeat >= station.heartbeat_every_steps => Request::Heartbeat,
+            None => return Ok(()),
+        };
+        if request == Request::Heartbeat {
+            self.since_heartbeat = 0;
+        }
+        station.requests.send(request).map_err(RunError::Logic)
     }
 
     /// Control steps the firmware ran while the plant held still (configuring, arming).
@@ -199,10 +255,14 @@ impl RobotLogic for Firmware {
         false
     }
 
-    /// Commands reach the firmware over the link only, from the station, which streams
-    /// none: a velocity timeline is not run under processor in the loop.
-    fn command_velocity(&mut self, _command: BodyVelocity) -> bool {
-        false
+    /// The command goes over the link, in step, through the built-in station (module
+    /// doc); `false` without one, or while the plant holds still for arming.
+    fn command_velocity(&mut self, command: BodyVelocity) -> bool {
+        if self.station.is_none() || self.holding {
+            return false;
+        }
+        self.velocity = Some(command);
+        true
     }
 
     fn step(&mut self, sensors: &Sensors) -> Result<Decision<'_>, RunError> {
@@ -220,6 +280,7 @@ impl RobotLogic for Firmware {
                     .into(),
             ));
         }
+        self.hand_over()?;
         let started = Instant::now();
         let answer = loop {
             let answer = self.exchange(&step)?;
@@ -267,4 +328,54 @@ impl RobotLogic for Firmware {
 
 fn io_error(e: std::io::Error) -> RunError {
     RunError::Logic(format!("plant port: {e}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use std::net::TcpListener;
+
+    use super::super::station::step_requests;
+    use super::*;
+
+    #[test]
+    fn each_step_hands_over_its_velocity_command_else_a_due_heartbeat_and_nothing_from_the_cut() {
+        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+        let plant = TcpStream::connect(listener.local_addr().expect("address")).expect("connect");
+        let _plant_peer = listener.accept().expect("accept");
+        let (requests, inbox) = step_requests();
+        let station = std::thread::spawn(move || inbox.pass_everything_on());
+        let mut firmware = Firmware::new(
+            plant,
+            Duration::from_secs(1),
+            Arc::new(LinkSwitch::default()),
+            Some(6),
+            Some(InStepStation {
+                requests,
+                heartbeat_every_steps: 2,
+            }),
+        )
+        .expect("firmware");
+        let command = BodyVelocity::new(0.3, -1.5);
+        // Step 0: the plant holds still while the station arms; nothing goes, and a
+        // command is not taken.
+        assert!(!firmware.command_velocity(command));
+        firmware.hand_over().expect("step 0");
+        firmware.holding = false;
+        for step in 1..=7 {
+            firmware.steps = step;
+            if step == 3 {
+                assert!(firmware.command_velocity(command));
+            }
+            firmware.hand_over().expect("a step");
+        }
+        drop(firmware);
+        let sent = station.join().expect("the station's thread");
+        let velocity = Request::Velocity {
+            v_m_s: 0.3,
+            omega_rad_s: -1.5,
+        };
+        // Heartbeat due at 1; the command at 3 holds back the heartbeat due then to 4;
+        // the link is cut at 6.
+        assert_eq!(sent, [Request::Heartbeat, velocity, Request::Heartbeat]);
+    }
 }

@@ -47,9 +47,9 @@ use controller_core::law::LawKind;
 use lockstep::{BoardReport, READY};
 use robot_files::scenario::Scenario;
 
-use self::firmware::{Firmware, LinkLoss};
+use self::firmware::{Firmware, InStepStation, LinkLoss};
 use self::relay::{LinkSwitch, Relay};
-use self::station::{StationReport, StationScript};
+use self::station::{step_requests, StationReport, StationScript};
 use crate::run::{run_with_logic, RunOptions, RunResult};
 
 /// How a processor-in-the-loop run is set up.
@@ -114,17 +114,30 @@ pub fn run(scenario: &Scenario, law: LawKind, options: &PilOptions) -> Result<Pi
         let relay = Relay::start(station_listener, link, Arc::clone(&switch))?;
         println!("station port: {} (the firmware's link)", relay.address);
         let stop = Arc::new(AtomicBool::new(false));
+        let (requests, inbox) = step_requests();
         let station = options.builtin_station.then(|| {
             let (address, script, stop) = (
                 relay.address,
                 StationScript::for_scenario(scenario, law),
                 Arc::clone(&stop),
             );
-            thread::spawn(move || station::drive(address, &script, &stop))
+            thread::spawn(move || station::drive(address, &script, &inbox, &stop))
+        });
+        // A heartbeat every tenth of the robot's heartbeat timeout.
+        let in_step = station.is_some().then(|| InStepStation {
+            requests,
+            heartbeat_every_steps: u64::from(scenario.supervisor.heartbeat_timeout_steps / 10)
+                .max(1),
         });
         let rate = f64::from(scenario.robot.control_rate_hz);
         let link_loss_at_step = options.link_loss_at_s.map(|s| (s * rate).round() as u64);
-        let mut firmware = Firmware::new(plant, options.arm_timeout, switch, link_loss_at_step)?;
+        let mut firmware = Firmware::new(
+            plant,
+            options.arm_timeout,
+            switch,
+            link_loss_at_step,
+            in_step,
+        )?;
         let run = run_with_logic(
             scenario,
             law,

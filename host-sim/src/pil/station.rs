@@ -1,21 +1,27 @@
 //! A minimal ground station on the runtime link, for driving a processor-in-the-loop run
-//! without the full station: configure, upload the scenario's path, arm in motion, keep
-//! the heartbeat up and count what comes back.
+//! without the full station: configure, upload the scenario's path, arm (in motion, or in
+//! the velocity mode), then send what the plant loop hands it, and count what comes back.
 //!
 //! It speaks to any TCP endpoint that carries the link (`host-sim pil`'s station port,
-//! or a serial bridge to a robot). Requests are sent one at a time and each waits for
-//! its reply (matched by `seq`); a reply that does not come is re-sent (every request is
-//! safe to repeat).
+//! or a serial bridge to a robot). Until armed, requests are sent one at a time and each
+//! waits for its reply (matched by `seq`); a reply that does not come is re-sent (every
+//! request is safe to repeat).
 //!
-//! **Heartbeats follow the robot's time, not the wall clock.** The robot counts its
-//! heartbeat timeout in control steps, and a lockstep run goes at whatever pace the
-//! emulator manages, so a wall-clock heartbeat would be early or late by the run's speed.
-//! This station sends one heartbeat for every [`StationScript::heartbeat_every`]
-//! telemetry frames, which the robot emits at a rate in its own steps.
+//! **After arming, requests go in step with the plant.** A lockstep run goes at whatever
+//! pace the emulator manages, so a request sent at a wall-clock moment would reach the
+//! firmware at an unknown control step. Instead the plant loop hands the station, through
+//! [`StepRequests`], the request a control step is to take (a heartbeat, a velocity
+//! command of the scenario's timeline) before it sends that step's sensors, and waits:
+//! the station sends it, then a `Ping`, and reports back when the `Pong` comes. The link
+//! service handles requests in order, so by then the request waits in the control side's
+//! queue, and the step the plant sends next takes it: the run is the same computation
+//! as `host-sim run`, whose commands arrive at their steps. The request's own reply, sent
+//! by that step, is read later; a refusal among them is reported.
 
 use std::io::{ErrorKind, Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{channel, Receiver, Sender, TryRecvError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -54,17 +60,17 @@ pub struct StationScript {
     pub start_pose: Pose,
     /// "Arm in motion": the body velocity (m/s, rad/s) the robot already has.
     pub initial_motion: Option<BodyVelocity>,
+    /// How to arm: following the path, or in the velocity mode (the scenario has a
+    /// `[velocity]` timeline, whose commands the plant loop hands over in step).
+    pub mode_armed: ArmMode,
     /// Telemetry rate to ask for, Hz.
     pub telemetry_hz: u8,
-    /// One heartbeat per this many telemetry frames (module doc).
-    pub heartbeat_every: u32,
 }
 
 impl StationScript {
     /// The script for `scenario` followed with `law`: its robot and supervisor settings,
-    /// its path and reference, its start pose and motion; telemetry at 20 Hz, a heartbeat
-    /// per telemetry frame (every 50 control steps at 1 kHz, a tenth of the default
-    /// heartbeat timeout).
+    /// its path and reference, its start pose and motion, the velocity mode if it has a
+    /// timeline; telemetry at 20 Hz.
     pub fn for_scenario(scenario: &Scenario, law: LawKind) -> Self {
         let s = scenario.start;
         let moving = s.v_m_s != 0.0 || s.omega_rad_s != 0.0;
@@ -79,10 +85,72 @@ impl StationScript {
             law,
             start_pose: Pose::new(s.x_m as f32, s.y_m as f32, s.theta_rad as f32),
             initial_motion: moving.then(|| BodyVelocity::new(s.v_m_s as f32, s.omega_rad_s as f32)),
+            mode_armed: match scenario.velocity {
+                Some(_) => ArmMode::FollowVelocity,
+                None => ArmMode::FollowPath,
+            },
             telemetry_hz: 20,
-            heartbeat_every: 1,
         }
     }
+}
+
+/// The plant loop's end of the station (module doc): hands over the request the coming
+/// control step is to take.
+pub struct StepRequests {
+    to_station: Sender<Request>,
+    passed_on: Receiver<Result<(), String>>,
+}
+
+impl StepRequests {
+    /// Sends `request` through the station and returns once the firmware's link service
+    /// has passed it to the control side, so that the next control step takes it; the
+    /// station's error otherwise (the station stopped, or no `Pong` came).
+    pub fn send(&self, request: Request) -> Result<(), String> {
+        self.to_station
+            .send(request)
+            .map_err(|_| "the built-in station has stopped".to_string())?;
+        self.passed_on
+            .recv()
+            .map_err(|_| "the built-in station has stopped".to_string())?
+    }
+}
+
+/// The station's end of [`StepRequests`].
+pub struct StepInbox {
+    from_loop: Receiver<Request>,
+    passed_on: Sender<Result<(), String>>,
+}
+
+impl StepInbox {
+    /// For tests: plays the station, answering every request handed over as passed on,
+    /// until the plant loop's end is dropped; the requests, in order.
+    #[cfg(test)]
+    pub(super) fn pass_everything_on(&self) -> Vec<Request> {
+        let mut seen = Vec::new();
+        while let Ok(request) = self.from_loop.recv() {
+            seen.push(request);
+            if self.passed_on.send(Ok(())).is_err() {
+                break;
+            }
+        }
+        seen
+    }
+}
+
+/// A connected pair: the plant loop's [`StepRequests`], the station's [`StepInbox`].
+pub fn step_requests() -> (StepRequests, StepInbox) {
+    let (to_station, from_loop) = channel();
+    let (passed_on_tx, passed_on) = channel();
+    (
+        StepRequests {
+            to_station,
+            passed_on,
+        },
+        StepInbox {
+            from_loop,
+            passed_on: passed_on_tx,
+        },
+    )
 }
 
 /// What the station saw.
@@ -98,6 +166,10 @@ pub struct StationReport {
     pub telemetry_frames: u32,
     /// Heartbeats sent.
     pub heartbeats: u32,
+    /// Velocity commands sent.
+    pub velocity_commands: u32,
+    /// Requests sent in step that the robot refused, as text (module doc).
+    pub refused_in_step: Vec<String>,
     /// Events received, as text.
     pub events: Vec<String>,
     /// The robot's last telemetry step.
@@ -110,18 +182,19 @@ struct Session {
     decoder: Decoder,
     seq: u16,
     report: StationReport,
-    /// Heartbeats owed (telemetry frames seen since the last one).
-    since_heartbeat: u32,
-    heartbeat_every: u32,
+    /// Requests sent in step whose replies have not come yet: `seq` and name.
+    in_step: Vec<(u16, &'static str)>,
     /// The other end closed the connection.
     closed: bool,
 }
 
-/// Runs `script` against the link at `addr`, then keeps the heartbeat up until `stop`
-/// is set or the link closes.
+/// Runs `script` against the link at `addr`, then sends what comes through `inbox` in
+/// step (module doc) until `stop` is set, the plant loop drops its end or the link
+/// closes.
 pub fn drive(
     addr: SocketAddr,
     script: &StationScript,
+    inbox: &StepInbox,
     stop: &Arc<AtomicBool>,
 ) -> Result<StationReport> {
     let stream = connect(addr, stop)?;
@@ -132,12 +205,11 @@ pub fn drive(
         decoder: Decoder::new(),
         seq: 0,
         report: StationReport::default(),
-        since_heartbeat: 0,
-        heartbeat_every: script.heartbeat_every.max(1),
+        in_step: Vec::new(),
         closed: false,
     };
     session.configure(script)?;
-    session.keep_alive(stop)?;
+    session.serve_in_step(inbox, stop)?;
     Ok(session.report)
 }
 
@@ -198,7 +270,7 @@ impl Session {
             other => bail!("SetPose: {}", describe(&other)),
         }
         match self.request(Request::Arm {
-            mode: ArmMode::FollowPath,
+            mode: script.mode_armed,
             initial_motion: script.initial_motion,
             run_time_limit_steps: None,
         })? {
@@ -247,23 +319,51 @@ impl Session {
         }
     }
 
-    /// Reads until `stop`, sending a heartbeat as telemetry frames come in.
-    fn keep_alive(&mut self, stop: &AtomicBool) -> Result<()> {
+    /// Reads until `stop` (or the plant loop or the link ends), sending what the plant
+    /// loop hands over in step and telling it when the firmware has passed it on.
+    fn serve_in_step(&mut self, inbox: &StepInbox, stop: &AtomicBool) -> Result<()> {
+        // Short reads: the plant loop waits on each request handed over.
+        self.stream
+            .set_read_timeout(Some(Duration::from_millis(1)))?;
         while !stop.load(Ordering::Relaxed) {
-            if self.poll()?.is_none() && self.closed {
-                return Ok(());
-            }
-            if self.since_heartbeat >= self.heartbeat_every {
-                self.since_heartbeat = 0;
-                self.seq = self.seq.wrapping_add(1);
-                self.send(&Downlink {
-                    seq: self.seq,
-                    request: Request::Heartbeat,
-                })?;
-                self.report.heartbeats += 1;
+            match inbox.from_loop.try_recv() {
+                Ok(request) => {
+                    let passed_on = self.pass_on(request).map_err(|e| format!("{e:#}"));
+                    if inbox.passed_on.send(passed_on).is_err() {
+                        return Ok(());
+                    }
+                }
+                Err(TryRecvError::Empty) => {
+                    self.poll()?;
+                    if self.closed {
+                        return Ok(());
+                    }
+                }
+                Err(TryRecvError::Disconnected) => return Ok(()),
             }
         }
         Ok(())
+    }
+
+    /// Sends `request` without waiting for its reply, then a `Ping`, and waits for the
+    /// `Pong`: the link service has then passed `request` on (module doc).
+    fn pass_on(&mut self, request: Request) -> Result<()> {
+        match request {
+            Request::Heartbeat => self.report.heartbeats += 1,
+            Request::Velocity { .. } => self.report.velocity_commands += 1,
+            _ => {}
+        }
+        self.seq = self.seq.wrapping_add(1);
+        self.in_step.push((self.seq, request.name()));
+        self.send(&Downlink {
+            seq: self.seq,
+            request,
+        })?;
+        let nonce = u32::from(self.seq);
+        match self.request(Request::Ping { nonce })? {
+            Ok(Reply::Pong { nonce: n }) if n == nonce => Ok(()),
+            other => bail!("Ping: {}", describe(&other)),
+        }
     }
 }
 
@@ -333,7 +433,11 @@ impl Session {
                 Ok(Received::Message(Uplink::Telemetry(frame))) => {
                     self.report.telemetry_frames += 1;
                     self.report.last_telemetry_step = Some(frame.step);
-                    self.since_heartbeat += 1;
+                }
+                Ok(Received::Message(Uplink::Reply { seq, result }))
+                    if self.in_step.iter().any(|&(s, _)| s == seq) =>
+                {
+                    self.answered_in_step(seq, &result);
                 }
                 Ok(Received::Message(Uplink::Event { step, event })) => {
                     self.report.events.push(format!("step {step}: {event:?}"));
@@ -348,6 +452,22 @@ impl Session {
             }
         }
         Ok(reply)
+    }
+}
+
+impl Session {
+    /// Counts the reply to a request sent in step; a refusal is kept as text.
+    fn answered_in_step(&mut self, seq: u16, result: &Result<Reply, Refusal>) {
+        let Some(at) = self.in_step.iter().position(|&(s, _)| s == seq) else {
+            return;
+        };
+        let (_, name) = self.in_step.swap_remove(at);
+        self.report.replies += 1;
+        if let Err(refusal) = result {
+            self.report
+                .refused_in_step
+                .push(format!("{name} (seq {seq}): {refusal}"));
+        }
     }
 }
 

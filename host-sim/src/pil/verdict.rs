@@ -8,21 +8,12 @@
 //! - **Injected faults:** the motors must reach 0 within the limit the simulator's fault
 //!   suite gives for that kind ([`crate::fault_suite::cases`]).
 //! - **A link loss:** the motors must reach 0 within the heartbeat timeout of the
-//!   supervisor settings the station sent, plus [`LINK_IN_FLIGHT_S`], counted from the
-//!   cut. The robot counts the timeout from the last heartbeat it *received*; the relay
-//!   stops passing bytes at the cut, but bytes it passed just before are still on their
-//!   way through the emulator's USART, one per guest main-loop turn and not in step with
-//!   the lockstep, so the last heartbeat can reach the firmware a few steps after the cut.
-//!   A 15-byte frame at one byte per main-loop turn, which can be one per control period,
-//!   takes up to 15 ms; the control step then takes the request at the next step, and
-//!   the timeout counts from that step: up to 17 ms in all.
+//!   supervisor settings the station sent, counted from the cut. The station's
+//!   heartbeats go in step (`super::station`): each has reached the control side before
+//!   the step that takes it, and none is sent from the cut on, so none is in flight.
 
 use serde_json::Value;
 
-/// Time a heartbeat already handed to the emulator at the cut may take to reach the
-/// firmware's supervisor, s (a 15-byte frame, one byte per guest main-loop turn, and up
-/// to two control steps; 17 ms at worst, see the module doc).
-pub const LINK_IN_FLIGHT_S: f64 = 0.020;
 use robot_files::metrics::Summary;
 use robot_files::scenario::Scenario;
 
@@ -113,6 +104,17 @@ pub fn judge(scenario: &Scenario, outcome: &PilOutcome, host: Option<&RunResult>
             passed,
         });
     }
+    if let Some(station) = &outcome.station {
+        if let Some(first) = station.refused_in_step.first() {
+            lines.push(Line {
+                text: format!(
+                    "PIL {name}: the robot refused {} of the requests sent in step, first {first}",
+                    station.refused_in_step.len()
+                ),
+                passed: false,
+            });
+        }
+    }
     if let Some(loss) = &outcome.link_loss {
         lines.push(link_loss_line(
             name,
@@ -162,8 +164,8 @@ pub fn judge(scenario: &Scenario, outcome: &PilOutcome, host: Option<&RunResult>
 }
 
 /// The verdict on a link loss: the motors must be at 0 within the heartbeat timeout
-/// (`heartbeat_timeout_steps` control periods) plus [`LINK_IN_FLIGHT_S`], counted from the
-/// cut; never reaching 0 fails.
+/// (`heartbeat_timeout_steps` control periods), counted from the cut; never reaching 0
+/// fails.
 fn link_loss_line(
     name: &str,
     control_rate_hz: u32,
@@ -171,18 +173,17 @@ fn link_loss_line(
     loss: &LinkLoss,
 ) -> Line {
     let rate = f64::from(control_rate_hz);
-    let limit_steps = u64::from(heartbeat_timeout_steps) + (LINK_IN_FLIGHT_S * rate).round() as u64;
+    let limit_steps = u64::from(heartbeat_timeout_steps);
     let after = loss
         .motors_zero_step
         .map(|s| s.saturating_sub(loss.at_step));
     Line {
         text: format!(
-            "PIL {name}: link lost at {:.3} s: stopped by {}, motors at 0 after {} (limit {}: the heartbeat timeout and {:.0} ms for bytes in flight)",
+            "PIL {name}: link lost at {:.3} s: stopped by {}, motors at 0 after {} (limit {}: the heartbeat timeout)",
             loss.at_step as f64 / rate,
             loss.stopped_by.as_deref().unwrap_or("nothing"),
             seconds(after.map(|s| s as f64 / rate)),
             seconds(Some(limit_steps as f64 / rate)),
-            LINK_IN_FLIGHT_S * 1e3,
         ),
         passed: after.is_some_and(|a| a <= limit_steps),
     }
@@ -324,18 +325,18 @@ mod tests {
     }
 
     #[test]
-    fn a_link_loss_passes_up_to_the_timeout_and_the_bytes_in_flight() {
-        // 1 kHz, 500-step timeout: the limit is 500 + 20 steps after the cut at step 1000.
+    fn a_link_loss_passes_up_to_the_timeout() {
+        // 1 kHz, 500-step timeout: the limit is 500 steps after the cut at step 1000.
         let judged = |zero| link_loss_line("s", 1000, 500, &loss(1000, zero));
-        let at_limit = judged(Some(1520));
+        let at_limit = judged(Some(1500));
         assert!(at_limit.passed, "{}", at_limit.text);
         assert_eq!(
             at_limit.text,
             "PIL s: link lost at 1.000 s: stopped by Disarmed(LinkLost), motors at 0 after \
-             0.520 s (limit 0.520 s: the heartbeat timeout and 20 ms for bytes in flight)"
+             0.500 s (limit 0.500 s: the heartbeat timeout)"
         );
         assert!(judged(Some(1200)).passed);
-        let late = judged(Some(1521));
+        let late = judged(Some(1501));
         assert!(!late.passed, "{}", late.text);
         let never = judged(None);
         assert!(!never.passed);
@@ -344,12 +345,5 @@ mod tests {
             "{}",
             never.text
         );
-    }
-
-    #[test]
-    fn the_bytes_in_flight_scale_with_the_control_rate() {
-        // 200 Hz: 20 ms is 4 periods; 100 steps of timeout.
-        assert!(link_loss_line("s", 200, 100, &loss(0, Some(104))).passed);
-        assert!(!link_loss_line("s", 200, 100, &loss(0, Some(105))).passed);
     }
 }

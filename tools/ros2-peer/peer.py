@@ -2,7 +2,8 @@
 names and types on DDS, against `station ros2 --arm` and a virtual robot.
 
 1. Waits for rt/odom (the bridge is up and the robot streams).
-2. Publishes rt/cmd_vel (geometry_msgs/Twist) at 20 Hz for --drive-s seconds and checks
+2. Publishes rt/cmd_vel (geometry_msgs/Twist, or TwistStamped with --stamped, for a bridge
+   with use_stamped_vel) at 20 Hz for --drive-s seconds and checks
    that the robot moved the way it was told (forward, turning left).
 3. Stops publishing and measures how long after the last command the robot's odometry
    says it stands still: the robot's cmd_vel_timeout, then its deceleration ramp.
@@ -30,6 +31,7 @@ from cyclonedds.util import duration
 
 from ros2_types import (
     DiagnosticArray,
+    Time,
     Header,
     Odometry,
     Path,
@@ -40,6 +42,7 @@ from ros2_types import (
     PoseWithCovarianceStamped,
     Quaternion,
     Twist,
+    TwistStamped,
     Vector3,
 )
 
@@ -55,7 +58,7 @@ def fail(why):
 
 
 class Peer:
-    def __init__(self, domain):
+    def __init__(self, domain, stamped):
         qos = Qos(
             Policy.Reliability.Reliable(duration(milliseconds=100)),
             Policy.Durability.Volatile,
@@ -63,7 +66,11 @@ class Peer:
         )
         self.participant = DomainParticipant(domain)
         p = self.participant
-        self.cmd_vel = DataWriter(p, Topic(p, "rt/cmd_vel", Twist), qos=qos)
+        # cmd_vel as the bridge's use_stamped_vel says: Twist, or TwistStamped.
+        self.stamped = stamped
+        self.cmd_vel = DataWriter(
+            p, Topic(p, "rt/cmd_vel", TwistStamped if stamped else Twist), qos=qos
+        )
         self.path = DataWriter(p, Topic(p, "rt/path", Path), qos=qos)
         self.set_pose = DataWriter(
             p, Topic(p, "rt/set_pose", PoseWithCovarianceStamped), qos=qos
@@ -92,6 +99,15 @@ class Peer:
             self.pump()
             time.sleep(0.005)
 
+    def send_cmd_vel(self, v, omega):
+        twist = Twist(linear=Vector3(x=v), angular=Vector3(z=omega))
+        if self.stamped:
+            now = time.time()
+            stamp = Time(sec=int(now), nanosec=int((now % 1.0) * 1e9))
+            self.cmd_vel.write(TwistStamped(header=Header(stamp=stamp, frame_id="base_link"), twist=twist))
+        else:
+            self.cmd_vel.write(twist)
+
     def latest(self):
         return self.odom[-1][1] if self.odom else None
 
@@ -107,6 +123,7 @@ def still(odom):
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--domain", type=int, default=0)
+    parser.add_argument("--stamped", action="store_true", help="cmd_vel as TwistStamped (the bridge's use_stamped_vel)")
     parser.add_argument("--drive-s", type=float, default=3.0)
     parser.add_argument("--v", type=float, default=0.2)
     parser.add_argument("--omega", type=float, default=0.3)
@@ -114,7 +131,7 @@ def main():
     parser.add_argument("--corner-radius", type=float, default=0.1)
     parser.add_argument("--path-wait-s", type=float, default=30.0)
     args = parser.parse_args()
-    peer = Peer(args.domain)
+    peer = Peer(args.domain, args.stamped)
 
     # 1. The bridge's odometry.
     deadline = time.monotonic() + 30.0
@@ -130,7 +147,7 @@ def main():
     t_first = time.monotonic()
     next_send = t_first
     while time.monotonic() < t_first + args.drive_s:
-        peer.cmd_vel.write(Twist(linear=Vector3(x=args.v), angular=Vector3(z=args.omega)))
+        peer.send_cmd_vel(args.v, args.omega)
         sent += 1
         t_last = time.monotonic()
         next_send += period

@@ -5,6 +5,7 @@
 //! |---|---|
 //! | a 1 000-run sweep of `paper-circle` | the controller settles on 1 000 robots drawn from the scenario's spreads (mismatch, noise, start pose); the sweep prints its percentiles and fails when a run does not settle |
 //! | the tune's spread matrix (`host-sim tune --sweep`) | the self-tune identifies 27 robots (R_a, K_t, inertia ±40 %, friction ×3, one at a time and at every corner, the supply 5–12.6 V) within 10 %, and prints each tuned loop's overshoot; it ends with `tune spread: N of 27 robots identified within 10 %, worst overshoot X %` and fails when a robot was not identified |
+//! | `cargo xtask ros2` with `cmd_vel` as `geometry_msgs/TwistStamped` | the bridge started with `use_stamped_vel` takes stamped commands from the Cyclone DDS peer (CI's run sends Twist) |
 //! | mutation testing (`cargo xtask mutants`) | the tests notice a wrong sign, a swapped comparison or a dropped statement in the mutated crates |
 //! | every fuzz target for 10 minutes (`cargo xtask fuzz 600`) | no input of a decoder of outside bytes or text (the link's frames and messages, the parameter record, scenarios, robot files) crashes it, hangs it or breaks one of its properties (`fuzz-checks`) |
 
@@ -45,6 +46,9 @@ pub fn steps() -> Vec<Step> {
                 "paper-circle",
                 "--sweep",
             ]))
+        }),
+        Step::new("ros2: cmd_vel as TwistStamped", |ctx: &Context| {
+            crate::ros2_peer::check_with(ctx, crate::ros2_peer::CmdVel::TwistStamped)
         }),
         Step::new("mutants: cargo xtask mutants", |ctx: &Context| {
             ensure!(

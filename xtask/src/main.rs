@@ -18,7 +18,7 @@
 //! | `velocity-check` | `host-sim velocity-check` on `velocity-steps`: how soon a step in the command moves the limited command, when the ramp to zero starts after the last command, the largest velocity, acceleration and jerk against the limits; one line, fails when the mode's contract is broken |
 //! | `foxglove-file` | `host-sim run --mcap` and `station run --mcap` (against the virtual robot) read by PyPI's `mcap` and `mcap-protobuf-support` in a venv: every channel and schema, the poses equal to `trace.csv` within 1e-6 m and rad, the 30 s run at 100 Hz at most 10 MB; prints `mcap: N channels, M messages, poses equal trace.csv` |
 //! | `foxglove-live` | npm's `@foxglove/ws-protocol` 0.8 on a `ws` socket (subprotocol `foxglove.sdk.v1`) subscribed to `host-sim serve --foxglove` while a station runs paper-circle: every channel, the rates, the arrival delays, the parameter set (changed while disarmed, read-only while armed); prints `foxglove live: N channels, M messages in S s` |
-//! | `ros2` | `station ros2 --arm` against a Cyclone DDS peer from Python (`tools/ros2-peer/`, in a virtual environment under `target/venvs/` made on first use with PyPI's `cyclonedds`) and the virtual robot: `cmd_vel` at 20 Hz drives it, it stops after the last command within its timeout, an L-shaped `nav_msgs/Path` is followed and settles like the same path uploaded by `station run` |
+//! | `ros2 [--stamped]` | `station ros2 --arm` against a Cyclone DDS peer from Python (`tools/ros2-peer/`, in a virtual environment under `target/venvs/` made on first use with PyPI's `cyclonedds`) and the virtual robot: `cmd_vel` at 20 Hz drives it, it stops after the last command within its timeout, an L-shaped `nav_msgs/Path` is followed and settles like the same path uploaded by `station run`; `--stamped` sends `cmd_vel` as `TwistStamped` to a bridge with `use_stamped_vel` |
 //! | `pil` | processor in the loop: the firmware (emulated `qemu` board) under QEMU against host-sim's plant, driven over its link: `paper-circle` and `longest-path` identical to `host-sim run`, the control interrupt's instructions and the stack, an encoder disconnect and a link loss stopping the motors in time |
 //! | `size-of ELF` | flash and static RAM of any ARM ELF, against the firmware budget (no build) |
 //! | `panic-check` | builds the firmware (and its `panic-canary` variant, which must fail) and proves from the release ELF that the control interrupt, the steering task and the link USART's interrupt reach no panic and no indirect call; then bounds the firmware's worst-case stack from the same call graph |
@@ -97,8 +97,10 @@ commands:
   foxglove-live
           npm's Foxglove client subscribed to host-sim serve --foxglove during a run:
           every channel, the rates and delays, the parameter set
-  ros2    station ros2 against a Cyclone DDS peer (Python, venv under target/) and
+  ros2 [--stamped]
+          station ros2 against a Cyclone DDS peer (Python, venv under target/) and
           host-sim serve: cmd_vel drives, the stop after the last command, a path followed
+          (--stamped: cmd_vel as TwistStamped, use_stamped_vel set)
   pil     the firmware on an emulated Cortex-M4F against host-sim's plant (processor in
           the loop): paper-circle vs host-sim, instructions, stack, a fault, a link loss
   size-of ELF
@@ -179,6 +181,9 @@ fn run() -> Result<bool> {
         ["foxglove-file"] => vec![steps::foxglove_file()],
         ["foxglove-live"] => vec![steps::foxglove_live()],
         ["ros2"] => vec![steps::ros2_peer()],
+        ["ros2", "--stamped"] => vec![Step::new("ros2: cmd_vel as TwistStamped", |ctx| {
+            ros2_peer::check_with(ctx, ros2_peer::CmdVel::TwistStamped)
+        })],
         ["figures", "--check"] => vec![Step::new(
             "figures: docs/figures.md and the README's headline rows up to date",
             |ctx| figures::run(ctx, true),

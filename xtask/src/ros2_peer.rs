@@ -55,8 +55,22 @@ impl Drop for Running {
     }
 }
 
-/// Runs the peer against the bridge and the virtual robot.
+/// How the peer sends `cmd_vel`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CmdVel {
+    /// `geometry_msgs/Twist`, the bridge's default.
+    Twist,
+    /// `geometry_msgs/TwistStamped`, to a bridge with `use_stamped_vel` set.
+    TwistStamped,
+}
+
+/// Runs the peer against the bridge and the virtual robot, `cmd_vel` as Twist (CI's).
 pub fn check(ctx: &Context) -> Result<()> {
+    check_with(ctx, CmdVel::Twist)
+}
+
+/// Runs the peer against the bridge and the virtual robot, `cmd_vel` as `cmd_vel` says.
+pub fn check_with(ctx: &Context, cmd_vel: CmdVel) -> Result<()> {
     let python = crate::python_venv::venv_python(ctx, "ros2", &[CYCLONEDDS])?;
     let host_sim = crate::pil::build_host_sim(ctx)?;
     let station = build_station(ctx)?;
@@ -68,6 +82,10 @@ pub fn check(ctx: &Context) -> Result<()> {
         .args(["--duration-s", BRIDGE_LIMIT_S])
         .args(["-p", &format!("path_corner_radius={CORNER_RADIUS_M}")])
         .args(["-p", &format!("path_speed={PATH_SPEED_M_S}")])
+        .args([
+            "-p",
+            &format!("use_stamped_vel={}", cmd_vel == CmdVel::TwistStamped),
+        ])
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
@@ -85,6 +103,7 @@ pub fn check(ctx: &Context) -> Result<()> {
             "--corner-radius",
             &CORNER_RADIUS_M.to_string(),
         ])
+        .args((cmd_vel == CmdVel::TwistStamped).then_some("--stamped"))
         .current_dir(ctx.root.join("tools/ros2-peer"))
         .env("CYCLONEDDS_URI", CYCLONEDDS_URI)
         .stdin(Stdio::null());

@@ -267,25 +267,28 @@ pub fn ci() -> Vec<Step> {
         Step::new("clippy: qemu-link (thumbv7em-none-eabihf)", |ctx| {
             clippy_for_target(ctx, "qemu-link", &[])
         }),
-        Step::new("tests: host crates", |ctx| {
-            // --no-fail-fast: one failing crate must not hide the others' results.
-            let mut args = vec!["test", "--workspace", "--no-fail-fast"];
-            for package in TARGET_ONLY_PACKAGES {
-                args.extend(["--exclude", package]);
-            }
-            // The station's tests run in their own step, next.
-            args.extend(["--exclude", "station"]);
-            let mut cmd = ctx.cargo(&args);
-            // The property tests draw from one fixed seed here, so that a CI run can be
-            // repeated exactly; a plain `cargo test` draws new cases every time. A seed
-            // already in the environment wins.
-            if std::env::var_os(PROPTEST_SEED_VAR).is_none() {
-                cmd.env(PROPTEST_SEED_VAR, CI_PROPTEST_SEED);
-            }
-            run_command(&mut cmd)
-        }),
+        Step::new(
+            "tests: host crates, the station end to end against the virtual robot among them",
+            |ctx| {
+                // --no-fail-fast: one failing crate must not hide the others' results. The
+                // station's end-to-end tests (`end_to_end`) run here, in the same build: a
+                // `cargo test -p station` of its own resolves the shared crates' features for
+                // the station alone and builds about 95 crates again.
+                let mut args = vec!["test", "--workspace", "--no-fail-fast"];
+                for package in TARGET_ONLY_PACKAGES {
+                    args.extend(["--exclude", package]);
+                }
+                let mut cmd = ctx.cargo(&args);
+                // The property tests draw from one fixed seed here, so that a CI run can be
+                // repeated exactly; a plain `cargo test` draws new cases every time. A seed
+                // already in the environment wins.
+                if std::env::var_os(PROPTEST_SEED_VAR).is_none() {
+                    cmd.env(PROPTEST_SEED_VAR, CI_PROPTEST_SEED);
+                }
+                run_command(&mut cmd)
+            },
+        ),
         self::miri(),
-        end_to_end(),
         firmware_size(),
         first_flash(),
         panic_check(),
@@ -408,8 +411,8 @@ pub fn miri() -> Step {
 /// (a run bit for bit equal to `host-sim run`, refusals while armed), and the `station`
 /// binary over TCP against `host-sim serve`'s loop at 4× real time (the same result, a
 /// killed station disarming the robot within the heartbeat timeout, a corrupted line),
-/// and two cases of the bring-up matrix (about 10 s more). About 20 s of tests once
-/// built.
+/// and two cases of the bring-up matrix (about 10 s more). About 60 s of tests once
+/// built. `cargo xtask e2e` runs them alone; CI runs them in its host-tests step.
 pub fn end_to_end() -> Step {
     Step::new("end-to-end: station against the virtual robot", |ctx| {
         run_command(&mut ctx.cargo(&["test", "-p", "station", "--no-fail-fast"]))
@@ -422,7 +425,7 @@ pub fn end_to_end() -> Step {
 /// `bring-up matrix: N of N miswirings detected and corrected`; then the tune and the
 /// calibration steps on a robot whose wheels and track are off, which print how far the
 /// calibrated geometry is from the plant's. About five minutes; CI runs two of the
-/// matrix's cases in the end-to-end step.
+/// matrix's cases with the station's other tests.
 pub fn bringup_matrix() -> Step {
     Step::new(
         "bring-up matrix: station bringup against every miswiring of the virtual robot",

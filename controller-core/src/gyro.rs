@@ -12,6 +12,7 @@
 
 use crate::fixed::{AngleDelta, BinaryAngle};
 use crate::math;
+use crate::params::{non_negative, positive, ParamError};
 
 /// One reading of the gyro's yaw axis, as the sensor gave it.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -113,6 +114,38 @@ impl GyroConfig {
     pub const fn with_heading(mut self, source: HeadingSource) -> Self {
         self.heading_source = source;
         self
+    }
+
+    /// Every value usable: the scale, full scale, bias time constant, stuck turn and the
+    /// disagreement's threshold and window finite and > 0 (the stuck turn and the blend
+    /// time constant ≥ 0, 0 meaning none), and the absent and stuck limits at least one
+    /// step; otherwise the first field that is not, named as in [`crate::params`].
+    pub(crate) fn validate(&self) -> Result<(), ParamError> {
+        positive(self.scale, "gyro.scale")?;
+        positive(self.full_scale_radps, "gyro.full_scale_radps")?;
+        positive(self.bias_time_constant_s, "gyro.bias_time_constant_s")?;
+        non_negative(
+            self.odometry_blend_time_constant_s,
+            "gyro.odometry_blend_time_constant_s",
+        )?;
+        if self.absent_limit_steps == 0 {
+            return Err(ParamError::NonPositive {
+                field: "gyro.absent_limit_steps",
+                value: 0.0,
+            });
+        }
+        if self.stuck_limit_steps == 0 {
+            return Err(ParamError::NonPositive {
+                field: "gyro.stuck_limit_steps",
+                value: 0.0,
+            });
+        }
+        non_negative(self.stuck_turn_rad, "gyro.stuck_turn_rad")?;
+        positive(
+            self.disagreement_threshold_radps,
+            "gyro.disagreement_threshold_radps",
+        )?;
+        positive(self.disagreement_window_s, "gyro.disagreement_window_s")
     }
 }
 
@@ -410,6 +443,45 @@ impl HeadingFusion {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_unusable_value_is_refused_by_its_field() {
+        assert_eq!(GyroConfig::ICM42688P.validate(), Ok(()));
+        type Spoil = fn(&mut GyroConfig);
+        let cases: [(Spoil, &str); 9] = [
+            (|g| g.scale = f32::NAN, "gyro.scale"),
+            (|g| g.full_scale_radps = 0.0, "gyro.full_scale_radps"),
+            (
+                |g| g.bias_time_constant_s = -1.0,
+                "gyro.bias_time_constant_s",
+            ),
+            (
+                |g| g.odometry_blend_time_constant_s = -0.1,
+                "gyro.odometry_blend_time_constant_s",
+            ),
+            (|g| g.absent_limit_steps = 0, "gyro.absent_limit_steps"),
+            (|g| g.stuck_limit_steps = 0, "gyro.stuck_limit_steps"),
+            (|g| g.stuck_turn_rad = f32::INFINITY, "gyro.stuck_turn_rad"),
+            (
+                |g| g.disagreement_threshold_radps = 0.0,
+                "gyro.disagreement_threshold_radps",
+            ),
+            (
+                |g| g.disagreement_window_s = 0.0,
+                "gyro.disagreement_window_s",
+            ),
+        ];
+        for (spoil, field) in cases {
+            let mut g = GyroConfig::ICM42688P;
+            spoil(&mut g);
+            assert_eq!(g.validate().map_err(|e| e.field()), Err(field));
+        }
+        // None is the blend's "no correction", and no stuck turn is allowed.
+        let mut g = GyroConfig::ICM42688P;
+        g.odometry_blend_time_constant_s = 0.0;
+        g.stuck_turn_rad = 0.0;
+        assert_eq!(g.validate(), Ok(()));
+    }
 
     const PERIOD_S: f32 = 0.001;
 

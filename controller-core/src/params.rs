@@ -9,6 +9,7 @@ use core::fmt;
 use core::num::NonZeroU32;
 
 use crate::encoder::MAX_SPEED_WINDOW_STEPS;
+use crate::gyro::GyroConfig;
 use crate::kinematics::DiffDrive;
 use crate::law::{KanayamaGains, LawGains, PaperGains, TrackingGains};
 use crate::limits::Limits;
@@ -128,6 +129,10 @@ pub struct RobotConfig {
     /// How the board's motor outputs and encoder inputs reach the wheels, and the scale
     /// of its supply reading ([`crate::wiring`]; robot-app applies them at the board).
     pub wiring: WiringConfig,
+    /// The gyro: the heading the controller uses, the axis sign and scale from
+    /// bring-up, and the limits that judge the sensor ([`crate::gyro`]). A robot without
+    /// one passes no readings and steers by odometry whatever this says.
+    pub gyro: GyroConfig,
 }
 
 /// The wheel loop of the reference robot's motors (see [`RobotConfig::REFERENCE_ROBOT`]).
@@ -202,6 +207,7 @@ impl RobotConfig {
         },
         velocity: VelocityModeConfig::at_rate(1000),
         wiring: WiringConfig::AS_BUILT,
+        gyro: GyroConfig::ICM42688P,
     };
 }
 
@@ -506,6 +512,7 @@ impl Params {
         config.right_wheel.validate(&RIGHT_WHEEL_FIELDS)?;
         config.law.validate()?;
         config.velocity.validate()?;
+        config.gyro.validate()?;
         if !config.wiring.supply_scale_ok() {
             return Err(ParamError::SupplyScaleOutOfRange(
                 config.wiring.supply_scale,

@@ -21,7 +21,7 @@ use robot_app::channel::ring::{Consumer, Producer};
 use stm32f4xx_hal::pac;
 
 /// Bytes the receive ring holds: a whole frame of the largest size (`link::MAX_FRAME_LEN`,
-/// 364) does not need to fit, only what arrives while the link task cannot take it
+/// 400) does not need to fit, only what arrives while the link task cannot take it
 /// (its transmit buffer full); 256 B is 11 ms at 230 400 Bd.
 pub const RX_RING: usize = 256;
 /// Bytes the transmit ring holds: a staging area between the link service's buffer and

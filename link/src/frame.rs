@@ -25,11 +25,11 @@ use crate::protocol::{ProtocolId, HEADER_LEN};
 
 /// Largest postcard body a frame may carry, bytes. The largest messages,
 /// [`Request::SetParams`](crate::Request) and its twin [`Reply::Params`](crate::Reply),
-/// take at most 344 and 346 bytes with *any* configuration (every varint at its longest,
-/// every option present; a test derives these bounds from the message schema). 352
+/// take at most 381 and 383 bytes with *any* configuration (every varint at its longest,
+/// every option present; a test derives these bounds from the message schema). 388
 /// leaves room for one more `f32` field; each byte
 /// here costs two of RAM on the robot (the receive and the transmit buffer).
-pub const MAX_BODY_LEN: usize = 352;
+pub const MAX_BODY_LEN: usize = 388;
 
 /// Bytes of CRC after the payload.
 pub const CRC_LEN: usize = 4;

@@ -38,8 +38,8 @@
 //!   Why in every frame rather than in a handshake: telemetry starts flowing without one,
 //!   and a robot reflashed behind a running station is caught on its next frame.
 //!
-//! Limits: a body is at most [`MAX_BODY_LEN`] = 352 bytes, a frame at most
-//! [`MAX_FRAME_LEN`] = 364 bytes on the wire.
+//! Limits: a body is at most [`MAX_BODY_LEN`] = 388 bytes, a frame at most
+//! [`MAX_FRAME_LEN`] = 400 bytes on the wire.
 //!
 //! # Messages and their sizes
 //!
@@ -160,8 +160,8 @@
 //! `opt-level = "s"` for the program, fat LTO), whose `.text`/`.bss` `cargo xtask
 //! link-qemu` prints:
 //!
-//! - **RAM:** [`Decoder`] 363 B of frame buffer plus its counters, a transmit buffer of
-//!   [`MAX_FRAME_LEN`] = 364 B, [`PathAssembler`] 824 B (the new path is built at commit,
+//! - **RAM:** [`Decoder`] 399 B of frame buffer plus its counters, a transmit buffer of
+//!   [`MAX_FRAME_LEN`] = 400 B, [`PathAssembler`] 824 B (the new path is built at commit,
 //!   about 0.9 KiB, and moved into the controller). A robot short of RAM keeps the
 //!   upload's 768 B of segments ([`UploadSegments`]) where it has room and the rest of
 //!   the assembler ([`UploadState`]) in 56 B (on a 64-bit host): robot-app assembles in

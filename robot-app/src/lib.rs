@@ -156,6 +156,6 @@ pub use crate::start::{start, AppConfig, StartError};
 /// below the host's, whose pointers are 8 bytes).
 const _: () = {
     assert!(core::mem::size_of::<ControlSide<'static>>() <= 3_072);
-    assert!(core::mem::size_of::<LinkService<'static>>() <= 1_728);
+    assert!(core::mem::size_of::<LinkService<'static>>() <= 1_856);
     assert!(core::mem::size_of::<Channels>() <= 2_944);
 };

@@ -17,8 +17,8 @@
 //! 4. `paper-circle` on a robot with a gyro ([`GYRO_SCENARIO`], [`GYRO_RUN_S`] long):
 //!    the gyro's readings reach the firmware in the plant's step messages and go through
 //!    its heading fusion (bias, fused heading, the gyro's checks), and summary and digest
-//!    must equal host-sim's. It steers by odometry's heading, the firmware's default
-//!    heading source, which the link cannot change yet.
+//!    must equal host-sim's. It steers by the fused heading, which the station's
+//!    configuration (`SetParams`) selects.
 //!
 //! 5. [`VELOCITY_SCENARIO`], the velocity mode driven by a timeline of (v, ω) steps and
 //!    then the command timeout: the built-in station sends each command at its control
@@ -519,7 +519,7 @@ fn write_gyro_scenario(host_sim: &Path, path: &Path) -> Result<()> {
         host_sim,
         path,
         GYRO_SCENARIO,
-        "\n[gyro]\nheading = \"odometry\"\nlatency_periods = 1\n",
+        "\n[gyro]\nheading = \"fused\"\nlatency_periods = 1\n",
     )
 }
 

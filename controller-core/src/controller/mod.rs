@@ -31,7 +31,7 @@ use core::num::NonZeroU32;
 
 use crate::drive::{SupplyFilter, WheelDrive, WheelLoopReport, WheelVolts};
 use crate::encoder::SpeedEstimator;
-use crate::gyro::{GyroConfig, GyroReport, GyroSample, HeadingFusion};
+use crate::gyro::{GyroReport, GyroSample, HeadingFusion};
 use crate::kinematics::{BodyVelocity, Pose, TrackingError, WheelSpeeds};
 use crate::law::{LawKind, LawOutput};
 use crate::limits::LimitFlags;
@@ -294,7 +294,7 @@ impl<S: OuterLoopHolder> Controller<S> {
         let estimator = SpeedEstimator::new(window, params.rad_per_tick(), steps_per_s);
         let odometry = Odometry::new(params.geometry(), params.ticks_per_wheel_rev(), start);
         let fusion =
-            HeadingFusion::new(GyroConfig::ICM42688P, params.period_s(), odometry.heading());
+            HeadingFusion::new(params.config().gyro, params.period_s(), odometry.heading());
         Self {
             fusion,
             speed: [estimator.clone(), estimator],
@@ -329,13 +329,15 @@ impl<S: OuterLoopHolder> Controller<S> {
     /// holds) and its reference as they are: where the robot is and how far along the path
     /// it was do not change with the parameters. Unlike assigning a new controller, it
     /// moves no whole controller through the stack: it is meant for small stacks (an
-    /// interrupt installing a new configuration). Refused, with nothing changed, while
-    /// the outer loop is lent.
+    /// interrupt installing a new configuration). The gyro takes the new parameters'
+    /// configuration and keeps its bias estimate, which is the sensor's. Refused, with
+    /// nothing changed, while the outer loop is lent.
     pub fn rebuild(&mut self, params: &Params, law: LawKind) -> Result<(), OuterLoopAway> {
         self.outer_loop_for_a_change()?.restart(params, law);
         self.params = *params;
         let pose = self.odometry.pose();
         self.odometry = Odometry::new(params.geometry(), params.ticks_per_wheel_rev(), pose);
+        self.fusion.set_config(params.config().gyro);
         self.fusion
             .restart(params.period_s(), self.odometry.heading());
         self.restart_from_params();
@@ -537,20 +539,6 @@ impl<S: OuterLoopHolder> Controller<S> {
     /// The heading from the encoders alone, world frame, wrapped to (−π, π], rad.
     pub fn odometry_heading_rad(&self) -> f32 {
         self.fusion.odometry_heading_rad()
-    }
-
-    /// The gyro's configuration in use.
-    pub const fn gyro_config(&self) -> &GyroConfig {
-        self.fusion.config()
-    }
-
-    /// Replaces the gyro's configuration; the bias estimate stays (it is the sensor's),
-    /// and the fused heading restarts from the heading in use, so a change of heading
-    /// source moves nothing. A due steering job keeps the pose it was due with.
-    pub fn set_gyro_config(&mut self, config: GyroConfig) {
-        self.run_due_job_aside();
-        self.fusion.set_config(config);
-        self.fusion.set_heading(self.odometry.heading());
     }
 
     /// Starts the odometry's heading recomputation afresh ([`Odometry::resync_heading`]),

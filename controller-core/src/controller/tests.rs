@@ -2,6 +2,7 @@
 //! the set-point ramp, the supply's effect on the caps, faults and bounded duties.
 
 use super::*;
+use crate::gyro::HeadingSource;
 use crate::kinematics::Point;
 use crate::params::RobotConfig;
 use crate::path::Path;
@@ -107,6 +108,33 @@ fn rebuilding_in_place_equals_building_anew() {
     fresh.telemetry.pose = fresh.odometry.pose();
     assert_eq!(format!("{followed:?}"), format!("{fresh:?}"));
     assert_ne!(format!("{followed:?}"), format!("{:?}", driven()));
+}
+
+/// New parameters bring their gyro configuration (here a new heading source) into the
+/// running fusion, and the bias it learned at rest, which is the sensor's, stays.
+#[test]
+fn a_rebuild_takes_the_new_gyro_configuration_and_keeps_the_bias() {
+    let mut c = controller();
+    for _ in 0..200 {
+        c.step(StepInput {
+            gyro: Some(crate::gyro::GyroSample {
+                yaw_rate_radps: 0.01,
+                age_periods: 0,
+            }),
+            still: true,
+            ..StepInput::on_time(ticks(0, 0), SUPPLY_V)
+        });
+    }
+    let bias = c.fusion.report().bias_radps;
+    assert!((bias - 0.01).abs() < 1e-4, "learned at rest: {bias}");
+    assert_eq!(c.fusion.config().heading_source, HeadingSource::Odometry);
+    let mut config = *c.params().config();
+    config.gyro = config.gyro.with_heading(HeadingSource::Fused);
+    config.gyro.scale = 1.01;
+    c.rebuild(&Params::new(config).unwrap(), LawKind::Tracking)
+        .expect("owned outer loop");
+    assert_eq!(*c.fusion.config(), config.gyro);
+    assert_eq!(c.fusion.report().bias_radps, bias);
 }
 
 #[test]

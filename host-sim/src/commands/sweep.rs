@@ -5,7 +5,7 @@
 use std::fmt;
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::{ensure, Context, Result};
 use controller_core::law::LawKind;
 use indicatif::{ProgressBar, ProgressStyle};
 use robot_files::scenario::{HeadingChoice, SweepSpec};
@@ -131,14 +131,12 @@ impl Report for SweepCommandReport {}
 pub fn run(options: &Options) -> Result<SweepCommandReport> {
     let mut scenario = load(&options.scenario)?;
     if let Some(heading) = options.heading {
-        let gyro = scenario.gyro.as_mut().with_context(|| {
-            format!(
-                "--heading {} needs a scenario with a [gyro] table; {} has none",
-                heading.name(),
-                scenario.name
-            )
-        })?;
-        gyro.heading = heading;
+        ensure!(
+            scenario.steer_by(heading),
+            "--heading {} needs a scenario with a [gyro] table; {} has none",
+            heading.name(),
+            scenario.name
+        );
     }
     let bar = ProgressBar::new(u64::from(options.runs));
     bar.set_style(

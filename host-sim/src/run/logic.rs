@@ -8,13 +8,12 @@
 //! else; a decision is exactly what the firmware would decide on the same sensors.
 
 use controller_core::controller::Telemetry;
-use controller_core::gyro::{GyroConfig, HeadingSource};
 use controller_core::prelude::*;
 use controller_core::supervisor::{
     ArmRequest, Bridge, Command, Inputs, Supervisor, SupervisorOutput,
 };
 use robot_files::faults::Fault;
-use robot_files::scenario::{GyroSetup, HeadingChoice, Scenario};
+use robot_files::scenario::Scenario;
 
 use super::RunError;
 use crate::hardware::{Actuation, Sensors, SimHardware};
@@ -85,10 +84,7 @@ impl LocalRobot {
         .map_err(RunError::Reference)?;
         let s = scenario.start;
         let start = Pose::new(s.x_m as f32, s.y_m as f32, s.theta_rad as f32);
-        let mut controller = Controller::new(params, reference, law, start);
-        if let Some(setup) = scenario.gyro {
-            controller.set_gyro_config(gyro_config(&setup));
-        }
+        let controller = Controller::new(params, reference, law, start);
         Ok(Self {
             controller,
             supervisor: Supervisor::new(
@@ -139,19 +135,6 @@ impl RobotLogic for LocalRobot {
             telemetry: Some(t),
             pid_parts: Some(pid_parts),
         })
-    }
-}
-
-/// The core's gyro configuration for a scenario's `setup`: the heading it names (the
-/// oracle is the fusion fed an ideal gyro) and the sensor's full scale.
-pub fn gyro_config(setup: &GyroSetup) -> GyroConfig {
-    let source = match setup.heading {
-        HeadingChoice::Odometry => HeadingSource::Odometry,
-        HeadingChoice::Fused | HeadingChoice::Oracle => HeadingSource::Fused,
-    };
-    GyroConfig {
-        full_scale_radps: setup.sensor.full_scale_rad_s as f32,
-        ..GyroConfig::ICM42688P.with_heading(source)
     }
 }
 

@@ -210,15 +210,15 @@ mod tests {
     fn the_watchdog_outlasts_the_worst_erase_at_the_fastest_lsi() {
         let sector = STORAGE_F411.a;
         let needed = persist_watchdog_timeout_us(&sector, MAX_RECORD_LEN).unwrap();
-        // 2 s erase + 93 words × 100 µs + 50 ms.
-        assert_eq!(words_for(MAX_RECORD_LEN), 93);
-        assert_eq!(needed, 2_059_300);
+        // 2 s erase + 102 words × 100 µs + 50 ms.
+        assert_eq!(words_for(MAX_RECORD_LEN), 102);
+        assert_eq!(needed, 2_060_200);
         let lsi = Chip::F411.lsi_hz();
         let config = IwdgConfig::at_least_us(needed, lsi.2).unwrap();
-        // The firmware's setting (board/f411/flash.rs): ÷32, reload 3024.
+        // The firmware's setting (board/f411/flash.rs): ÷32, reload 3025.
         assert_eq!(
             (config.prescaler, config.reload),
-            (IwdgPrescaler::Div32, 3024),
+            (IwdgPrescaler::Div32, 3025),
             "{config:?}"
         );
         let spread = config.spread(lsi);

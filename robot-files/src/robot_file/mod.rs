@@ -29,6 +29,13 @@
 //! [robot.velocity]             # the velocity mode: cmd_vel_timeout_steps (500 at 1 kHz)
 //! [robot.velocity.linear_x]    # max_velocity, max_acceleration, max_jerk (m/s, m/s², m/s³)
 //! [robot.velocity.angular_z]   # max_velocity, max_acceleration, max_jerk (rad/s, rad/s², rad/s³)
+//! [robot.wiring]               # left/right_motor_inverted, motors_swapped,
+//!                              #   left/right_encoder_inverted, encoders_swapped, supply_scale
+//! [robot.gyro]                 # heading_source ("odometry" or "fused"), axis_inverted, scale,
+//!                              #   full_scale_radps, bias_time_constant_s,
+//!                              #   odometry_blend_time_constant_s, max_age_periods,
+//!                              #   absent_limit_steps, stuck_limit_steps, stuck_turn_rad,
+//!                              #   disagreement_threshold_radps, disagreement_window_s
 //!
 //! [supervisor]                 # times in seconds; the supervisor counts control steps
 //! run_time_limit_s = 120.0     # or "none" (the default: a soak can run for a day)
@@ -55,6 +62,7 @@
 //! got -1`: the core's own validation ([`Params::new`](controller_core::params::Params::new),
 //! [`SupervisorConfig::validate`]) decides, and its field name is turned into the TOML key.
 
+mod gyro;
 mod robot;
 mod supervisor;
 
@@ -64,6 +72,7 @@ use controller_core::params::{ParamError, RobotConfig};
 use controller_core::supervisor::{SupervisorConfig, SupervisorConfigError};
 use serde::{Deserialize, Serialize};
 
+pub use gyro::{GyroSection, HeadingSourceName};
 pub use robot::{
     tuned_wheel_sections, AxisSection, DriveSection, KanayamaSection, LawSection, LimitsSection,
     MotorSection, PaperSection, RobotSection, TrackingSection, VelocitySection, WheelSection,
@@ -247,6 +256,58 @@ mod tests {
             .config(&params, Some(ctx), "supervisor")
             .unwrap();
         assert_eq!(back_sup, supervisor, "{text}");
+    }
+
+    #[test]
+    fn the_gyro_section_round_trips_and_its_errors_name_the_key() {
+        let file = RobotFile::from_toml(
+            "[robot.gyro]\nheading_source = \"fused\"\naxis_inverted = true\nscale = 1.004\n",
+        )
+        .unwrap();
+        let robot = file.robot.apply(RobotConfig::REFERENCE_ROBOT);
+        assert_eq!(
+            robot.gyro.heading_source,
+            controller_core::gyro::HeadingSource::Fused
+        );
+        assert!(robot.gyro.axis_inverted);
+        assert_eq!(robot.gyro.scale, 1.004);
+        // What the section leaves out keeps the base's value.
+        assert_eq!(
+            robot.gyro.stuck_limit_steps,
+            RobotConfig::REFERENCE_ROBOT.gyro.stuck_limit_steps
+        );
+        let params = Params::new(robot).unwrap();
+        let supervisor = SupervisorSection::default()
+            .config(&params, None, "supervisor")
+            .unwrap();
+        let text = RobotFile::of(&robot, &supervisor).to_toml();
+        assert!(text.contains("[robot.gyro]"), "{text}");
+        let back = RobotFile::from_toml(&text).unwrap();
+        assert_eq!(
+            back.robot.apply(RobotConfig::REFERENCE_ROBOT).gyro,
+            robot.gyro
+        );
+
+        for (toml, key) in [
+            ("scale = nan", "robot.gyro.scale must be > 0"),
+            (
+                "stuck_limit_steps = 0",
+                "robot.gyro.stuck_limit_steps must be > 0",
+            ),
+            (
+                "odometry_blend_time_constant_s = -1.0",
+                "robot.gyro.odometry_blend_time_constant_s must be ≥ 0",
+            ),
+        ] {
+            let file = RobotFile::from_toml(&format!("[robot.gyro]\n{toml}\n")).unwrap();
+            let e = file
+                .robot
+                .params(RobotConfig::REFERENCE_ROBOT, "robot")
+                .unwrap_err();
+            assert!(e.to_string().starts_with(key), "{toml}: {e}");
+        }
+        let e = RobotFile::from_toml("[robot.gyro]\nheading_source = \"compass\"\n").unwrap_err();
+        assert!(e.to_string().contains("heading_source"), "{e}");
     }
 
     #[test]

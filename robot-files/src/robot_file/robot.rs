@@ -7,6 +7,7 @@ use controller_core::velocity::AxisLimits;
 use controller_core::wiring::WiringConfig;
 use serde::{Deserialize, Serialize};
 
+use super::gyro::GyroSection;
 use super::{param_error, set, SectionError};
 
 /// `[robot.limits]`.
@@ -305,6 +306,9 @@ pub struct RobotSection {
     /// Wiring corrections.
     #[serde(default)]
     pub wiring: WiringSection,
+    /// The gyro.
+    #[serde(default)]
+    pub gyro: GyroSection,
 }
 
 /// True when `section` sets the wheel-loop field `name`.
@@ -414,6 +418,7 @@ impl RobotSection {
             self.velocity.cmd_vel_timeout_steps,
         );
         self.wiring.apply(&mut c.wiring);
+        self.gyro.apply(&mut c.gyro);
         c
     }
 
@@ -480,6 +485,7 @@ impl RobotSection {
                 cmd_vel_timeout_steps: Some(config.velocity.cmd_vel_timeout_steps),
             },
             wiring: WiringSection::of(&config.wiring),
+            gyro: GyroSection::of(&config.gyro),
         }
     }
 }

@@ -377,7 +377,7 @@ pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, 
     let bridge_max_v = plant.driver.kind.operating_supply_v().1 as f32;
     let mut base = RobotConfig::REFERENCE_ROBOT;
     base.drive.max_supply_v = base.drive.max_supply_v.min(bridge_max_v);
-    let robot = file.robot.apply(base);
+    let mut robot = file.robot.apply(base);
     check(
         robot.drive.max_supply_v <= bridge_max_v,
         "robot.drive.max_supply_v",
@@ -487,6 +487,12 @@ pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, 
         .supervisor
         .config(&params, Some(context), "supervisor")?;
 
+    // The [gyro] table's heading and full scale are the robot's (its `gyro`), as a robot
+    // file or the link would set them.
+    let gyro = file.gyro.as_ref().map(|g| g.build()).transpose()?;
+    if let Some(setup) = &gyro {
+        robot.gyro = setup.robot_gyro(robot.gyro);
+    }
     Ok(Scenario {
         name: file.name.unwrap_or_else(|| default_name.to_string()),
         description: file.description,
@@ -509,7 +515,7 @@ pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, 
             .collect::<Result<_, _>>()
             .map_err(|e| ScenarioError::invalid(e.key, e.problem))?,
         sweep: build_sweep(&file.sweep)?,
-        gyro: file.gyro.as_ref().map(|g| g.build()).transpose()?,
+        gyro,
         velocity: match &file.velocity {
             Some(v) => Some(super::velocity::build(v, control)?),
             None => None,

@@ -20,6 +20,7 @@
 //! sweep_slip_patch_s = 0.0                   # … lasting up to this long, s
 //! ```
 
+use controller_core::gyro::{GyroConfig, HeadingSource};
 use serde::Deserialize;
 
 use super::checks::{check, finite, non_negative};
@@ -109,6 +110,22 @@ pub struct GyroSetup {
     pub rest_before_arming_s: f64,
     /// The sweep's spreads.
     pub sweep: GyroSweep,
+}
+
+impl GyroSetup {
+    /// The robot's gyro configuration `base` with this setup's heading (the oracle is
+    /// the fusion fed an ideal gyro) and its sensor's full scale: what the scenario's
+    /// robot carries in `RobotConfig::gyro`.
+    pub fn robot_gyro(&self, base: GyroConfig) -> GyroConfig {
+        let source = match self.heading {
+            HeadingChoice::Odometry => HeadingSource::Odometry,
+            HeadingChoice::Fused | HeadingChoice::Oracle => HeadingSource::Fused,
+        };
+        GyroConfig {
+            full_scale_radps: self.sensor.full_scale_rad_s as f32,
+            ..base.with_heading(source)
+        }
+    }
 }
 
 /// `[gyro]` as serde reads it.
@@ -208,5 +225,36 @@ impl FileGyro {
                 )?,
             },
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use controller_core::gyro::HeadingSource;
+
+    use super::HeadingChoice;
+    use crate::scenario::Scenario;
+
+    #[test]
+    fn the_gyro_table_sets_the_robots_heading_source_and_steer_by_moves_both() {
+        let mut s = Scenario::load("paper-circle-gyro").expect("built in");
+        let setup = s.gyro.expect("a [gyro] table");
+        assert_eq!(setup.heading, HeadingChoice::Fused);
+        assert_eq!(s.robot.gyro.heading_source, HeadingSource::Fused);
+        assert_eq!(
+            s.robot.gyro.full_scale_radps,
+            setup.sensor.full_scale_rad_s as f32
+        );
+        assert!(s.steer_by(HeadingChoice::Odometry));
+        assert_eq!(s.gyro.map(|g| g.heading), Some(HeadingChoice::Odometry));
+        assert_eq!(s.robot.gyro.heading_source, HeadingSource::Odometry);
+        // The oracle is the fusion, fed an ideal gyro.
+        assert!(s.steer_by(HeadingChoice::Oracle));
+        assert_eq!(s.robot.gyro.heading_source, HeadingSource::Fused);
+
+        let mut plain = Scenario::load("paper-circle").expect("built in");
+        assert_eq!(plain.robot.gyro.heading_source, HeadingSource::Odometry);
+        assert!(!plain.steer_by(HeadingChoice::Fused));
+        assert_eq!(plain.robot.gyro.heading_source, HeadingSource::Odometry);
     }
 }

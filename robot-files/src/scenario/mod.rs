@@ -397,6 +397,17 @@ impl Scenario {
         Ok(self)
     }
 
+    /// Steers by `heading`: the `[gyro]` table's choice and the robot's heading source
+    /// together (`false`, and nothing changed, for a scenario without a `[gyro]` table).
+    pub fn steer_by(&mut self, heading: HeadingChoice) -> bool {
+        let Some(setup) = self.gyro.as_mut() else {
+            return false;
+        };
+        setup.heading = heading;
+        self.robot.gyro = setup.robot_gyro(self.robot.gyro);
+        true
+    }
+
     /// Validated controller parameters.
     pub fn params(&self) -> Result<Params, ScenarioError> {
         Params::new(self.robot).map_err(|e| param_error(e, "robot").into())

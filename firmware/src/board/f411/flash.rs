@@ -37,7 +37,7 @@ const KEYS: [u32; 2] = [0x4567_0123, 0xCDEF_89AB];
 
 /// The independent watchdog while a record is written: it outlasts the longest erase of
 /// a storage sector and the programming of the largest record even at the fastest LSI
-/// (47 kHz): ÷32, reload 3024, 2.06 s there, 3.0 s at the typical 32 kHz, 5.7 s at
+/// (47 kHz): ÷32, reload 3025, 2.06 s there, 3.0 s at the typical 32 kHz, 5.7 s at
 /// 17 kHz (`robot_app::stm32f4::flash::persist_watchdog_timeout_us`).
 pub const WATCHDOG_PERSIST: IwdgConfig = {
     let needed = match persist_watchdog_timeout_us(&STORAGE.a, MAX_RECORD_LEN) {

@@ -52,14 +52,6 @@ fn fresh_dir(ctx: &Context, name: &str) -> Result<PathBuf> {
     Ok(dir)
 }
 
-fn build_station(ctx: &Context) -> Result<PathBuf> {
-    let mut cmd = ctx.cargo(&["build", "--package", "station", "--bin", "station"]);
-    println!("$ {}", display_command(&cmd));
-    let status = cmd.status().context("could not start cargo")?;
-    ensure!(status.success(), "building station failed ({status})");
-    Ok(target_dir(ctx).join("debug").join("station"))
-}
-
 /// Runs `cmd`, echoing its standard output; fails unless it succeeds. Returns the output.
 fn run_echoed(cmd: &mut Command) -> Result<String> {
     let shown = display_command(cmd);
@@ -93,8 +85,8 @@ fn station_run(station: &Path, address: &str, out: &Path, mcap: Option<&Path>) -
 /// The file check (module doc).
 pub fn check_file(ctx: &Context) -> Result<()> {
     let dir = fresh_dir(ctx, "file")?;
-    let host_sim = crate::pil::build_host_sim(ctx)?;
-    let station = build_station(ctx)?;
+    let host_sim = crate::steps::host_binary(ctx, "host-sim")?;
+    let station = crate::steps::host_binary(ctx, "station")?;
     let sim_mcap = dir.join("host-sim.mcap");
     run_echoed(
         Command::new(&host_sim)
@@ -179,8 +171,8 @@ pub fn check_live(ctx: &Context) -> Result<()> {
     let dir = fresh_dir(ctx, "live")?;
     let node = crate::setup::ensure_program("node", "nodejs", "or Node.js 20")?;
     let modules = npm_packages(ctx)?;
-    let host_sim = crate::pil::build_host_sim(ctx)?;
-    let station = build_station(ctx)?;
+    let host_sim = crate::steps::host_binary(ctx, "host-sim")?;
+    let station = crate::steps::host_binary(ctx, "station")?;
     let (_server, address, lines) =
         start_server(&host_sim, &["--speed", SPEED, "--foxglove", "127.0.0.1:0"])?;
     let line = lines

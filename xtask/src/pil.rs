@@ -84,7 +84,7 @@ pub fn check(ctx: &Context) -> Result<()> {
         .into_iter()
         .find(|p| p.file_name().is_some_and(|n| n == "firmware"))
         .context("cargo built no `firmware` executable")?;
-    let host_sim = build_host_sim(ctx)?;
+    let host_sim = crate::steps::host_binary(ctx, "host-sim")?;
     let out = target_dir(ctx).join("pil");
 
     // 1. The paper's circle and the longest path the firmware accepts, each against
@@ -436,17 +436,6 @@ fn budget_failures(w: &Figures) -> Vec<String> {
         failures.push(format!("stack {} bytes > {STACK_LIMIT}", w.stack));
     }
     failures
-}
-
-/// Builds `host-sim` (the dev profile the tests share); its executable.
-pub fn build_host_sim(ctx: &Context) -> Result<PathBuf> {
-    let mut cmd = ctx.cargo(&["build", "--package", "host-sim", "--bin", "host-sim"]);
-    println!("$ {}", display_command(&cmd));
-    let status = cmd.status().context("could not start cargo")?;
-    ensure!(status.success(), "building host-sim failed ({status})");
-    let exe = target_dir(ctx).join("debug").join("host-sim");
-    ensure!(exe.is_file(), "no host-sim at {}", exe.display());
-    Ok(exe)
 }
 
 /// The workspace's target directory (`CARGO_TARGET_DIR` if set).

@@ -37,7 +37,7 @@ impl Drop for Server {
 /// Runs the client against a fresh virtual robot.
 pub fn check(ctx: &Context) -> Result<()> {
     let python = crate::setup::ensure_python3()?;
-    let host_sim = crate::pil::build_host_sim(ctx)?;
+    let host_sim = crate::steps::host_binary(ctx, "host-sim")?;
     let (server, address, _) = start_server(&host_sim, &[])?;
     let mut cmd = Command::new(python);
     cmd.arg(ctx.root.join(CLIENT))

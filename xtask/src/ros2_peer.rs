@@ -15,7 +15,7 @@
 //! run is tried twice: at real time, a loaded machine can starve its heartbeats). Every
 //! process it started is stopped whatever happened.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 
 use anyhow::{ensure, Context as _, Result};
@@ -72,8 +72,8 @@ pub fn check(ctx: &Context) -> Result<()> {
 /// Runs the peer against the bridge and the virtual robot, `cmd_vel` as `cmd_vel` says.
 pub fn check_with(ctx: &Context, cmd_vel: CmdVel) -> Result<()> {
     let python = crate::python_venv::venv_python(ctx, "ros2", &[CYCLONEDDS])?;
-    let host_sim = crate::pil::build_host_sim(ctx)?;
-    let station = build_station(ctx)?;
+    let host_sim = crate::steps::host_binary(ctx, "host-sim")?;
+    let station = crate::steps::host_binary(ctx, "station")?;
     let (server, address, _) = crate::protocol_client::start_server(&host_sim, &[])?;
 
     let mut bridge_cmd = Command::new(&station);
@@ -150,13 +150,6 @@ pub fn check_with(ctx: &Context, cmd_vel: CmdVel) -> Result<()> {
     );
     println!("{verdict}");
     Ok(())
-}
-
-fn build_station(ctx: &Context) -> Result<PathBuf> {
-    run_command(&mut ctx.cargo(&["build", "--package", "station", "--bin", "station"]))?;
-    let exe = crate::pil::target_dir(ctx).join("debug").join("station");
-    ensure!(exe.is_file(), "no station at {}", exe.display());
-    Ok(exe)
 }
 
 /// The peer's path as a scenario, run with `station run` on a fresh virtual robot; its

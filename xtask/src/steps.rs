@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Instant;
 
-use anyhow::{bail, Context as _, Result};
+use anyhow::{bail, ensure, Context as _, Result};
 
 use crate::{elf_size, link_qemu, miri, panic_check, qemu, setup};
 
@@ -190,6 +190,22 @@ pub fn run_all(ctx: &Context, steps: &[Step], budget_s: Option<u32>) -> bool {
     let failed = results.iter().filter(|(_, _, r)| r.is_err()).count();
     println!("{} passed, {failed} failed", results.len() - failed);
     failed == 0
+}
+
+/// Builds every host binary (`host-sim`, `station`) in one cargo invocation over the
+/// workspace's host crates, and returns the path of `name`'s. Every step that runs one of
+/// them shares this build: `cargo build --package host-sim` would resolve the shared
+/// crates' features for that package alone and build them again (about a minute from a
+/// fresh clone for each package).
+pub fn host_binary(ctx: &Context, name: &str) -> Result<PathBuf> {
+    let mut args = vec!["build", "--workspace", "--bins", "--exclude", "xtask"];
+    for package in TARGET_ONLY_PACKAGES {
+        args.extend(["--exclude", package]);
+    }
+    run_command(&mut ctx.cargo(&args))?;
+    let exe = crate::pil::target_dir(ctx).join("debug").join(name);
+    ensure!(exe.is_file(), "no {name} at {}", exe.display());
+    Ok(exe)
 }
 
 /// The time `cargo xtask ci` may take from a fresh clone on a 2-core machine, s.

@@ -57,7 +57,7 @@ struct Printed {
 /// Generates the page and the README's block and writes them (`check` false), or fails
 /// when the committed ones differ (`check` true).
 pub fn run(ctx: &Context, check: bool) -> Result<()> {
-    let host_sim = crate::pil::build_host_sim(ctx)?;
+    let host_sim = crate::steps::host_binary(ctx, "host-sim")?;
     let out = crate::pil::target_dir(ctx).join("figures");
     host_sim_output(&host_sim, &["paper", "--out"], Some(&out.join("paper")))?;
     host_sim_output(&host_sim, &["faults", "--out"], Some(&out.join("faults")))?;

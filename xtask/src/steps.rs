@@ -192,17 +192,25 @@ pub fn run_all(ctx: &Context, steps: &[Step], budget_s: Option<u32>) -> bool {
     failed == 0
 }
 
-/// Builds every host binary (`host-sim`, `station`) in one cargo invocation over the
-/// workspace's host crates, and returns the path of `name`'s. Every step that runs one of
-/// them shares this build: `cargo build --package host-sim` would resolve the shared
-/// crates' features for that package alone and build them again (about a minute from a
-/// fresh clone for each package).
-pub fn host_binary(ctx: &Context, name: &str) -> Result<PathBuf> {
-    let mut args = vec!["build", "--workspace", "--bins", "--exclude", "xtask"];
+/// `cargo test` over the workspace's host crates (every crate but the target-only ones),
+/// followed by `extra`: CI's host-tests step, and the build every binary-running step
+/// shares ([`host_binary`]).
+fn host_tests(extra: &[&'static str]) -> Vec<&'static str> {
+    let mut args = vec!["test", "--workspace"];
     for package in TARGET_ONLY_PACKAGES {
         args.extend(["--exclude", package]);
     }
-    run_command(&mut ctx.cargo(&args))?;
+    args.extend_from_slice(extra);
+    args
+}
+
+/// Builds the host crates' tests, and with them their binaries (`host-sim`, `station`),
+/// exactly as the host-tests step does, and returns the path of `name`'s. Every step that
+/// runs one of them shares that build: any other package selection (`cargo build
+/// --package host-sim`, `cargo run --package host-sim`) resolves the shared crates'
+/// features for itself and builds them again, about a minute each from a fresh clone.
+pub fn host_binary(ctx: &Context, name: &str) -> Result<PathBuf> {
+    run_command(&mut ctx.cargo(&host_tests(&["--no-run"])))?;
     let exe = crate::pil::target_dir(ctx).join("debug").join(name);
     ensure!(exe.is_file(), "no {name} at {}", exe.display());
     Ok(exe)
@@ -290,11 +298,7 @@ pub fn ci() -> Vec<Step> {
                 // station's end-to-end tests (`end_to_end`) run here, in the same build: a
                 // `cargo test -p station` of its own resolves the shared crates' features for
                 // the station alone and builds about 95 crates again.
-                let mut args = vec!["test", "--workspace", "--no-fail-fast"];
-                for package in TARGET_ONLY_PACKAGES {
-                    args.extend(["--exclude", package]);
-                }
-                let mut cmd = ctx.cargo(&args);
+                let mut cmd = ctx.cargo(&host_tests(&["--no-fail-fast"]));
                 // The property tests draw from one fixed seed here, so that a CI run can be
                 // repeated exactly; a plain `cargo test` draws new cases every time. A seed
                 // already in the environment wins.
@@ -369,14 +373,8 @@ pub fn velocity_check() -> Step {
     Step::new(
         "velocity check: host-sim velocity-check (latency, timeout, limits of the velocity mode)",
         |ctx| {
-            run_command(&mut ctx.cargo(&[
-                "run",
-                "--quiet",
-                "--package",
-                "host-sim",
-                "--",
-                "velocity-check",
-            ]))
+            let host_sim = host_binary(ctx, "host-sim")?;
+            run_command(Command::new(host_sim).arg("velocity-check"))
         },
     )
 }

@@ -343,13 +343,14 @@ impl HeadingFusion {
     }
 
     /// The fused heading's turn at gyro rate `rate` (rad/s) over `dt_s`, with the
-    /// correction towards odometry.
+    /// correction towards odometry (at most the whole gap in one step: a time constant
+    /// shorter than the step would otherwise overshoot and oscillate).
     fn gyro_turn(&self, rate_radps: f32, dt_s: f32) -> AngleDelta {
         let turn = AngleDelta::from_rad(rate_radps * dt_s);
         let tau = self.config.odometry_blend_time_constant_s;
         if tau > 0.0 {
             let gap = self.odometry.minus(self.fused).to_rad();
-            turn.plus(AngleDelta::from_rad(gap * (dt_s / tau)))
+            turn.plus(AngleDelta::from_rad(gap * (dt_s / tau).min(1.0)))
         } else {
             turn
         }

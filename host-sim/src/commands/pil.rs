@@ -175,6 +175,13 @@ fn velocity_runnable(
              which sends its commands at their control steps"
         )));
     }
+    if timeline.command_period_steps < 2 {
+        return Err(Failed(format!(
+            "{scenario}: velocity.command_period_s is one control period: the station sends \
+             one request a step, so no heartbeat would reach the firmware while commands \
+             stream; give it two periods or more"
+        )));
+    }
     if timeline.entries.first().is_some_and(|e| e.at_step == 0) {
         return Err(Failed(format!(
             "{scenario}: velocity.commands[0] is at 0 s, the step at which the station arms \
@@ -191,6 +198,16 @@ pub fn run(options: &Options, progress: &mut Progress<'_>) -> Result<PilReport> 
     let mut scenario = load(&options.scenario)?;
     if let Some(timeline) = &scenario.velocity {
         velocity_runnable(&scenario.name, timeline, options.pil.builtin_station)?;
+    }
+    // The link-loss verdict counts on the built-in station's heartbeats going in step:
+    // none is in flight at the cut.
+    if options.pil.link_loss_at_s.is_some() && !options.pil.builtin_station {
+        return Err(Failed(
+            "--link-loss-at-s needs the built-in station (`--client builtin`), whose \
+             heartbeats reach the firmware at known steps"
+                .into(),
+        )
+        .into());
     }
     if let Some(duration_s) = options.duration_s {
         scenario = scenario.with_duration_s(duration_s)?;
@@ -264,6 +281,11 @@ mod tests {
         at_arming.entries[0].at_step = 0;
         let refused = velocity_runnable("v", &at_arming, true).expect_err("refused");
         assert!(refused.0.contains("velocity.commands[0]"), "{}", refused.0);
+        let mut every_step = at_arming;
+        every_step.entries[0].at_step = 500;
+        every_step.command_period_steps = 1;
+        let refused = velocity_runnable("v", &every_step, true).expect_err("refused");
+        assert!(refused.0.contains("command_period_s"), "{}", refused.0);
     }
 
     #[test]

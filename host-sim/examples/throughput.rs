@@ -11,7 +11,7 @@
 use std::time::Instant;
 
 use controller_core::prelude::*;
-use host_sim::plant::Plant;
+use host_sim::plant::{Integration, Plant};
 use host_sim::run::plant_params;
 use host_sim::{run_scenario_with, RunOptions};
 use robot_files::scenario::Scenario;
@@ -47,19 +47,26 @@ fn main() -> anyhow::Result<()> {
         return Err(e.into());
     }
 
-    // The plant alone: the same number of control periods of RK4 substeps.
-    let mut plant = Plant::new(plant_params(&scenario))?;
+    // The plant alone: the same number of control periods, with the simulator's RK4 at
+    // the plant rate and with the exact solution over each period, side by side.
     let dt = 1.0 / f64::from(scenario.plant_rate_hz);
-    let plant_only = best_of(5, || {
-        plant.reset(TruePose::default(), [7.0, 8.0]);
-        let t = Instant::now();
-        for k in 0..steps {
-            plant.set_driver_enabled(true);
-            plant.set_duty(0.25 + 0.001 * (k % 7) as f32, 0.28);
-            plant.advance(dt, substeps);
-        }
-        t.elapsed().as_secs_f64()
-    });
+    let plant_alone = |integration: Integration| -> anyhow::Result<f64> {
+        let mut plant = Plant::new(plant_params(&scenario))?;
+        plant.set_integration(integration);
+        Ok(best_of(5, || {
+            plant.reset(TruePose::default(), [7.0, 8.0]);
+            let t = Instant::now();
+            for k in 0..steps {
+                plant.set_driver_enabled(true);
+                plant.set_duty(0.25 + 0.001 * (k % 7) as f32, 0.28);
+                plant.advance(dt, substeps);
+            }
+            std::hint::black_box(plant.pose());
+            t.elapsed().as_secs_f64()
+        }))
+    };
+    let plant_only = plant_alone(Integration::Rk4)?;
+    let plant_exact = plant_alone(Integration::Exact)?;
 
     // The controller alone, fed plausible tick deltas.
     let params = scenario.params()?;
@@ -99,6 +106,11 @@ fn main() -> anyhow::Result<()> {
         per_step(plant_only),
         per_step(plant_only) / f64::from(substeps),
         per_step(controller_only)
+    );
+    println!(
+        "the plant with the exact solution over each period: {:.0} ns/step, {:.1}x the RK4 plant",
+        per_step(plant_exact),
+        plant_only / plant_exact
     );
     println!(
         "simulated seconds per wall second: {:.0}",

@@ -30,4 +30,4 @@ pub mod robot;
 
 pub use driver::BridgeOutput;
 pub use motor::{PowerFlow, WheelDrive};
-pub use robot::{Plant, PlantError, PlantParams, TrueGeometry};
+pub use robot::{Integration, Plant, PlantError, PlantParams, TrueGeometry};

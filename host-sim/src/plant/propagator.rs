@@ -13,6 +13,11 @@
 //! T b once per regime and bridge state). [`Propagator::reach`] bounds how far any RK4
 //! stage point of the step can have been from ω, from the step's own speed change, so the
 //! caller can check that the whole step stayed in one regime.
+//!
+//! The exact solution has the same shape with the series summed to the end:
+//! S = Φ(h) = ∫₀ʰ e^{As} ds = h Σₖ (hA)ᵏ/(k+1)! and T = Ψ(h) = ∫₀ʰ Φ(s) ds =
+//! h² Σₖ (hA)ᵏ/(k+2)! ([`Propagator::exact`]), so one step covers a whole control period
+//! without error while it stays in one regime.
 
 /// A 2 × 2 matrix, row-major.
 pub(crate) type Mat2 = [[f64; 2]; 2];
@@ -61,10 +66,14 @@ pub(crate) struct Propagator {
     q_w: Mat2,
     /// T.
     t: Mat2,
-    /// 1 / ((1 − e)(1 − α)) with α = h‖A‖∞ and e = α/2 + α²/6 + α³/24 (∞ when α ≥ 1):
-    /// see [`Propagator::reach`].
+    /// How far the step's path can have strayed from ω per unit of its speed change:
+    /// see [`Propagator::reach`] (∞ when the bound does not hold).
     reach_per_change: f64,
 }
+
+/// Terms of the exact series summed: with α = h‖A‖∞ ≤ 1.25 (beyond, [`Propagator::exact`]
+/// refuses every step) the first term left out is below α²⁰/21! < 1e-16 of the first.
+const EXACT_TERMS: i32 = 20;
 
 impl Propagator {
     /// For M⁻¹ = [[p, q], [q, p]] (1/(kg·m²)), wheel dampings `damping` [left, right]
@@ -108,6 +117,61 @@ impl Propagator {
         }
     }
 
+    /// The exact step of `h` (s) for M⁻¹ = [[p, q], [q, p]] and wheel dampings `damping`,
+    /// as [`Propagator::new`] (module doc); its [`Propagator::reach`] bounds the exact
+    /// path over the whole step.
+    ///
+    /// For 0 ≤ t ≤ h, ω(t) − ω = Φ(t) z with ‖Φ(t)‖∞ ≤ h e^α; and ω⁺ − ω = Φ(h) z =
+    /// h (I + E) z with ‖E‖∞ ≤ e = (e^α − 1)/α − 1, so with e < 1 every point of the path
+    /// lies within e^α ‖ω⁺ − ω‖∞ / (1 − e) of ω.
+    pub(crate) fn exact(inv_p: f64, inv_q: f64, damping: [f64; 2], h: f64) -> Self {
+        let i: Mat2 = [[1.0, 0.0], [0.0, 1.0]];
+        let ha: Mat2 = [
+            [-h * inv_p * damping[0], -h * inv_q * damping[1]],
+            [-h * inv_q * damping[0], -h * inv_p * damping[1]],
+        ];
+        // Φ/h = Σ (hA)ᵏ/(k+1)!, Ψ/h² = Σ (hA)ᵏ/(k+2)!, summed from the smallest terms up.
+        let mut powers = [i; EXACT_TERMS as usize];
+        for k in 1..powers.len() {
+            powers[k] = mat_mul(&powers[k - 1], &ha);
+        }
+        let factorial = |n: i32| (1..=n).map(f64::from).product::<f64>();
+        let (mut phi, mut psi) = ([[0.0; 2]; 2], [[0.0; 2]; 2]);
+        for (k, power) in (0..EXACT_TERMS).zip(powers.iter()).rev() {
+            phi = mat_lin(&[(1.0, &phi), (h / factorial(k + 1), power)]);
+            psi = mat_lin(&[(1.0, &psi), (h * h / factorial(k + 2), power)]);
+        }
+        let alpha = ha
+            .iter()
+            .map(|row| row[0].abs() + row[1].abs())
+            .fold(0.0, f64::max);
+        let e = if alpha > 0.0 {
+            alpha.exp_m1() / alpha - 1.0
+        } else {
+            0.0
+        };
+        let reach_per_change = if e < 1.0 && alpha <= 1.25 {
+            alpha.exp() / (1.0 - e)
+        } else {
+            f64::INFINITY
+        };
+        let (sa, ta) = if h > 0.0 {
+            (
+                mat_lin(&[(1.0 / h, &mat_mul(&phi, &ha))]),
+                mat_lin(&[(1.0 / h, &mat_mul(&psi, &ha))]),
+            )
+        } else {
+            ([[0.0; 2]; 2], [[0.0; 2]; 2])
+        };
+        Self {
+            p_w: mat_lin(&[(1.0, &i), (1.0, &sa)]),
+            s: phi,
+            q_w: mat_lin(&[(h, &i), (1.0, &ta)]),
+            t: psi,
+            reach_per_change,
+        }
+    }
+
     /// The forcing terms (S b, T b) for the constant part b of ω̇ = A ω + b, rad/s and rad.
     pub(crate) fn forcing(&self, b: [f64; 2]) -> ([f64; 2], [f64; 2]) {
         (mat_vec(&self.s, b), mat_vec(&self.t, b))
@@ -125,7 +189,8 @@ impl Propagator {
     }
 
     /// The farthest (rad/s, per component) that any RK4 stage point or the end point of a
-    /// step can have been from its start ω, given the step's speed change `change` = ω⁺ − ω.
+    /// step can have been from its start ω, given the step's speed change `change` = ω⁺ − ω
+    /// (for an [`Propagator::exact`] step: any point of the exact path).
     ///
     /// With z = A ω + b, K = ‖z‖∞ and α = h‖A‖∞ < 1, every stage acceleration is
     /// k_j = z + A(ω_j − ω); if ‖ω_j − ω‖∞ ≤ Δ then ‖k_j‖∞ ≤ K + ‖A‖∞Δ, and the next stage

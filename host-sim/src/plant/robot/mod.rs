@@ -4,8 +4,9 @@
 //! Per wheel, an H-bridge ([`super::driver`]) drives a DC motor and gearbox
 //! ([`super::motor`]); the two wheels are coupled through the chassis' mass, yaw inertia
 //! and centre of mass, with static friction that sees the coupling; the state (wheel
-//! speeds and angles) is integrated with RK4 at the plant rate, the bridge held over the
-//! control period; the contact points move the true pose, with slip. Each concern is
+//! speeds and angles) is integrated exactly over each control period while it stays in
+//! one regime, with RK4 at the plant rate otherwise, the bridge held over the period; the
+//! contact points move the true pose, with slip. Each concern is
 //! one file, whose module doc states its contract and derivation:
 //!
 //! | file | concern |
@@ -14,7 +15,7 @@
 //! | `chassis.rs` | the inertia matrix on (ω_l, ω_r), the centre-of-mass terms, lifted wheels, static friction with the coupling |
 //! | `bridge.rs` | duties, the enable line, what each bridge applies, the currents |
 //! | `faults.rs` | the fault hooks: motor lead off, jammed wheel, slip patch, supply sag |
-//! | `integration.rs` | RK4 at the plant rate, in closed form while a step stays in one regime; [`Plant::advance`] |
+//! | `integration.rs` | the exact solution over a hold while it stays in one regime, else RK4 at the plant rate; [`Plant::advance`], [`Integration`] |
 //! | `pose.rs` | the wheel-ground contact with slip and the true pose |
 //!
 //! Contract of the whole: [`Plant::new`] refuses parameters out of range; the setters take
@@ -33,11 +34,12 @@ mod tests;
 use robot_files::plant::{Load, Wheel};
 
 use self::chassis::inertia_matrix_kg_m2;
+use self::integration::Propagators;
 use self::pose::PoseTrack;
 use super::friction::{Friction, Inertia};
 use super::motor::WheelDrive;
-use super::propagator::Propagator;
 
+pub use self::integration::Integration;
 pub use self::params::{PlantError, PlantParams, TrueGeometry};
 
 /// The simulated robot: parameters, state, bridge and fault state, and the RK4 integrator
@@ -56,12 +58,12 @@ pub struct Plant {
     radius_m: f64,
     track_m: f64,
     // The integrator (`integration`).
-    /// Closed-form RK4 per regime pair, index 3 · flow(left) + flow(right), for the step
-    /// size `propagator_dt_s`.
-    propagators: [Propagator; 9],
-    propagator_dt_s: f64,
-    /// False only in tests: every step stage by stage.
-    use_closed_form: bool,
+    /// How `advance` integrates.
+    integration: Integration,
+    /// Closed-form RK4 per regime pair, for the last plant step size.
+    rk4: Propagators,
+    /// The exact solution per regime pair, for the last hold.
+    exact: Propagators,
     /// Wheel speeds [left, right], rad/s.
     speed: [f64; 2],
     /// Wheel angles [left, right], rad (what the encoders see).
@@ -127,9 +129,9 @@ impl Plant {
             },
             radius_m: r,
             track_m: g.track_width_m,
-            propagators: Self::propagators(&drives, &inertia, 0.0),
-            propagator_dt_s: 0.0,
-            use_closed_form: true,
+            integration: Integration::default(),
+            rk4: Propagators::new(&drives, &inertia, 0.0, false),
+            exact: Propagators::new(&drives, &inertia, 0.0, true),
             speed: [0.0; 2],
             angle: [0.0; 2],
             applied_duty: [0.0; 2],

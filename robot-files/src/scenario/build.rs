@@ -488,8 +488,12 @@ pub(super) fn build(file: ScenarioFile, default_name: &str) -> Result<Scenario, 
         .config(&params, Some(context), "supervisor")?;
 
     // The [gyro] table's heading and full scale are the robot's (its `gyro`), as a robot
-    // file or the link would set them.
-    let gyro = file.gyro.as_ref().map(|g| g.build()).transpose()?;
+    // file or the link would set them; a full scale [gyro] omits is [robot.gyro]'s.
+    let gyro = file
+        .gyro
+        .as_ref()
+        .map(|g| g.build(robot.gyro.full_scale_radps))
+        .transpose()?;
     if let Some(setup) = &gyro {
         robot.gyro = setup.robot_gyro(robot.gyro);
     }

@@ -149,12 +149,15 @@ pub(super) struct FileGyro {
 }
 
 impl FileGyro {
-    /// The validated setup, each error naming its key.
-    pub(super) fn build(&self) -> Result<GyroSetup, ScenarioError> {
+    /// The validated setup, each error naming its key; a full scale the table omits is
+    /// the robot's own, `robot_full_scale_radps` (rad/s), so `[robot.gyro]` is not
+    /// overridden by a default.
+    pub(super) fn build(&self, robot_full_scale_radps: f32) -> Result<GyroSetup, ScenarioError> {
         let d = GyroSensor::ICM42688P;
         let full_scale = non_negative(
             "gyro.full_scale_rad_s",
-            self.full_scale_rad_s.unwrap_or(d.full_scale_rad_s),
+            self.full_scale_rad_s
+                .unwrap_or(f64::from(robot_full_scale_radps)),
         )?;
         check(
             full_scale > 0.0,
@@ -256,5 +259,18 @@ mod tests {
         assert_eq!(plain.robot.gyro.heading_source, HeadingSource::Odometry);
         assert!(!plain.steer_by(HeadingChoice::Fused));
         assert_eq!(plain.robot.gyro.heading_source, HeadingSource::Odometry);
+    }
+
+    #[test]
+    fn a_full_scale_the_gyro_table_omits_is_the_robots() {
+        // The built-in gyro scenario, whose [gyro] gives no full scale, on a robot with its own.
+        let built_in = include_str!("../../scenarios/paper-circle-gyro.toml");
+        let text = format!("{built_in}\n[robot.gyro]\nfull_scale_radps = 8.0\n");
+        let s = Scenario::from_toml(&text, "test").expect("valid");
+        assert_eq!(s.robot.gyro.full_scale_radps, 8.0);
+        assert_eq!(s.gyro.map(|g| g.sensor.full_scale_rad_s), Some(8.0));
+        let given = text.replace("[gyro]\n", "[gyro]\nfull_scale_rad_s = 4.0\n");
+        let s = Scenario::from_toml(&given, "test").expect("valid");
+        assert_eq!(s.robot.gyro.full_scale_radps, 4.0);
     }
 }

@@ -75,46 +75,42 @@ pub(crate) struct Propagator {
 /// refuses every step) the first term left out is below α²⁰/21! < 1e-16 of the first.
 const EXACT_TERMS: i32 = 20;
 
+/// The identity.
+const IDENTITY: Mat2 = [[1.0, 0.0], [0.0, 1.0]];
+
+/// hA = −h M⁻¹ diag(D) for M⁻¹ = [[p, q], [q, p]] and dampings D: column j scaled by D_j.
+fn scaled_a(inv_p: f64, inv_q: f64, damping: [f64; 2], h: f64) -> Mat2 {
+    [
+        [-h * inv_p * damping[0], -h * inv_q * damping[1]],
+        [-h * inv_q * damping[0], -h * inv_p * damping[1]],
+    ]
+}
+
+/// ‖m‖∞, the largest row sum of absolute values.
+fn norm_inf(m: &Mat2) -> f64 {
+    m.iter()
+        .map(|row| row[0].abs() + row[1].abs())
+        .fold(0.0, f64::max)
+}
+
 impl Propagator {
     /// For M⁻¹ = [[p, q], [q, p]] (1/(kg·m²)), wheel dampings `damping` [left, right]
     /// (N·m·s/rad) and step `h` (s).
     pub(crate) fn new(inv_p: f64, inv_q: f64, damping: [f64; 2], h: f64) -> Self {
-        let i: Mat2 = [[1.0, 0.0], [0.0, 1.0]];
-        // hA = −h M⁻¹ diag(D): column j scaled by D_j.
-        let ha: Mat2 = [
-            [-h * inv_p * damping[0], -h * inv_q * damping[1]],
-            [-h * inv_q * damping[0], -h * inv_p * damping[1]],
-        ];
+        let i = IDENTITY;
+        let ha = scaled_a(inv_p, inv_q, damping, h);
         let ha2 = mat_mul(&ha, &ha);
         let ha3 = mat_mul(&ha2, &ha);
         let s = mat_lin(&[(h, &i), (h / 2.0, &ha), (h / 6.0, &ha2), (h / 24.0, &ha3)]);
         let t = mat_lin(&[(h * h / 2.0, &i), (h * h / 6.0, &ha), (h * h / 24.0, &ha2)]);
-        // S A = S (hA) / h, T A likewise (h = 0 gives the identity and zeros).
-        let (sa, ta) = if h > 0.0 {
-            (
-                mat_lin(&[(1.0 / h, &mat_mul(&s, &ha))]),
-                mat_lin(&[(1.0 / h, &mat_mul(&t, &ha))]),
-            )
-        } else {
-            ([[0.0; 2]; 2], [[0.0; 2]; 2])
-        };
-        let alpha = ha
-            .iter()
-            .map(|row| row[0].abs() + row[1].abs())
-            .fold(0.0, f64::max);
+        let alpha = norm_inf(&ha);
         let e = alpha / 2.0 + alpha * alpha / 6.0 + alpha * alpha * alpha / 24.0;
         let reach_per_change = if alpha < 1.0 {
             1.0 / ((1.0 - e) * (1.0 - alpha))
         } else {
             f64::INFINITY
         };
-        Self {
-            p_w: mat_lin(&[(1.0, &i), (1.0, &sa)]),
-            s,
-            q_w: mat_lin(&[(h, &i), (1.0, &ta)]),
-            t,
-            reach_per_change,
-        }
+        Self::from_integrals(h, &ha, s, t, reach_per_change)
     }
 
     /// The exact step of `h` (s) for M⁻¹ = [[p, q], [q, p]] and wheel dampings `damping`,
@@ -125,13 +121,9 @@ impl Propagator {
     /// h (I + E) z with ‖E‖∞ ≤ e = (e^α − 1)/α − 1, so with e < 1 every point of the path
     /// lies within e^α ‖ω⁺ − ω‖∞ / (1 − e) of ω.
     pub(crate) fn exact(inv_p: f64, inv_q: f64, damping: [f64; 2], h: f64) -> Self {
-        let i: Mat2 = [[1.0, 0.0], [0.0, 1.0]];
-        let ha: Mat2 = [
-            [-h * inv_p * damping[0], -h * inv_q * damping[1]],
-            [-h * inv_q * damping[0], -h * inv_p * damping[1]],
-        ];
+        let ha = scaled_a(inv_p, inv_q, damping, h);
         // Φ/h = Σ (hA)ᵏ/(k+1)!, Ψ/h² = Σ (hA)ᵏ/(k+2)!, summed from the smallest terms up.
-        let mut powers = [i; EXACT_TERMS as usize];
+        let mut powers = [IDENTITY; EXACT_TERMS as usize];
         for k in 1..powers.len() {
             powers[k] = mat_mul(&powers[k - 1], &ha);
         }
@@ -141,10 +133,7 @@ impl Propagator {
             phi = mat_lin(&[(1.0, &phi), (h / factorial(k + 1), power)]);
             psi = mat_lin(&[(1.0, &psi), (h * h / factorial(k + 2), power)]);
         }
-        let alpha = ha
-            .iter()
-            .map(|row| row[0].abs() + row[1].abs())
-            .fold(0.0, f64::max);
+        let alpha = norm_inf(&ha);
         let e = if alpha > 0.0 {
             alpha.exp_m1() / alpha - 1.0
         } else {
@@ -155,19 +144,26 @@ impl Propagator {
         } else {
             f64::INFINITY
         };
+        Self::from_integrals(h, &ha, phi, psi, reach_per_change)
+    }
+
+    /// The step from its integrals S and T of step `h` (s) and hA: ω⁺ = (I + SA) ω + S b,
+    /// Δφ = (hI + TA) ω + T b.
+    fn from_integrals(h: f64, ha: &Mat2, s: Mat2, t: Mat2, reach_per_change: f64) -> Self {
+        // S A = S (hA) / h, T A likewise (h = 0 gives the identity and zeros).
         let (sa, ta) = if h > 0.0 {
             (
-                mat_lin(&[(1.0 / h, &mat_mul(&phi, &ha))]),
-                mat_lin(&[(1.0 / h, &mat_mul(&psi, &ha))]),
+                mat_lin(&[(1.0 / h, &mat_mul(&s, ha))]),
+                mat_lin(&[(1.0 / h, &mat_mul(&t, ha))]),
             )
         } else {
             ([[0.0; 2]; 2], [[0.0; 2]; 2])
         };
         Self {
-            p_w: mat_lin(&[(1.0, &i), (1.0, &sa)]),
-            s: phi,
-            q_w: mat_lin(&[(h, &i), (1.0, &ta)]),
-            t: psi,
+            p_w: mat_lin(&[(1.0, &IDENTITY), (1.0, &sa)]),
+            s,
+            q_w: mat_lin(&[(h, &IDENTITY), (1.0, &ta)]),
+            t,
             reach_per_change,
         }
     }

@@ -257,7 +257,7 @@ impl Plant {
         // The state lives in locals for the loop (registers, not memory round trips).
         let mut pose = self.pose;
         let (mut w, mut angle) = (self.speed, self.angle);
-        let inv_l = 1.0 / self.params.geometry.track_width_m;
+        let inv_l = 1.0 / self.track_m;
         // The regime of the last closed-form step: still the regime of `w`, since a
         // closed-form step ends in the regime it started in.
         let mut regime: Option<Affine> = None;

@@ -13,9 +13,7 @@ use host_sim::{run_scenario_with, RunOptions};
 use robot_files::scenario::Scenario;
 
 fn main() -> anyhow::Result<()> {
-    let options = RunOptions {
-        trace_every_steps: 0,
-    };
+    let options = RunOptions::default();
     for rest_s in [5.0, 0.0] {
         let mut scenario = Scenario::load("paper-circle-gyro")?;
         let Some(gyro) = scenario.gyro.as_mut() else {

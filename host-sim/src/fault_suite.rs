@@ -317,7 +317,7 @@ pub fn run_case(
         } else {
             0
         };
-        let run = run_scenario_with(&s, law, RunOptions { trace_every_steps })?;
+        let run = run_scenario_with(&s, law, RunOptions::traced_every(trace_every_steps))?;
         if let Some(file) = mcap {
             crate::mcap::write_run_mcap(file, &s, &run)?;
         }

@@ -26,7 +26,7 @@ use robot_files::truth::TruePose;
 
 use crate::encoder::Encoder;
 use crate::gyro::SimGyro;
-use crate::plant::{Plant, PlantError};
+use crate::plant::{Integration, Plant, PlantError};
 
 /// What the firmware reads in one control step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -142,6 +142,11 @@ impl SimHardware {
     /// ([`Plant::start_in_motion`]).
     pub fn start_moving(&mut self, v_m_s: f64, omega_rad_s: f64) -> Result<(), PlantError> {
         self.plant.start_in_motion(v_m_s, omega_rad_s)
+    }
+
+    /// Sets how the plant integrates ([`Plant::set_integration`]).
+    pub fn set_integration(&mut self, integration: Integration) {
+        self.plant.set_integration(integration);
     }
 
     /// The plant (for its true state).

@@ -253,13 +253,7 @@ pub fn run_case(scenario: &Scenario, variation: Variation) -> Result<CaseResult,
         };
     }
     let step = wheel_step_response(&s, 15.0, 1.0)?;
-    let run = run_scenario_with(
-        &s,
-        LawKind::Tracking,
-        RunOptions {
-            trace_every_steps: 1,
-        },
-    )?;
+    let run = run_scenario_with(&s, LawKind::Tracking, RunOptions::traced_every(1))?;
     let rate = f64::from(s.robot.control_rate_hz);
     let final_from = s.duration_s - robot_files::metrics::FINAL_WINDOW_S;
     let (mut all, mut all_n, mut last, mut last_n) = (0.0, 0u64, 0.0, 0u64);

@@ -235,13 +235,11 @@ pub fn sweep(
     progress: &(dyn Fn() + Sync),
 ) -> Result<SweepReport, RunError> {
     let start = std::time::Instant::now();
-    let options = RunOptions {
-        trace_every_steps: if mcap_dir.is_some() {
-            base.robot.steering_divider
-        } else {
-            0
-        },
-    };
+    let options = RunOptions::traced_every(if mcap_dir.is_some() {
+        base.robot.steering_divider
+    } else {
+        0
+    });
     let details = (0..runs)
         .into_par_iter()
         .map(|index| {

@@ -200,9 +200,7 @@ pub fn measure(scenario: &Scenario) -> Result<VelocityFigures, RunError> {
     run_with_logic(
         scenario,
         LawKind::Tracking,
-        RunOptions {
-            trace_every_steps: 0,
-        },
+        RunOptions::default(),
         &mut recorder,
         "simulator",
     )?;

@@ -20,9 +20,7 @@ fn a_two_hour_run_reports_both_hours() {
         .unwrap()
         .with_duration_s(2.0 * 3600.0)
         .unwrap();
-    let options = RunOptions {
-        trace_every_steps: 0,
-    };
+    let options = RunOptions::default();
     let r = run_scenario_with(&scenario, LawKind::Tracking, options).unwrap();
     let hours = &r.summary.hourly_rms_true_position_error_m;
     assert_eq!(hours.len(), 2, "{hours:?}");

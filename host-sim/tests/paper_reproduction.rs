@@ -38,14 +38,7 @@ fn paper_circle_tracking_settles_within_six_seconds() {
 fn paper_circle_starts_in_motion() {
     let mut s = scenario("paper-circle");
     s.duration_s = 0.05;
-    let r = run_scenario_with(
-        &s,
-        LawKind::Tracking,
-        RunOptions {
-            trace_every_steps: 1,
-        },
-    )
-    .unwrap();
+    let r = run_scenario_with(&s, LawKind::Tracking, RunOptions::traced_every(1)).unwrap();
     let first = r.trace[0];
     assert!((first.true_velocity.0 - 0.4).abs() < 1e-9);
     assert!((first.true_velocity.1 - 0.3).abs() < 1e-9);
@@ -153,14 +146,7 @@ fn a_fault_before_the_first_steering_update_is_reported_as_such() {
     let mut s = scenario("paper-circle");
     s.plant.encoder_noise_ticks_rms = 1e6;
     s.duration_s = 2.0;
-    let r = run_scenario_with(
-        &s,
-        LawKind::Tracking,
-        RunOptions {
-            trace_every_steps: 1,
-        },
-    )
-    .unwrap();
+    let r = run_scenario_with(&s, LawKind::Tracking, RunOptions::traced_every(1)).unwrap();
     assert_eq!(r.summary.supervisor.final_state, "Faulted");
     assert!(r
         .summary

@@ -205,9 +205,7 @@ fn far_positions_and_long_lengths_are_refused_on_the_key_written() {
         .expect("derived from the path");
     assert!(geofence.is_finite() && geofence > 1000.0, "{geofence}");
     far.duration_s = 0.01;
-    let options = RunOptions {
-        trace_every_steps: 0,
-    };
+    let options = RunOptions::default();
     run_scenario_with(&far, controller_core::law::LawKind::Tracking, options).unwrap();
 }
 
@@ -222,9 +220,7 @@ fn a_start_in_motion_beyond_the_motors_is_refused() {
     let e = run_scenario_with(
         &slip(0.99),
         controller_core::law::LawKind::Tracking,
-        RunOptions {
-            trace_every_steps: 0,
-        },
+        RunOptions::default(),
     )
     .unwrap_err()
     .to_string();
@@ -239,9 +235,7 @@ fn a_start_in_motion_beyond_the_motors_is_refused() {
     let r = run_scenario_with(
         &reachable,
         controller_core::law::LawKind::Tracking,
-        RunOptions {
-            trace_every_steps: 0,
-        },
+        RunOptions::default(),
     )
     .unwrap();
     let peak = r.summary.max_wheel_speed_rad_s;
@@ -586,9 +580,7 @@ fn the_plant_can_be_lifted_and_only_by_name() {
     let run = run_scenario_with(
         &short,
         controller_core::law::LawKind::Tracking,
-        RunOptions {
-            trace_every_steps: 10,
-        },
+        RunOptions::traced_every(10),
     )
     .unwrap();
     let first = run.trace.first().unwrap().true_pose;

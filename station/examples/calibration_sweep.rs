@@ -42,14 +42,7 @@ fn believing(scenario: &Scenario, robot: controller_core::params::RobotConfig) -
 }
 
 fn final_error(scenario: &Scenario) -> f64 {
-    run_scenario_with(
-        scenario,
-        LawKind::Tracking,
-        RunOptions {
-            trace_every_steps: 0,
-        },
-    )
-    .map_or(f64::NAN, |r| {
+    run_scenario_with(scenario, LawKind::Tracking, RunOptions::default()).map_or(f64::NAN, |r| {
         r.summary.headline_error().final_position_error_m
     })
 }

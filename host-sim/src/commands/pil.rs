@@ -224,13 +224,7 @@ pub fn run(options: &Options, progress: &mut Progress<'_>) -> Result<PilReport> 
     // was cut (no counterpart without a link).
     let host = match options.pil.link_loss_at_s {
         Some(_) => None,
-        None => Some(run_scenario_with(
-            &scenario,
-            law,
-            RunOptions {
-                trace_every_steps: 0,
-            },
-        )?),
+        None => Some(run_scenario_with(&scenario, law, RunOptions::default())?),
     };
     let lines = judge(&scenario, &outcome, host.as_ref());
     let dir = options

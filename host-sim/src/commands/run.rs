@@ -65,11 +65,11 @@ pub fn run(options: &Options) -> Result<RunReport> {
         scenario = scenario.with_duration_s(duration_s)?;
     }
     let law = options.law;
-    let run_options = RunOptions {
-        trace_every_steps: options
+    let run_options = RunOptions::traced_every(
+        options
             .trace_every
             .unwrap_or(scenario.robot.steering_divider),
-    };
+    );
     let result = run_scenario_with(&scenario, law, run_options)?;
     let dir = options
         .out

@@ -138,15 +138,7 @@ pub fn run(scenario: &Scenario, law: LawKind, options: &PilOptions) -> Result<Pi
             link_loss_at_step,
             in_step,
         )?;
-        let run = run_with_logic(
-            scenario,
-            law,
-            RunOptions {
-                trace_every_steps: 0,
-            },
-            &mut firmware,
-            "pil",
-        );
+        let run = run_with_logic(scenario, law, RunOptions::default(), &mut firmware, "pil");
         let board = run.as_ref().ok().map(|_| firmware.finish());
         stop.store(true, Ordering::SeqCst);
         let station = join_station(station);

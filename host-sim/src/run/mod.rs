@@ -57,7 +57,7 @@ use robot_files::trace::{SampleDetail, TraceRow};
 use robot_files::truth::{tracking_error_f64, TrueReference};
 
 use crate::hardware::{Actuation, SimHardware};
-use crate::plant::{PlantError, PlantParams, TrueGeometry};
+use crate::plant::{Integration, PlantError, PlantParams, TrueGeometry};
 
 mod fault_watch;
 mod logic;
@@ -121,20 +121,28 @@ pub enum RunError {
     },
 }
 
-/// Options of one run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Options of one run. The default: no trace, the plant's default integration.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RunOptions {
     /// Record a trace row every this many control steps (0: no trace). Capped so that a
     /// run keeps at most about [`MAX_TRACE_ROWS`].
     pub trace_every_steps: u32,
+    /// How the plant integrates (its default unless a timing comparison asks otherwise).
+    pub integration: Integration,
 }
 
 impl RunOptions {
     /// A trace row at every steering update of `scenario`'s robot (every
     /// `steering_divider` control steps), so traces and plots sample the law's own rate.
     pub fn at_steering_rate(scenario: &Scenario) -> Self {
+        Self::traced_every(scenario.robot.steering_divider)
+    }
+
+    /// A trace row every `steps` control steps (0: no trace).
+    pub fn traced_every(steps: u32) -> Self {
         Self {
-            trace_every_steps: scenario.robot.steering_divider,
+            trace_every_steps: steps,
+            ..Self::default()
         }
     }
 }
@@ -246,6 +254,7 @@ pub fn run_with_logic<L: RobotLogic>(
     source: &str,
 ) -> Result<RunResult, RunError> {
     let mut hardware = SimHardware::new(scenario, &scenario.faults)?;
+    hardware.set_integration(options.integration);
     let control_hz = scenario.robot.control_rate_hz;
     let rate = f64::from(control_hz);
     let params = scenario.params()?;

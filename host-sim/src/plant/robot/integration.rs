@@ -79,12 +79,12 @@ const ROUNDING_MARGIN_RAD_S: f64 = 1e-9;
 pub enum Integration {
     /// The exact solution over each `advance` call (one hold of the bridge) while it
     /// provably stays in one regime, else [`Integration::Rk4`]. Callers hold the bridge
-    /// one control period per call.
-    Exact,
-    /// Classic RK4 at the plant rate, in closed form where that is the same arithmetic
-    /// (the default, until the simulator's figures move to [`Integration::Exact`] in one
-    /// step).
+    /// one control period per call. The default.
     #[default]
+    Exact,
+    /// Classic RK4 at the plant rate, in closed form where that is the same arithmetic:
+    /// the fallback of [`Integration::Exact`], and on its own the baseline it is timed
+    /// against.
     Rk4,
     /// Classic RK4 at the plant rate, every stage evaluated on the full model: the
     /// reference the others are held to.

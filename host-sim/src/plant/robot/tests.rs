@@ -256,8 +256,9 @@ fn closed_form_rk4_equals_stage_by_stage_rk4_in_every_regime() {
 #[test]
 fn closed_form_and_stage_by_stage_runs_agree() {
     // A second of random duties, changed every millisecond, through rest, reversals
-    // and current sign changes: the fast path and the full model stay together.
+    // and current sign changes: RK4's closed form and the full model stay together.
     let mut fast = Plant::new(params()).unwrap();
+    fast.set_integration(Integration::Rk4);
     let mut full = fast.clone();
     full.set_integration(Integration::Rk4Stages);
     let mut rng = Rng::new(11);
@@ -626,9 +627,7 @@ fn the_exact_hold_matches_a_100_khz_reference_over_30_s() {
             (0.35 - turn, 0.35 + turn)
         })
         .collect();
-    let mut exact = Plant::new(params()).unwrap();
-    exact.set_integration(Integration::Exact);
-    let (pose_m, speed) = replay_against_reference(exact, &duties, &duties);
+    let (pose_m, speed) = replay_against_reference(exact_plant(), &duties, &duties);
     assert!(pose_m < 1e-4, "pose {pose_m} m");
     assert!(speed < 1e-3, "speed {speed}");
     // The bound can fail: the reference given the duties one millisecond late is off.
@@ -654,7 +653,8 @@ fn through_starts_stops_and_reversals_the_exact_hold_is_as_close_to_the_referenc
         .map(|_| (rng.symmetric(1.0) as f32, rng.symmetric(1.0) as f32))
         .collect();
     let (exact_pose_m, exact_speed) = replay_against_reference(exact_plant(), &duties, &duties);
-    let rk4 = Plant::new(params()).unwrap();
+    let mut rk4 = Plant::new(params()).unwrap();
+    rk4.set_integration(Integration::Rk4);
     let (rk4_pose_m, rk4_speed) = replay_against_reference(rk4, &duties, &duties);
     assert!(
         exact_pose_m <= 1.01 * rk4_pose_m,

@@ -89,6 +89,11 @@ pub struct GyroConfig {
     pub disagreement_threshold_radps: f32,
     /// Time constant of the disagreement's running mean, s.
     pub disagreement_window_s: f32,
+    /// A disagreement while armed stops the robot (the supervisor latches
+    /// `HeadingDisagreement`); false: it is a warning (`Event::GyroDisagrees`) and the
+    /// robot drives on. A failed gyro is always a warning (`Event::GyroFailed`): the
+    /// heading falls back to odometry, which is what a robot without a gyro steers by.
+    pub disagreement_stops: bool,
 }
 
 impl GyroConfig {
@@ -107,6 +112,7 @@ impl GyroConfig {
         stuck_turn_rad: 0.01,
         disagreement_threshold_radps: 0.03,
         disagreement_window_s: 10.0,
+        disagreement_stops: false,
     };
 
     /// The same with `source` as the heading.

@@ -19,11 +19,12 @@
 //! The detectors run on the robot's signals only (ticks, applied voltages, the step count,
 //! the supply measurement); the simulator's truth only measures what the fault did.
 
+use controller_core::gyro::GyroConfig;
 use controller_core::law::LawKind;
 use controller_core::reference::ReferenceMode;
 use robot_files::faults::{Fault, FaultKind, Wheel};
 use robot_files::metrics::FaultReport;
-use robot_files::scenario::Scenario;
+use robot_files::scenario::{GyroSensor, GyroSetup, GyroSweep, HeadingChoice, Scenario};
 use serde::Serialize;
 
 use std::path::Path;
@@ -53,6 +54,14 @@ pub enum Expectation {
     },
     /// Trips nothing.
     Harmless,
+    /// Seen by the gyro, which warns within `limit_s`; the robot drives on (a failed gyro
+    /// gives the heading back to odometry).
+    Warn {
+        /// The limit, s.
+        limit_s: f64,
+        /// Why that limit: the gyro check and its setting.
+        because: &'static str,
+    },
     /// Not visible to the firmware; this sensor would see it.
     Undetectable {
         /// The sensor that would see it.
@@ -83,6 +92,9 @@ pub struct Case {
     pub again_after_s: Option<f64>,
     /// What it should do.
     pub expect: Expectation,
+    /// The robot carries a gyro (the ICM-42688-P model, the heading from odometry, a
+    /// disagreement configured to stop the robot).
+    pub gyro: bool,
 }
 
 /// The cases `host-sim faults` runs (module doc).
@@ -100,6 +112,7 @@ pub fn cases() -> Vec<Case> {
             duration_s: None,
             again_after_s: None,
             expect: stall,
+            gyro: false,
         },
         Case {
             name: "encoder glitch",
@@ -110,6 +123,7 @@ pub fn cases() -> Vec<Case> {
                 limit_s: 0.001,
                 because: "encoder-jump check: one step",
             },
+            gyro: false,
         },
         Case {
             name: "encoder cables swapped",
@@ -120,6 +134,7 @@ pub fn cases() -> Vec<Case> {
                 limit_s: 1.5,
                 because: "divergence check: 0.5 m for 1 s (or the stall check first)",
             },
+            gyro: false,
         },
         Case {
             name: "motor disconnected",
@@ -130,6 +145,7 @@ pub fn cases() -> Vec<Case> {
                 limit_s: 1.5,
                 because: "stall check, or divergence if the chassis drags the wheel",
             },
+            gyro: false,
         },
         Case {
             name: "wheel blocked",
@@ -137,6 +153,7 @@ pub fn cases() -> Vec<Case> {
             duration_s: None,
             again_after_s: None,
             expect: stall,
+            gyro: false,
         },
         Case {
             name: "slip patch (0.2 s at 30 %)",
@@ -144,6 +161,7 @@ pub fn cases() -> Vec<Case> {
             duration_s: Some(0.2),
             again_after_s: None,
             expect: Harmless,
+            gyro: false,
         },
         Case {
             name: "supply sag to 4.0 V",
@@ -154,6 +172,7 @@ pub fn cases() -> Vec<Case> {
                 limit_s: 0.3,
                 because: "battery check: below 4.6 V for 0.2 s (20 ms supply filter)",
             },
+            gyro: false,
         },
         Case {
             name: "supply dip to 4.8 V",
@@ -161,6 +180,7 @@ pub fn cases() -> Vec<Case> {
             duration_s: Some(2.0),
             again_after_s: None,
             expect: Harmless,
+            gyro: false,
         },
         Case {
             name: "one step 3 periods late",
@@ -171,6 +191,7 @@ pub fn cases() -> Vec<Case> {
             duration_s: None,
             again_after_s: None,
             expect: Harmless,
+            gyro: false,
         },
         Case {
             name: "control loop blind 12 ms",
@@ -184,6 +205,7 @@ pub fn cases() -> Vec<Case> {
                 limit_s: 0.012,
                 because: "missed-tick check: a gap of 10 periods",
             },
+            gyro: false,
         },
         Case {
             name: "button pressed",
@@ -194,6 +216,7 @@ pub fn cases() -> Vec<Case> {
                 limit_s: 0.021,
                 because: "button: disarm on the debounced press (20 ms)",
             },
+            gyro: false,
         },
         Case {
             name: "button pressed twice 60 ms apart",
@@ -205,6 +228,7 @@ pub fn cases() -> Vec<Case> {
                 armed_again: false,
                 because: "re-arming needs both wheels below 0.5 rad/s for 0.1 s",
             },
+            gyro: false,
         },
         Case {
             name: "button pressed twice 1 s apart",
@@ -216,6 +240,7 @@ pub fn cases() -> Vec<Case> {
                 armed_again: true,
                 because: "at rest: re-armed where it stopped, back on the path",
             },
+            gyro: false,
         },
         Case {
             name: "track width 5 % off",
@@ -225,6 +250,7 @@ pub fn cases() -> Vec<Case> {
             expect: Undetectable {
                 sensor: "a gyro (its yaw rate against odometry's) or an absolute position fix",
             },
+            gyro: false,
         },
         Case {
             name: "left motor and encoder both inverted",
@@ -234,9 +260,121 @@ pub fn cases() -> Vec<Case> {
             expect: Undetectable {
                 sensor: "a gyro (its yaw rate against odometry's) or an absolute position fix",
             },
+            gyro: false,
+        },
+        Case {
+            name: "left encoder loses 1 tick in 10",
+            kind: TicksLost(Wheel::Left, 0.1),
+            duration_s: None,
+            again_after_s: None,
+            expect: Undetectable {
+                sensor: "a gyro (its yaw rate against odometry's) or an absolute position fix",
+            },
+            gyro: false,
+        },
+        Case {
+            name: "left wheel slips 2 %, steadily",
+            kind: SlipPatch(Wheel::Left, 0.02),
+            duration_s: None,
+            again_after_s: None,
+            expect: Undetectable {
+                sensor: "a gyro (its yaw rate against odometry's) or an absolute position fix",
+            },
+            gyro: false,
+        },
+        Case {
+            name: "track width 5 % off, with a gyro",
+            kind: TrackWidthError(5.0),
+            duration_s: None,
+            again_after_s: None,
+            expect: Undetectable {
+                sensor: "an absolute position fix (the yaw-rate error, 5 % of 0.2 rad/s, is \
+                         below the gyro check's 0.03 rad/s)",
+            },
+            gyro: true,
+        },
+        Case {
+            name: "left motor and encoder inverted, with a gyro",
+            kind: BothInverted(Wheel::Left),
+            duration_s: None,
+            again_after_s: None,
+            expect: disagreement(GYRO_INVERTED_LIMIT_S),
+            gyro: true,
+        },
+        Case {
+            name: "left encoder loses 1 tick in 10, with a gyro",
+            kind: TicksLost(Wheel::Left, 0.1),
+            duration_s: None,
+            again_after_s: None,
+            expect: disagreement(GYRO_TICKS_LOST_LIMIT_S),
+            gyro: true,
+        },
+        Case {
+            name: "left wheel slips 2 %, with a gyro",
+            kind: SlipPatch(Wheel::Left, 0.02),
+            duration_s: None,
+            again_after_s: None,
+            expect: Undetectable {
+                sensor: "an absolute position fix (the yaw-rate error, 0.032 rad/s, passes \
+                         the gyro check's 0.03 rad/s only after 27 s)",
+            },
+            gyro: true,
+        },
+        Case {
+            name: "gyro stuck",
+            kind: GyroStuck,
+            duration_s: None,
+            again_after_s: None,
+            expect: Warn {
+                limit_s: 0.201,
+                because: "stuck check: 200 identical readings while odometry turns 0.01 rad",
+            },
+            gyro: true,
+        },
+        Case {
+            name: "gyro absent",
+            kind: GyroAbsent,
+            duration_s: None,
+            again_after_s: None,
+            expect: Warn {
+                limit_s: 0.021,
+                because: "absent check: 20 steps without a reading",
+            },
+            gyro: true,
+        },
+        Case {
+            name: "gyro saturated",
+            kind: GyroSaturated,
+            duration_s: None,
+            again_after_s: None,
+            expect: Warn {
+                limit_s: 0.001,
+                because: "saturation check: one reading at full scale",
+            },
+            gyro: true,
         },
     ]
 }
+
+/// A disagreement the gyro configured to stop must stop the robot within `limit_s`.
+const fn disagreement(limit_s: f64) -> Expectation {
+    Expectation::Detect {
+        limit_s,
+        because: "disagreement check: the 10 s running mean of gyro minus odometry yaw rate beyond ±0.03 rad/s",
+    }
+}
+
+/// The disagreement rows' limits, s. The running mean of a constant disagreement e passes
+/// the threshold c after −τ ln(1 − c/e) (τ = 10 s, c = 0.03 rad/s); e is what the fault
+/// does to odometry's yaw rate on the paper's circle (v = 0.25 m/s, ω = 0.2 rad/s,
+/// L = 0.15 m, the left wheel at v_l = v − ωL/2 = 0.235 m/s).
+///
+/// A left wheel turning backwards while its encoder counts forwards: the robot spins,
+/// e ≈ 2 v_l / L ≈ 3 rad/s, 0.1 s; with the reversal of the wheel, 0.2 s.
+const GYRO_INVERTED_LIMIT_S: f64 = 0.2;
+/// A tenth of the left wheel's ticks lost: e = 0.1 · v_l / L = 0.157 rad/s, 2.1 s; 2.5 s
+/// for the controller's correction, which slows the left wheel's odometry further.
+const GYRO_TICKS_LOST_LIMIT_S: f64 = 2.5;
 
 /// One row of the table and of `faults.json`.
 #[derive(Clone, Debug, Serialize)]
@@ -262,6 +400,9 @@ pub struct CaseResult {
     pub final_state: String,
     /// The true position error at the end of the run, m.
     pub final_true_error_m: Option<f64>,
+    /// With a gyro, the largest running mean of |gyro − odometry| yaw rate while armed,
+    /// rad/s (`null` without one).
+    pub max_gyro_disagreement_radps: Option<f64>,
 }
 
 /// Runs every case on `scenario` with `law`; with `mcap_dir`, each case's run is also
@@ -308,6 +449,19 @@ pub fn run_case(
         if let Expectation::Rearm { .. } = case.expect {
             s.reference_mode = ReferenceMode::PathFollowing { lookahead_m: 0.0 };
         }
+        if case.gyro {
+            let setup = GyroSetup {
+                heading: HeadingChoice::Odometry,
+                sensor: GyroSensor::ICM42688P,
+                rest_before_arming_s: 0.0,
+                sweep: GyroSweep::default(),
+            };
+            s.robot.gyro = GyroConfig {
+                disagreement_stops: true,
+                ..setup.robot_gyro(s.robot.gyro)
+            };
+            s.gyro = Some(setup);
+        }
         if let FaultKind::TrackWidthError(_) = case.kind {
             // The mismatch exists from the start: odometry is wrong all run long.
             s.faults[0].at_step = 0;
@@ -338,6 +492,13 @@ pub fn run_case(
                     .latency_s
                     .is_some_and(|l| report.detected && l <= limit_s + 1e-9),
             ),
+            Expectation::Warn { limit_s, .. } => (
+                Some(limit_s),
+                !report.detected
+                    && report
+                        .warning_latency_s
+                        .is_some_and(|l| l <= limit_s + 1e-9),
+            ),
             Expectation::Harmless | Expectation::Undetectable { .. } => (None, !report.detected),
             Expectation::Rearm {
                 limit_s,
@@ -355,17 +516,23 @@ pub fn run_case(
                 )
             }
         };
+        // A case the robot drives on through is detected by its warning.
+        let (detected, latency_s) = match case.expect {
+            Expectation::Warn { .. } => (report.warning.is_some(), report.warning_latency_s),
+            _ => (report.detected, report.latency_s),
+        };
         Ok(CaseResult {
             case: case.name,
             fault: report.fault.clone(),
-            detected: report.detected,
-            latency_s: report.latency_s,
+            detected,
+            latency_s,
             limit_s,
             expect: case.expect,
             passed,
             report,
             final_state: run.summary.supervisor.final_state.clone(),
             final_true_error_m: final_true_error_m(&run),
+            max_gyro_disagreement_radps: case.gyro.then_some(run.max_gyro_disagreement_radps),
         })
     }
 }
@@ -402,6 +569,33 @@ mod tests {
                 r.final_true_error_m.unwrap() <= REARM_FINAL_ERROR_M,
                 "{r:?}"
             );
+        }
+    }
+
+    /// The rows with a gyro: a failed gyro warns within its limit and the robot drives
+    /// on; a wheel inverted with its encoder and lost ticks stop it by the disagreement;
+    /// the same faults without a gyro go unseen.
+    #[test]
+    fn a_gyro_sees_what_odometry_cannot_and_its_own_failure_never_stops_the_robot() {
+        let scenario = Scenario::load("paper-circle").unwrap();
+        for case in cases().into_iter().filter(|c| {
+            matches!(
+                c.kind,
+                FaultKind::TicksLost(..) | FaultKind::BothInverted(_)
+            ) || c.gyro
+        }) {
+            let r = run_case(&scenario, LawKind::Tracking, case, None).unwrap();
+            assert!(r.passed, "{r:?}");
+            match case.expect {
+                Expectation::Warn { .. } => {
+                    assert_eq!(r.final_state, "Armed", "{r:?}");
+                    assert!(r.report.distance_after_m > 2.0, "{r:?}");
+                }
+                Expectation::Detect { .. } => {
+                    assert_eq!(r.report.detected_by, ["heading_disagreement"], "{r:?}");
+                }
+                _ => assert!(!r.report.detected, "{r:?}"),
+            }
         }
     }
 }

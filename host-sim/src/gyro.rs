@@ -51,6 +51,11 @@ impl SimGyro {
         }
     }
 
+    /// The sensor's full scale, rad/s (what a saturated reading reports).
+    pub fn full_scale_rad_s(&self) -> f64 {
+        self.sensor.full_scale_rad_s
+    }
+
     /// The reading of a step covering `periods` control periods that ended with the true
     /// heading `heading_rad` (rad); `None` while the latency's first readings are in
     /// flight.

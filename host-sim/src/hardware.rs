@@ -85,6 +85,10 @@ pub struct SimHardware {
     actuation: Actuation,
     /// The gyro, if the scenario's robot has one.
     gyro: Option<SimGyro>,
+    /// Fractions of a tick lost but not yet dropped [left, right] (`ticks-lost`).
+    tick_loss: [f64; 2],
+    /// The reading a stuck gyro repeats (`gyro-stuck`, while it lasts).
+    stuck_gyro: Option<GyroSample>,
 }
 
 impl SimHardware {
@@ -133,6 +137,8 @@ impl SimHardware {
             late: (0, 1),
             frozen: [false; 2],
             actuation: Actuation::OFF,
+            tick_loss: [0.0; 2],
+            stuck_gyro: None,
         })
     }
 
@@ -206,9 +212,19 @@ impl SimHardware {
                     ticks[wheel.index()] = ticks[wheel.index()].saturating_neg();
                 }
                 FaultKind::ButtonPress => button_pressed = true,
+                FaultKind::TicksLost(wheel, fraction) => {
+                    // Whole ticks dropped as the lost fraction accumulates: the count
+                    // the firmware sees falls behind the wheel for good.
+                    let i = wheel.index();
+                    self.tick_loss[i] += f64::from(ticks[i].unsigned_abs()) * fraction;
+                    let lost = self.tick_loss[i].floor();
+                    self.tick_loss[i] -= lost;
+                    ticks[i] -= ticks[i].signum() * lost as i32;
+                }
                 _ => {}
             }
         }
+        let gyro = self.read_gyro(periods);
         let noise = SUPPLY_NOISE_RMS_V * self.rng.normal();
         Sensors {
             ticks: TickDeltas {
@@ -218,11 +234,39 @@ impl SimHardware {
             periods,
             supply_v: (self.plant.supply_v() + noise) as f32,
             button_pressed,
-            gyro: match &mut self.gyro {
-                Some(gyro) => gyro.read(self.plant.pose().theta_rad, periods),
-                None => None,
-            },
+            gyro,
         }
+    }
+
+    /// The gyro's reading for a step of `periods` periods, with the gyro faults in
+    /// effect: absent (none), stuck (the reading when it stuck, repeated), saturated
+    /// (full scale, the sign of the true reading). The sensor is read every step
+    /// whatever the faults, so its latency and noise stream go on.
+    fn read_gyro(&mut self, periods: u32) -> Option<GyroSample> {
+        let gyro = self.gyro.as_mut()?;
+        let full_scale = gyro.full_scale_rad_s() as f32;
+        let mut reading = gyro.read(self.plant.pose().theta_rad, periods);
+        let mut stuck = false;
+        for f in self.faults.iter().filter(|f| f.active_at(self.period)) {
+            match f.kind {
+                FaultKind::GyroAbsent => reading = None,
+                FaultKind::GyroStuck => stuck = true,
+                FaultKind::GyroSaturated => {
+                    if let Some(r) = reading.as_mut() {
+                        r.yaw_rate_radps = full_scale.copysign(r.yaw_rate_radps);
+                    }
+                }
+                _ => {}
+            }
+        }
+        if !stuck {
+            self.stuck_gyro = None;
+            return reading;
+        }
+        if self.stuck_gyro.is_none() {
+            self.stuck_gyro = reading;
+        }
+        self.stuck_gyro
     }
 
     /// Applies the firmware's outputs (held until the next call).

@@ -20,8 +20,8 @@ pub const BITS_PER_BYTE_8N1: u32 = 10;
 pub const TELEMETRY_RATE_HZ: core::ops::RangeInclusive<u8> = 1..=100;
 
 /// The robot's serial link rate (8N1), bit/s: 230 400, the lowest standard rate that
-/// carries the whole telemetry range (100 Hz of 156-byte frames with 30 % of the line
-/// kept for replies: [`max_telemetry_rate_hz`] gives 103 Hz, where 115 200 stops at
+/// carries the whole telemetry range (100 Hz of 157-byte frames with 30 % of the line
+/// kept for replies: [`max_telemetry_rate_hz`] gives 102 Hz, where 115 200 stops at
 /// 51 Hz). Both boards configure it and the station opens the port at it by default.
 pub const LINK_BAUD: u32 = 230_400;
 

@@ -25,9 +25,9 @@ use crate::protocol::{ProtocolId, HEADER_LEN};
 
 /// Largest postcard body a frame may carry, bytes. The largest messages,
 /// [`Request::SetParams`](crate::Request) and its twin [`Reply::Params`](crate::Reply),
-/// take at most 381 and 383 bytes with *any* configuration (every varint at its longest,
+/// take at most 382 and 384 bytes with *any* configuration (every varint at its longest,
 /// every option present; a test derives these bounds from the message schema). 388
-/// leaves room for one more `f32` field; each byte
+/// leaves room for one more `f32` field (4 bytes); each byte
 /// here costs two of RAM on the robot (the receive and the transmit buffer).
 pub const MAX_BODY_LEN: usize = 388;
 

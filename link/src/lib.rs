@@ -57,13 +57,13 @@
 //!
 //! | message | postcard body | on the wire |
 //! |---|---|---|
-//! | `SetParams` (reference robot, 1 kHz supervisor) | 258 B | 270 B |
-//! | reply `Params` (the same configuration) | 260 B | 272 B |
-//! | `Telemetry` | 145 B | 156 B |
+//! | `SetParams` (reference robot, 1 kHz supervisor) | 293 B | 304 B |
+//! | reply `Params` (the same configuration) | 295 B | 306 B |
+//! | `Telemetry` | 146 B | 157 B |
 //! | `PathChunk`, 4 arcs ([`SEGMENTS_PER_CHUNK`]) | 93 B | 104 B |
 //! | `PathChunk`, 1 arc | 30 B | 41 B |
 //! | `PathBegin` | 30 B | 41 B |
-//! | reply `Info` (every string full, the clock a fallback) | 112 B | 123 B |
+//! | reply `Info` (every string full, the clock a fallback) | 113 B | 124 B |
 //! | reply `PanicRecord` (every string full) | 128 B | 139 B |
 //! | `Stats` | 61 B | 72 B |
 //! | `TuneReport` (a result) | 105 B | 116 B |
@@ -140,7 +140,7 @@
 //!
 //! A UART with 8N1 framing carries `baud / 10` bytes per second. Keeping 30 %
 //! ([`bandwidth::DEFAULT_RESERVED_PERCENT`]) free for replies, heartbeats and path chunks,
-//! the largest telemetry frame (156 bytes on the wire) allows ([`max_telemetry_rate_hz`];
+//! the largest telemetry frame (157 bytes on the wire) allows ([`max_telemetry_rate_hz`];
 //! printed by `cargo run -p link --example sizes`; the unit tests of [`bandwidth`] check
 //! the arithmetic):
 //!

@@ -79,18 +79,17 @@ fn each_variant_round_trips() {
     }
 }
 
-/// The latched faults cross as they did when they were twelve named booleans: one byte
-/// each, in field order (the controller's `encoder_jump` and `non_finite` first), so the
-/// bit set changed nothing on the wire.
+/// The latched faults cross as named booleans: one byte each, in field order (the
+/// controller's `encoder_jump` and `non_finite` first), so the bit set is not on the wire.
 #[test]
-fn faults_cross_as_twelve_booleans_in_field_order() {
+fn faults_cross_as_named_booleans_in_field_order() {
     use controller_core::supervisor::{Fault, Faults};
     let none = postcard::to_allocvec(&Faults::NONE).unwrap_or_default();
-    assert_eq!(none, [0u8; 12]);
+    assert_eq!(none, [0u8; Fault::ALL.len()]);
     for (i, fault) in Fault::ALL.iter().enumerate() {
         let one = Faults::NONE.with(*fault);
         let bytes = postcard::to_allocvec(&one).unwrap_or_default();
-        let mut expected = [0u8; 12];
+        let mut expected = [0u8; Fault::ALL.len()];
         expected[i] = 1;
         assert_eq!(bytes, expected, "{fault:?}");
         assert_eq!(postcard::from_bytes::<Faults>(&bytes).ok(), Some(one));

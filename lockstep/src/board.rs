@@ -3,6 +3,7 @@
 //! one-byte codes of the supervisor's values.
 
 use controller_core::controller::MotorCommand;
+use controller_core::gyro::GyroFailure;
 use controller_core::kinematics::{Pose, TrackingError};
 use controller_core::supervisor::{
     Bridge, CommandRefusal, DisarmReason, Event, Faults, RunMode, State,
@@ -373,6 +374,25 @@ const fn disarm_from(code: u8) -> Option<DisarmReason> {
     }
 }
 
+const fn gyro_failure_code(failure: GyroFailure) -> u8 {
+    match failure {
+        GyroFailure::Absent => 0,
+        GyroFailure::NonFinite => 1,
+        GyroFailure::Saturated => 2,
+        GyroFailure::Stuck => 3,
+    }
+}
+
+const fn gyro_failure_from(code: u8) -> Option<GyroFailure> {
+    match code {
+        0 => Some(GyroFailure::Absent),
+        1 => Some(GyroFailure::NonFinite),
+        2 => Some(GyroFailure::Saturated),
+        3 => Some(GyroFailure::Stuck),
+        _ => None,
+    }
+}
+
 /// A refusal as one byte: 0–3 wrong state (its state's code), then the others; 8 on a
 /// wrong mode (plus the mode's code).
 const fn refusal_code(refusal: CommandRefusal) -> u8 {
@@ -419,6 +439,8 @@ const fn event_code(event: Option<Event>) -> [u8; 2] {
         Some(Event::PersistEnded) => [8, 0],
         Some(Event::PoseSet) => [9, 0],
         Some(Event::ArmRefused(refusal)) => [10, refusal_code(refusal)],
+        Some(Event::GyroFailed(failure)) => [11, gyro_failure_code(failure)],
+        Some(Event::GyroDisagrees) => [12, 0],
     }
 }
 
@@ -449,6 +471,11 @@ const fn event_from(code: [u8; 2]) -> Option<Option<Event>> {
             Some(refusal) => Event::ArmRefused(refusal),
             None => return None,
         },
+        11 => match gyro_failure_from(arg) {
+            Some(failure) => Event::GyroFailed(failure),
+            None => return None,
+        },
+        12 => Event::GyroDisagrees,
         _ => return None,
     };
     Some(Some(event))

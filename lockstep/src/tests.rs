@@ -194,6 +194,11 @@ fn every_event_and_fault_crosses() {
         Some(Event::PersistStarted),
         Some(Event::PersistEnded),
         Some(Event::PoseSet),
+        Some(Event::GyroFailed(controller_core::gyro::GyroFailure::Stuck)),
+        Some(Event::GyroFailed(
+            controller_core::gyro::GyroFailure::Absent,
+        )),
+        Some(Event::GyroDisagrees),
         Some(Event::ArmRefused(CommandRefusal::WheelsTurning)),
         Some(Event::ArmRefused(CommandRefusal::ButtonHeld)),
         Some(Event::ArmRefused(CommandRefusal::NonFinitePose)),

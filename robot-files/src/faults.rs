@@ -21,6 +21,10 @@
 //! | `button-press` | the arm button is held for `duration_s` | `duration_s` (default 0.1) |
 //! | `track-width-error` | the true track differs by `error_pct` (odometry cannot see it) | `error_pct` |
 //! | `both-inverted` | a wheel's motor and encoder are both inverted (odometry cannot see it) | `wheel` |
+//! | `ticks-lost` | the wheel's encoder loses `fraction` of its ticks (odometry cannot see it) | `wheel`, `fraction` (0…1, default 0.1) |
+//! | `gyro-stuck` | the gyro repeats its last reading | `duration_s` |
+//! | `gyro-absent` | the gyro stops answering | `duration_s` |
+//! | `gyro-saturated` | the gyro reads its full scale | `duration_s` |
 //!
 //! Every detector the supervisor runs sees only what the firmware sees (ticks, voltages,
 //! the step count, the supply measurement); the simulator's truth is used only to report
@@ -77,6 +81,14 @@ pub enum FaultKind {
     TrackWidthError(f64),
     /// The wheel's motor and encoder are both inverted.
     BothInverted(Wheel),
+    /// The wheel's encoder loses this fraction (0…1) of its ticks.
+    TicksLost(Wheel, f64),
+    /// The gyro repeats its last reading.
+    GyroStuck,
+    /// The gyro gives no reading.
+    GyroAbsent,
+    /// The gyro reads its full scale.
+    GyroSaturated,
 }
 
 impl FaultKind {
@@ -94,6 +106,10 @@ impl FaultKind {
             FaultKind::ButtonPress => "button-press",
             FaultKind::TrackWidthError(_) => "track-width-error",
             FaultKind::BothInverted(_) => "both-inverted",
+            FaultKind::TicksLost(..) => "ticks-lost",
+            FaultKind::GyroStuck => "gyro-stuck",
+            FaultKind::GyroAbsent => "gyro-absent",
+            FaultKind::GyroSaturated => "gyro-saturated",
         }
     }
 }
@@ -133,6 +149,7 @@ pub(crate) struct FaultEntry {
     count: Option<u32>,
     late_periods: Option<u32>,
     error_pct: Option<f64>,
+    fraction: Option<f64>,
 }
 
 /// Why a `[[faults]]` entry was rejected: the key (`faults[2].wheel`) and the problem.
@@ -217,13 +234,27 @@ impl FaultEntry {
                 FaultKind::TrackWidthError(pct)
             }
             "both-inverted" => FaultKind::BothInverted(wheel()?),
+            "ticks-lost" => {
+                let fraction = self.fraction.unwrap_or(0.1);
+                if !(0.0..=1.0).contains(&fraction) {
+                    return Err(err(
+                        "fraction",
+                        format!("must be in [0, 1], got {fraction}"),
+                    ));
+                }
+                FaultKind::TicksLost(wheel()?, fraction)
+            }
+            "gyro-stuck" => FaultKind::GyroStuck,
+            "gyro-absent" => FaultKind::GyroAbsent,
+            "gyro-saturated" => FaultKind::GyroSaturated,
             other => {
                 return Err(err(
                     "kind",
                     format!(
                         "must be one of encoder-disconnect, encoder-glitch, encoders-swapped, \
                          motor-disconnect, wheel-blocked, slip-patch, supply-sag, late-steps, \
-                         button-press, track-width-error, both-inverted; got \"{other}\""
+                         button-press, track-width-error, both-inverted, ticks-lost, \
+                         gyro-stuck, gyro-absent, gyro-saturated; got \"{other}\""
                     ),
                 ))
             }
@@ -262,6 +293,15 @@ mod tests {
             .build(0, 1000)
             .unwrap();
         assert_eq!(glitch.duration_steps, Some(1));
+        let lost = entry("at_s = 1\nkind = \"ticks-lost\"\nwheel = \"right\"\n")
+            .build(0, 1000)
+            .unwrap();
+        assert_eq!(lost.kind, FaultKind::TicksLost(Wheel::Right, 0.1));
+        let stuck = entry("at_s = 1\nkind = \"gyro-stuck\"\nduration_s = 2\n")
+            .build(0, 1000)
+            .unwrap();
+        assert_eq!(stuck.kind, FaultKind::GyroStuck);
+        assert_eq!(stuck.duration_steps, Some(2000));
     }
 
     #[test]
@@ -283,6 +323,10 @@ mod tests {
             .build(0, 1000)
             .unwrap_err();
         assert_eq!(e.key, "faults[0].late_periods");
+        let e = entry("at_s = 1\nkind = \"ticks-lost\"\nwheel = \"left\"\nfraction = 1.5\n")
+            .build(2, 1000)
+            .unwrap_err();
+        assert_eq!(e.key, "faults[2].fraction");
         assert!(toml::from_str::<FaultEntry>("at_s = 1\nkind = \"x\"\nwhen = 2\n").is_err());
     }
 }

@@ -115,6 +115,11 @@ pub struct FaultReport {
     pub wheels_stopped_s: Option<f64>,
     /// True distance driven from the injection to the end of the run, m.
     pub distance_after_m: f64,
+    /// The first warning at or after the injection that the robot drove on with (the
+    /// gyro failed, or disagreed with odometry), by name (`null` if none).
+    pub warning: Option<String>,
+    /// Its latency from the injection, s (`null` if none).
+    pub warning_latency_s: Option<f64>,
 }
 
 /// The run summary written as `summary.json`.

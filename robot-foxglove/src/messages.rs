@@ -160,6 +160,8 @@ pub struct FaultsMessage {
     pub supply_high: bool,
     /// An emergency stop was commanded.
     pub emergency_stop: bool,
+    /// The gyro and odometry disagreed, configured to stop.
+    pub heading_disagreement: bool,
 }
 
 impl From<Faults> for FaultsMessage {
@@ -177,6 +179,7 @@ impl From<Faults> for FaultsMessage {
             supply_low: f.has(Fault::SupplyLow),
             supply_high: f.has(Fault::SupplyHigh),
             emergency_stop: f.has(Fault::EmergencyStop),
+            heading_disagreement: f.has(Fault::HeadingDisagreement),
         }
     }
 }

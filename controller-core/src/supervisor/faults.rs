@@ -41,11 +41,14 @@ pub enum Fault {
     SupplyHigh = 10,
     /// An emergency stop was commanded.
     EmergencyStop = 11,
+    /// The gyro's and odometry's yaw rates disagreed persistently while armed, and the
+    /// gyro's configuration says to stop ([`crate::gyro::GyroConfig::disagreement_stops`]).
+    HeadingDisagreement = 12,
 }
 
 impl Fault {
     /// Every fault, in bit order.
-    pub const ALL: [Fault; 12] = [
+    pub const ALL: [Fault; 13] = [
         Fault::EncoderJump,
         Fault::NonFinite,
         Fault::Overrun,
@@ -58,6 +61,7 @@ impl Fault {
         Fault::SupplyLow,
         Fault::SupplyHigh,
         Fault::EmergencyStop,
+        Fault::HeadingDisagreement,
     ];
 
     /// The fault's name in reports and logs (`snake_case`, as in the serde form).
@@ -75,6 +79,7 @@ impl Fault {
             Fault::SupplyLow => "supply_low",
             Fault::SupplyHigh => "supply_high",
             Fault::EmergencyStop => "emergency_stop",
+            Fault::HeadingDisagreement => "heading_disagreement",
         }
     }
 
@@ -196,6 +201,7 @@ mod wire {
         pub supply_low: bool,
         pub supply_high: bool,
         pub emergency_stop: bool,
+        pub heading_disagreement: bool,
     }
 
     impl From<super::Faults> for Faults {
@@ -215,6 +221,7 @@ mod wire {
                 supply_low: f.has(Fault::SupplyLow),
                 supply_high: f.has(Fault::SupplyHigh),
                 emergency_stop: f.has(Fault::EmergencyStop),
+                heading_disagreement: f.has(Fault::HeadingDisagreement),
             }
         }
     }
@@ -234,6 +241,7 @@ mod wire {
                 (Fault::SupplyLow, w.supply_low),
                 (Fault::SupplyHigh, w.supply_high),
                 (Fault::EmergencyStop, w.emergency_stop),
+                (Fault::HeadingDisagreement, w.heading_disagreement),
             ];
             let mut faults = super::Faults::NONE;
             for (fault, set) in flags {
@@ -281,7 +289,7 @@ mod tests {
             .with(Fault::StallRight)
             .with(Fault::EmergencyStop);
         assert_eq!(Faults::from_bits(f.bits()), f);
-        assert_eq!(Faults::from_bits(0xF000 | f.bits()), f);
+        assert_eq!(Faults::from_bits(0xE000 | f.bits()), f);
         assert_eq!(Faults::from_bits(0xFFFF).iter().count(), Fault::ALL.len());
     }
 

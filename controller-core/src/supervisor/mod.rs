@@ -98,8 +98,12 @@
 //! self-consistent, and the controller converges in its own frame while the robot is
 //! elsewhere. Only an independent sensor (a gyro's yaw rate against odometry's, an
 //! absolute position fix) would see them: a robot with a gyro reports the running
-//! disagreement of the two yaw rates in its telemetry ([`crate::gyro::GyroReport`]); it
-//! does not latch a fault.
+//! disagreement of the two yaw rates in its telemetry ([`crate::gyro::GyroReport`]).
+//! While armed, a disagreement beyond its threshold is a warning ([`Event::GyroDisagrees`],
+//! once a spell), or, when the gyro's configuration says
+//! ([`crate::gyro::GyroConfig::disagreement_stops`]), the fault
+//! [`Fault::HeadingDisagreement`]. A failed gyro is only ever a warning
+//! ([`Event::GyroFailed`]): the heading falls back to odometry.
 //!
 //! ## The watchdog-feeding rule
 //!
@@ -174,6 +178,7 @@ use core::num::NonZeroU32;
 
 use crate::controller::{Controller, Mode, MotorCommand, StepInput};
 use crate::drive::WheelVolts;
+use crate::gyro::GyroHealth;
 use crate::kinematics::{BodyVelocity, Pose};
 use crate::math;
 use crate::outer_loop::OuterLoopHolder;
@@ -219,6 +224,10 @@ pub struct Supervisor {
     battery_low: bool,
     /// [`Event::BatteryLow`] has been reported for the present low-battery spell.
     battery_warned: bool,
+    /// [`Event::GyroFailed`] has been reported for the present failure, and
+    /// [`Event::GyroDisagrees`] for the present disagreement.
+    gyro_failure_warned: bool,
+    gyro_disagreement_warned: bool,
     missed: MissedTicks,
     stall: Stall,
     saturation: Saturation,
@@ -264,6 +273,8 @@ impl Supervisor {
             steps_since_heartbeat: 0,
             battery_low: false,
             battery_warned: false,
+            gyro_failure_warned: false,
+            gyro_disagreement_warned: false,
             missed: MissedTicks::default(),
             stall: Stall::default(),
             saturation: Saturation::default(),
@@ -409,6 +420,10 @@ impl Supervisor {
         let driving = self.state == State::Armed;
         let battery_event = self.battery_event();
         event = event.or(battery_event);
+        if event.is_none() {
+            // A warning waits for a step without another event (it is never lost).
+            event = self.gyro_event(controller);
+        }
 
         // 4. Outputs.
         let bridge = if driving {
@@ -562,6 +577,9 @@ impl Supervisor {
                     }
                 }
             }
+            if t.gyro.disagrees && controller.params().config().gyro.disagreement_stops {
+                self.faults.set(Fault::HeadingDisagreement);
+            }
             // The geofence is the operator's, whoever gives the body command.
             if matches!(self.run_mode, RunMode::FollowPath | RunMode::FollowVelocity) {
                 if let Some(radius) = self.config.geofence_radius_m {
@@ -594,6 +612,32 @@ impl Supervisor {
         }
         self.battery_warned = true;
         Some(Event::BatteryLow)
+    }
+
+    /// The gyro's warnings, once each per spell: [`Event::GyroFailed`] when the fusion
+    /// has given the gyro up (the heading follows odometry), and, while armed,
+    /// [`Event::GyroDisagrees`] when the two yaw rates disagree and the configuration
+    /// does not stop the robot for it.
+    fn gyro_event<S: OuterLoopHolder>(&mut self, controller: &Controller<S>) -> Option<Event> {
+        let report = controller.telemetry().gyro;
+        let failure = match report.health {
+            GyroHealth::Failed(failure) => Some(failure),
+            GyroHealth::None | GyroHealth::Reading => None,
+        };
+        let warn_disagreement = report.disagrees
+            && self.state == State::Armed
+            && !controller.params().config().gyro.disagreement_stops;
+        self.gyro_failure_warned &= failure.is_some();
+        self.gyro_disagreement_warned &= warn_disagreement;
+        if let Some(failure) = failure.filter(|_| !self.gyro_failure_warned) {
+            self.gyro_failure_warned = true;
+            return Some(Event::GyroFailed(failure));
+        }
+        if warn_disagreement && !self.gyro_disagreement_warned {
+            self.gyro_disagreement_warned = true;
+            return Some(Event::GyroDisagrees);
+        }
+        None
     }
 
     fn handle_button<S: OuterLoopHolder>(

@@ -6,7 +6,9 @@ use core::num::NonZeroU32;
 
 use super::{Faults, SupervisorConfigError};
 use crate::controller::{MotorCommand, TickDeltas};
-use crate::gyro::GyroSample;
+#[cfg(doc)]
+use crate::gyro::GyroConfig;
+use crate::gyro::{GyroFailure, GyroSample};
 use crate::kinematics::{BodyVelocity, Pose, WheelSpeeds};
 use crate::tune::TuneConfigError;
 
@@ -195,6 +197,13 @@ pub enum Event {
     /// A short press did not arm, for this reason (the link's refusals come in its
     /// reply).
     ArmRefused(CommandRefusal),
+    /// A warning: the gyro failed this way, and the heading follows odometry until the
+    /// faults are next cleared.
+    GyroFailed(GyroFailure),
+    /// A warning: armed, the gyro's and odometry's yaw rates disagree beyond
+    /// [`GyroConfig::disagreement_threshold_radps`] (the track width, a wheel radius, slip
+    /// or a wheel's wiring is not what odometry assumes).
+    GyroDisagrees,
 }
 
 /// How to arm.

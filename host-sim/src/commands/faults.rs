@@ -42,7 +42,14 @@ impl fmt::Display for FaultsReport {
         for r in &self.results {
             let by = match r.expect {
                 Expectation::Undetectable { sensor } => sensor.to_string(),
+                Expectation::Warn { .. } => {
+                    format!("warned: {}", r.report.warning.as_deref().unwrap_or("—"))
+                }
                 _ => r.report.detected_by.join(", "),
+            };
+            let by = match (r.max_gyro_disagreement_radps, r.expect) {
+                (_, Expectation::Warn { .. }) | (None, _) => by,
+                (Some(d), _) => format!("{by}; mean |gyro − odometry| up to {d:.3} rad/s"),
             };
             let stopped = r.report.wheels_stopped_s.map(|t| t - r.report.injected_s);
             writeln!(
@@ -64,7 +71,8 @@ impl fmt::Display for FaultsReport {
         }
         writeln!(
             f,
-            "\n(latency: from injection to the supervisor stopping the robot; after/m: true distance \
+            "\n(latency: from injection to the supervisor stopping the robot, or to its warning for a \
+case it drives on through; after/m: true distance \
 driven from the injection to the end; stopped: until both wheels turn < 0.1 rad/s)\nwrote {}",
             self.file.display()
         )
@@ -146,9 +154,12 @@ mod tests {
                 motors_zero_s: None,
                 wheels_stopped_s: None,
                 distance_after_m: 0.0,
+                warning: None,
+                warning_latency_s: None,
             },
             final_state: "Faulted".into(),
             final_true_error_m: None,
+            max_gyro_disagreement_radps: None,
         }
     }
 

@@ -4,7 +4,7 @@
 //!
 //! Contract: observed at every control step of the run, from the supervisor's outcome
 //! and the plant's truth only; detection is the first fault or disarm event at or after
-//! the injection.
+//! the injection, and its warning the first gyro warning event at or after it.
 
 use controller_core::prelude::*;
 use controller_core::supervisor::{Bridge, Event, SupervisorOutput};
@@ -32,6 +32,8 @@ impl FaultWatch {
                 motors_zero_s: None,
                 wheels_stopped_s: None,
                 distance_after_m: 0.0,
+                warning: None,
+                warning_latency_s: None,
             },
             fault,
             last_position: (0.0, 0.0),
@@ -72,6 +74,17 @@ impl FaultWatch {
                 r.detected_s = Some(t_s);
                 r.latency_s = Some(t_s - r.injected_s);
                 r.detected_by = by;
+            }
+        }
+        if r.warning.is_none() {
+            let warning = match out.event {
+                Some(Event::GyroFailed(failure)) => Some(format!("gyro failed: {failure:?}")),
+                Some(Event::GyroDisagrees) => Some("gyro disagrees with odometry".to_string()),
+                _ => None,
+            };
+            if let Some(w) = warning {
+                r.warning = Some(w);
+                r.warning_latency_s = Some(t_s - r.injected_s);
             }
         }
         if r.motors_zero_s.is_none()

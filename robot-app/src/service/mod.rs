@@ -69,7 +69,7 @@ const _: () = assert!(REPLY_RESERVE + COMMAND_CAPACITY * CONTROL_REPLY_MAX <= TX
 
 /// Bytes on the wire of the largest telemetry frame (`link::bandwidth::telemetry_wire_len`,
 /// checked by a test; a constant here so the target needs no size-counting serializer).
-pub const TELEMETRY_WIRE_LEN: usize = 156;
+pub const TELEMETRY_WIRE_LEN: usize = 157;
 
 /// Who the robot is and what its board found when it started, as [`Request::Info`]
 /// reports it. Strings longer than the link's capacities are cut.

@@ -4,7 +4,7 @@
 use link::{encode, Message};
 
 /// Bytes of the transmit buffer. With the reply reserve held back (one frame of the
-/// largest size, `link::MAX_FRAME_LEN` = 400 B), 212 B are left for telemetry (156 B a
+/// largest size, `link::MAX_FRAME_LEN` = 400 B), 212 B are left for telemetry (157 B a
 /// sample) and events; the reserve and the replies to a full command queue (4 × 48 B)
 /// fit with 20 B to spare (checked at compile time in `service`).
 pub const TX_CAPACITY: usize = 612;

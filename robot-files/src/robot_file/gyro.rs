@@ -75,6 +75,9 @@ pub struct GyroSection {
     /// Time constant of the disagreement's running mean, s.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub disagreement_window_s: Option<f32>,
+    /// A disagreement while armed stops the robot (true) or warns (false).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub disagreement_stops: Option<bool>,
 }
 
 impl GyroSection {
@@ -100,6 +103,7 @@ impl GyroSection {
             self.disagreement_threshold_radps,
         );
         set(&mut g.disagreement_window_s, self.disagreement_window_s);
+        set(&mut g.disagreement_stops, self.disagreement_stops);
     }
 
     /// Every field of `g`.
@@ -117,6 +121,7 @@ impl GyroSection {
             stuck_turn_rad: Some(g.stuck_turn_rad),
             disagreement_threshold_radps: Some(g.disagreement_threshold_radps),
             disagreement_window_s: Some(g.disagreement_window_s),
+            disagreement_stops: Some(g.disagreement_stops),
         }
     }
 }

@@ -35,7 +35,8 @@
 //!                              #   full_scale_radps, bias_time_constant_s,
 //!                              #   odometry_blend_time_constant_s, max_age_periods,
 //!                              #   absent_limit_steps, stuck_limit_steps, stuck_turn_rad,
-//!                              #   disagreement_threshold_radps, disagreement_window_s
+//!                              #   disagreement_threshold_radps, disagreement_window_s,
+//!                              #   disagreement_stops
 //!
 //! [supervisor]                 # times in seconds; the supervisor counts control steps
 //! run_time_limit_s = 120.0     # or "none" (the default: a soak can run for a day)

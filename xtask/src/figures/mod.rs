@@ -244,8 +244,8 @@ fn headline(out: &Path) -> Result<String> {
         .count();
     block.push_str(&format!(
         "\nThe fault suite: {passed} of {} cases as expected: each detectable fault stopped the \
-         motors within its detector's limit, the harmless ones tripped nothing, and those \
-         odometry cannot see are named as such.\n",
+         motors within its detector's limit, the harmless ones tripped nothing, a failed gyro \
+         warned and the robot drove on, and those its sensors cannot see are named as such.\n",
         cases.len()
     ));
     Ok(block)

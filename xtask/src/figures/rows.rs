@@ -65,6 +65,11 @@ pub fn fault_row(case: &Value) -> Result<String> {
         "harmless".to_string()
     } else if let Some(detect) = expect.get("detect") {
         format!("detected: {}", detect["because"].as_str().unwrap_or(""))
+    } else if let Some(warn) = expect.get("warn") {
+        format!(
+            "warned, drives on: {}",
+            warn["because"].as_str().unwrap_or("")
+        )
     } else if let Some(undetectable) = expect.get("undetectable") {
         format!(
             "not detectable by odometry (needs {})",
@@ -90,6 +95,7 @@ pub fn fault_row(case: &Value) -> Result<String> {
                 .join(", ")
         })
         .filter(|d| !d.is_empty())
+        .or_else(|| report["warning"].as_str().map(str::to_string))
         .unwrap_or_else(|| "—".to_string());
     let seconds = |v: &Value| {
         v.as_f64()
@@ -221,6 +227,15 @@ mod tests {
         assert_eq!(
             fault_row(&rearm).unwrap(),
             "| twice | stopped, re-arm refused: turning | disarmed: Button | 19.0 ms | 21.0 ms | 14.3 mm | as expected |\n"
+        );
+        let warn = serde_json::json!({
+            "case": "gyro absent", "expect": {"warn": {"limit_s": 0.021, "because": "absent check"}},
+            "latency_s": 0.019, "limit_s": 0.021, "passed": true,
+            "report": {"detected_by": [], "warning": "gyro failed: Absent", "distance_after_m": 2.5},
+        });
+        assert_eq!(
+            fault_row(&warn).unwrap(),
+            "| gyro absent | warned, drives on: absent check | gyro failed: Absent | 19.0 ms | 21.0 ms | 2500.0 mm | as expected |\n"
         );
         let unknown = serde_json::json!({"case": "x", "expect": {"other": {}}});
         assert!(fault_row(&unknown).is_err());

@@ -50,6 +50,8 @@ struct Rig {
     moving: bool,
     ticks_acc: f32,
     steps: u32,
+    /// The gyro's reading each step (`None`: no IMU).
+    gyro: Option<crate::gyro::GyroSample>,
 }
 
 impl Rig {
@@ -71,6 +73,7 @@ impl Rig {
             moving: false,
             ticks_acc: 0.0,
             steps: 0,
+            gyro: None,
         }
     }
 
@@ -87,7 +90,7 @@ impl Rig {
             overrun: self.overrun,
             background_heartbeat: self.heartbeat,
             command: self.command.take(),
-            gyro: None,
+            gyro: self.gyro,
         };
         self.sup.step(&mut self.ctl, input)
     }
@@ -1121,6 +1124,7 @@ fn a_refused_setting_says_why_and_keeps_its_cause() {
     assert_ne!(invalid.to_string(), armed.to_string());
 }
 
+mod gyro;
 mod motor_test;
 mod rearm;
 mod velocity;

@@ -15,10 +15,10 @@
 //! Where the outer loop lives is the controller's [`OuterLoopHolder`]. A
 //! `Controller<OuterLoop>` owns it and runs each job itself at the start of the next step,
 //! from the due step's state (still in place then) straight into its telemetry (the
-//! simulator, the tests). A seat that lends it (the firmware's) takes the job as a value
+//! simulator, the tests). A holder that lends it (the firmware's) takes the job as a value
 //! and runs it elsewhere, in a lower-priority task, between the two steps; the outcome
-//! stays with the outer loop (`OuterLoop::outcome`), and the next step seats the outer
-//! loop again and copies the outcome from there into telemetry. Both give the same
+//! stays with the outer loop (`OuterLoop::outcome`), and the next step takes the outer
+//! loop back and copies the outcome from there into telemetry. Both give the same
 //! result.
 //!
 //! ```text
@@ -93,39 +93,39 @@ pub struct OuterLoopOutcome {
 }
 
 /// The outer loop was lent out (it is running a job elsewhere): what needs it must wait
-/// for it to be seated again, one control period at most.
+/// for it to be back, one control period at most.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct OuterLoopAway;
 
 /// Where a controller's outer loop is (see the module doc).
 pub trait OuterLoopHolder {
-    /// The outer loop, if it is seated.
-    fn seated(&self) -> Option<&OuterLoop>;
-    /// The outer loop, if it is seated.
-    fn seated_mut(&mut self) -> Option<&mut OuterLoop>;
+    /// The outer loop, if it is held.
+    fn held(&self) -> Option<&OuterLoop>;
+    /// The outer loop, if it is held.
+    fn held_mut(&mut self) -> Option<&mut OuterLoop>;
     /// True when `Controller::step` runs a due job itself before it returns; false when
     /// the job waits for `Controller::lend_steering`.
     fn runs_jobs(&self) -> bool;
     /// Lends the outer loop out with `job`, to run elsewhere; false (nothing done) when
-    /// this seat does not lend or the outer loop is away.
+    /// this holder does not lend or the outer loop is away.
     fn lend(&mut self, job: &OuterLoopJob) -> bool {
         let _ = job;
         false
     }
-    /// Seats the outer loop again if it has come back (with the outcome of the job it ran
+    /// Takes the outer loop back if it has come back (with the outcome of the job it ran
     /// in `OuterLoop::outcome`); false when it has not come back (or was never lent).
     fn collect(&mut self) -> bool {
         false
     }
 }
 
-/// Owned: always seated, and runs each job at once.
+/// Owned: always held, and runs each job at once.
 impl OuterLoopHolder for OuterLoop {
-    fn seated(&self) -> Option<&OuterLoop> {
+    fn held(&self) -> Option<&OuterLoop> {
         Some(self)
     }
 
-    fn seated_mut(&mut self) -> Option<&mut OuterLoop> {
+    fn held_mut(&mut self) -> Option<&mut OuterLoop> {
         Some(self)
     }
 

@@ -137,7 +137,7 @@ mod app {
             Ok(sides) => sides,
             Err(_) => defmt::panic!("the configuration in force is invalid"),
         };
-        // Built in the channels at start, so seated until the first lent job.
+        // Built in the channels at start, so held until the first lent job.
         let law = control
             .controller()
             .steering()

@@ -208,7 +208,7 @@ pub struct ControlSide<'a> {
 
 impl<'a> ControlSide<'a> {
     /// The control side around `controller` and `supervisor`, talking to the link side
-    /// through `end`; `worker` is the other end of the controller's outer-loop seat.
+    /// through `end`; `worker` is the other end of the controller's outer-loop holder.
     /// [`crate::start`] builds both sides from one configuration.
     pub(crate) fn new(
         end: ControlEnd<'a>,
@@ -241,7 +241,7 @@ impl<'a> ControlSide<'a> {
         }
     }
 
-    /// The controller (its telemetry, parameters, and its outer loop while seated).
+    /// The controller (its telemetry, parameters, and its outer loop while held).
     pub const fn controller(&self) -> &Controller<OuterLoopMailbox<'a>> {
         &self.controller
     }
@@ -279,14 +279,14 @@ impl<'a> ControlSide<'a> {
 
         // 0. The outer loop comes back with its outcome. Not back yet: it overran the
         //    period, which the supervisor counts as an overrun of this step.
-        let outer_loop_seated = self.controller.collect_steering();
+        let outer_loop_held = self.controller.collect_steering();
 
         // 1. At most one request from the link, and only when its reply and this step's
         //    event both have room: replies are never dropped. Not while the outer loop
         //    is away: an installation rebuilds it.
         let mut command = None;
         let mut answered = None;
-        if outer_loop_seated && self.end.uplink.free() >= 2 {
+        if outer_loop_held && self.end.uplink.free() >= 2 {
             if let Some(request) = self.end.commands.pop() {
                 let kind = request.op.kind();
                 let result = match request.op {
@@ -320,7 +320,7 @@ impl<'a> ControlSide<'a> {
                 periods: sensors.periods,
                 supply_v: wiring.supply_from_board(sensors.supply_v),
                 button_pressed: sensors.button_pressed,
-                overrun: sensors.overrun || !outer_loop_seated,
+                overrun: sensors.overrun || !outer_loop_held,
                 background_heartbeat: sensors.background_heartbeat,
                 command,
                 gyro: sensors.gyro,
@@ -456,7 +456,7 @@ impl<'a> ControlSide<'a> {
 
     /// The run ended in this step: its report goes to the link side (dropped if the
     /// previous one is still there, which takes two runs ending between two link polls).
-    /// Out of line: its report's room is on the stack only in the step that ends a run.
+    /// Out of line: its report's storage is on the stack only in the step that ends a run.
     #[inline(never)]
     fn end_run(&mut self) {
         self.in_run = false;

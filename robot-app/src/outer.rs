@@ -1,16 +1,16 @@
 //! The control side's outer loop (the steering law of `controller_core::steering`) and
 //! how it is lent to a lower-priority task.
 //!
-//! The outer loop lives in a mailbox of the [`Channels`](crate::Channels), with room for
+//! The outer loop lives in a mailbox of the [`Channels`](crate::Channels), with space for
 //! its job and its outcome ([`OuterLoopWithJob`]). The control side's controller holds the
-//! mailbox's sending end as its seat ([`OuterLoopMailbox`]):
+//! mailbox's sending end as its holder ([`OuterLoopMailbox`]):
 //!
 //! - By default the controller runs each job itself, at the start of the next step,
 //!   straight into its telemetry (the virtual robot does this).
 //! - After [`ControlSide::lend_outer_loop`](crate::ControlSide::lend_outer_loop) (the
 //!   firmware does this), a step that hands over a job writes it into the mailbox and
 //!   publishes it; the [`OuterLoopWorker`], in a lower-priority task, runs it in place and
-//!   hands the mailbox back; the next step seats it again and applies the outcome it
+//!   hands the mailbox back; the next step takes it back and applies the outcome it
 //!   keeps.
 //!
 //! Both give the same result (the hand-over is one period either way), and nothing is
@@ -21,28 +21,28 @@ use controller_core::outer_loop::{OuterLoop, OuterLoopHolder, OuterLoopJob};
 
 use crate::channel::mailbox::{Receiver, Sender};
 
-/// The outer loop (which keeps its outcome) with room for its job.
+/// The outer loop (which keeps its outcome) with its job.
 pub struct OuterLoopWithJob {
     steering: OuterLoop,
     job: OuterLoopJob,
 }
 
-/// The outer loop's room in the [`Channels`](crate::Channels): empty until
+/// The outer loop's slot in the [`Channels`](crate::Channels): empty until
 /// [`start`](crate::start) builds the outer loop in it. An explicit tag with `Empty`
 /// first (tag 0): the `Channels` static then starts as all zero bytes and stays in
 /// `.bss` instead of costing its initial value in flash.
 #[repr(u8)]
-// The room is the outer loop's only place; there is no heap to box it.
+// The slot is the outer loop's only place; there is no heap to box it.
 #[allow(clippy::large_enum_variant)]
 pub enum OuterLoopSlot {
-    /// Nothing built yet (the seat behaves as if the outer loop were away).
+    /// Nothing built yet (the holder behaves as if the outer loop were away).
     Empty,
     /// The outer loop.
     Built(OuterLoopWithJob),
 }
 
 impl OuterLoopSlot {
-    /// The outer loop `steering` in the room, with nothing handed over yet.
+    /// The outer loop `steering` in the slot, with nothing handed over yet.
     pub(crate) fn built(steering: OuterLoop) -> Self {
         Self::Built(OuterLoopWithJob {
             steering,
@@ -65,8 +65,8 @@ impl OuterLoopSlot {
     }
 }
 
-/// The control side's controller's seat for the outer loop: the mailbox's sending end.
-/// Seated while the mailbox is empty; lent while it is published or not yet collected.
+/// The control side's controller's holder for the outer loop: the mailbox's sending end.
+/// Held while the mailbox is empty; lent while it is published or not yet collected.
 pub struct OuterLoopMailbox<'a> {
     sender: Sender<'a, OuterLoopSlot>,
     /// Jobs are lent to the [`OuterLoopWorker`] rather than run by the controller.
@@ -81,8 +81,8 @@ impl<'a> OuterLoopMailbox<'a> {
         }
     }
 
-    /// The room, while the outer loop is seated (or not built yet).
-    pub(crate) fn room_mut(&mut self) -> Option<&mut OuterLoopSlot> {
+    /// The slot, while the outer loop is held (or not built yet).
+    pub(crate) fn slot_mut(&mut self) -> Option<&mut OuterLoopSlot> {
         self.sender.item_mut()
     }
 
@@ -92,14 +92,14 @@ impl<'a> OuterLoopMailbox<'a> {
 }
 
 impl OuterLoopHolder for OuterLoopMailbox<'_> {
-    fn seated(&self) -> Option<&OuterLoop> {
+    fn held(&self) -> Option<&OuterLoop> {
         self.sender
             .item()
             .and_then(OuterLoopSlot::outer)
             .map(|o| &o.steering)
     }
 
-    fn seated_mut(&mut self) -> Option<&mut OuterLoop> {
+    fn held_mut(&mut self) -> Option<&mut OuterLoop> {
         self.sender
             .item_mut()
             .and_then(OuterLoopSlot::outer_mut)
@@ -143,10 +143,10 @@ impl<'a> OuterLoopWorker<'a> {
     /// Runs the job the control side lent, if one waits, and hands the outer loop back;
     /// true if it ran one. Never panics or waits.
     pub fn run(&mut self) -> bool {
-        let Some(room) = self.receiver.staged_mut() else {
+        let Some(slot) = self.receiver.staged_mut() else {
             return false;
         };
-        if let Some(OuterLoopWithJob { steering, job }) = room.outer_mut() {
+        if let Some(OuterLoopWithJob { steering, job }) = slot.outer_mut() {
             steering.run(job);
         }
         self.receiver.finish();

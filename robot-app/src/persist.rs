@@ -348,7 +348,7 @@ impl WritePlan {
 }
 
 /// The sequence number of the valid record on `page` ([`decode`]), if it holds one.
-/// Inlined, so that the decoded record's room is the caller's, shared with its other
+/// Inlined, so that the decoded record's storage is the caller's, shared with its other
 /// temporaries, rather than a frame of its own on top of [`decode`]'s.
 #[inline(always)]
 fn valid_sequence(page: &[u8], control_rate_hz: u32) -> Option<u32> {

@@ -80,13 +80,13 @@ pub fn start(
     let supervisor = Supervisor::new(supervisor_config, &params, config.reset)
         .map_err(StartError::Supervisor)?;
     let (link_end, control_end, (outer_sender, outer_receiver)) = channels.split_all();
-    // The outer loop goes into its room in the channels (just split, so it is the
-    // seat's), built once, at start.
-    let mut seat = OuterLoopMailbox::new(outer_sender);
-    if let Some(room) = seat.room_mut() {
-        *room = OuterLoopSlot::built(OuterLoop::new(&params, config.reference, config.law));
+    // The outer loop goes into its slot in the channels (just split, so it is the
+    // holder's), built once, at start.
+    let mut holder = OuterLoopMailbox::new(outer_sender);
+    if let Some(slot) = holder.slot_mut() {
+        *slot = OuterLoopSlot::built(OuterLoop::new(&params, config.reference, config.law));
     }
-    let controller = Controller::with_seat(params, seat, supervisor_config.start_pose);
+    let controller = Controller::with_holder(params, holder, supervisor_config.start_pose);
     Ok((
         ControlSide::new(
             control_end,

@@ -45,7 +45,7 @@ pub const INTEGRATION_TESTS: [(&str, &str); 5] = [
         "link_service",
         "set_params_applies_a_valid_configuration_atomically",
     ),
-    // The staging mailbox's room: an upload assembled in it, a configuration over it.
+    // The staging mailbox's slot: an upload assembled in it, a configuration over it.
     (
         "path_upload",
         "a_configuration_set_during_an_upload_discards_it",

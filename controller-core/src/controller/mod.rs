@@ -271,7 +271,7 @@ impl Controller<OuterLoop> {
     /// its outer loop and runs it itself (see [`crate::outer_loop`]).
     pub fn new(params: Params, reference: Reference, law: LawKind, start: Pose) -> Self {
         let steering = OuterLoop::new(&params, reference, law);
-        Self::with_seat(params, steering, start)
+        Self::with_holder(params, steering, start)
     }
 
     /// The steering law in use.
@@ -288,7 +288,7 @@ impl Controller<OuterLoop> {
 impl<S: OuterLoopHolder> Controller<S> {
     /// A controller for `params` whose outer loop is `steering` (built for the same
     /// `params`), believing the robot starts at `start` (world frame), in [`Mode::Idle`].
-    pub fn with_seat(params: Params, steering: S, start: Pose) -> Self {
+    pub fn with_holder(params: Params, steering: S, start: Pose) -> Self {
         let steps_per_s = params.control_rate().get() as f32;
         let window = params.config().speed_window_steps as usize;
         let estimator = SpeedEstimator::new(window, params.rad_per_tick(), steps_per_s);
@@ -351,7 +351,7 @@ impl<S: OuterLoopHolder> Controller<S> {
     /// [`Controller::rebuild`].
     pub fn follow(&mut self, reference: &Reference, law: LawKind) -> Result<(), OuterLoopAway> {
         self.outer_loop_for_a_change()?.follow(reference);
-        if let Some(steering) = self.steering.seated_mut() {
+        if let Some(steering) = self.steering.held_mut() {
             steering.restart(&self.params, law);
         }
         self.restart_from_params();
@@ -388,7 +388,7 @@ impl<S: OuterLoopHolder> Controller<S> {
             since_sample: self.schedule.since_sample,
             ..Schedule::default()
         };
-        // No job is out: rebuilding needs the outer loop seated.
+        // No job is out: rebuilding needs the outer loop held.
         self.job_due = false;
         self.job_elapsed_periods = 0;
         self.outcome_in_telemetry = false;
@@ -409,20 +409,20 @@ impl<S: OuterLoopHolder> Controller<S> {
 
     /// The outer loop, unless it is lent.
     pub fn steering(&self) -> Option<&OuterLoop> {
-        self.steering.seated()
+        self.steering.held()
     }
 
     /// Where the outer loop is.
-    pub const fn seat(&self) -> &S {
+    pub const fn holder(&self) -> &S {
         &self.steering
     }
 
-    /// Where the outer loop is: to lend it and to seat it again.
+    /// Where the outer loop is: to lend it and to take it back.
     pub fn holder_mut(&mut self) -> &mut S {
         &mut self.steering
     }
 
-    /// Lends the outer loop out with the job the last step handed over, when its seat
+    /// Lends the outer loop out with the job the last step handed over, when its holder
     /// lends it (see [`crate::outer_loop`]); true if it did. Call it after the step.
     pub fn lend_steering(&mut self) -> bool {
         if !self.job_due {
@@ -436,17 +436,17 @@ impl<S: OuterLoopHolder> Controller<S> {
         true
     }
 
-    /// Seats a lent outer loop again if it has come back; its outcome is applied at the
+    /// Takes a lent outer loop back if it has come back; its outcome is applied at the
     /// next step, unless the loops restarted since its job (a mode change, cleared
     /// faults: then it is stale and dropped). Call it before the step. False when the
     /// outer loop is still away.
     pub fn collect_steering(&mut self) -> bool {
         let came_back = self.steering.collect();
-        let seated = self.steering.seated();
+        let held = self.steering.held();
         if came_back {
-            self.outcome_ready = seated.is_some_and(|s| s.outcome().epoch == self.epoch);
+            self.outcome_ready = held.is_some_and(|s| s.outcome().epoch == self.epoch);
         }
-        seated.is_some()
+        held.is_some()
     }
 
     /// Odometry pose estimate, world frame.
@@ -800,9 +800,9 @@ impl<S: OuterLoopHolder> Controller<S> {
     /// The outer loop, to change it: refused while it is lent; a due job runs first, on
     /// the outer loop as it was (see [`Controller::run_due_job_aside`]).
     fn outer_loop_for_a_change(&mut self) -> Result<&mut OuterLoop, OuterLoopAway> {
-        self.steering.seated().ok_or(OuterLoopAway)?;
+        self.steering.held().ok_or(OuterLoopAway)?;
         self.run_due_job_aside();
-        self.steering.seated_mut().ok_or(OuterLoopAway)
+        self.steering.held_mut().ok_or(OuterLoopAway)
     }
 
     /// The due job went to the outer loop, with the restarts it carried.
@@ -818,7 +818,7 @@ impl<S: OuterLoopHolder> Controller<S> {
     fn steering_outcome_into_telemetry(&mut self) -> bool {
         if self.job_due && self.steering.runs_jobs() {
             let job = self.steering_job();
-            if let Some(steering) = self.steering.seated_mut() {
+            if let Some(steering) = self.steering.held_mut() {
                 let t = &mut self.telemetry;
                 steering.run_into(
                     &job,
@@ -839,10 +839,10 @@ impl<S: OuterLoopHolder> Controller<S> {
     }
 
     /// The outcome a lent outer loop came back with (or one run aside), one step after its
-    /// job: from the outer loop into telemetry (seated again, or it ran aside, before
+    /// job: from the outer loop into telemetry (back, or it ran aside, before
     /// this step).
     fn apply_steering(&mut self) {
-        let Some(outcome) = self.steering.seated().map(OuterLoop::outcome) else {
+        let Some(outcome) = self.steering.held().map(OuterLoop::outcome) else {
             return;
         };
         let t = &mut self.telemetry;
@@ -876,7 +876,7 @@ impl<S: OuterLoopHolder> Controller<S> {
             return;
         }
         let job = self.steering_job();
-        if let Some(steering) = self.steering.seated_mut() {
+        if let Some(steering) = self.steering.held_mut() {
             steering.run(&job);
             self.job_taken();
             self.outcome_ready = true;

@@ -209,7 +209,7 @@ fn the_steering_outcome_of_a_step_is_applied_at_the_next() {
     assert!((t.wheel_setpoint.left_rad_s - tenth).abs() < 1e-5, "{t:?}");
 }
 
-/// A seat that lends its outer loop, and runs what it lent when the test says so (as
+/// A holder that lends its outer loop, and runs what it lent when the test says so (as
 /// the firmware's lower-priority task does).
 #[derive(Clone, Debug)]
 struct Lending {
@@ -228,11 +228,11 @@ impl Lending {
 }
 
 impl OuterLoopHolder for Lending {
-    fn seated(&self) -> Option<&OuterLoop> {
+    fn held(&self) -> Option<&OuterLoop> {
         self.home.as_ref()
     }
 
-    fn seated_mut(&mut self) -> Option<&mut OuterLoop> {
+    fn held_mut(&mut self) -> Option<&mut OuterLoop> {
         self.home.as_mut()
     }
 
@@ -262,14 +262,14 @@ impl OuterLoopHolder for Lending {
     }
 }
 
-/// `owned` as it was built, with a lending seat.
+/// `owned` as it was built, with a lending holder.
 fn lending(owned: &Controller) -> Controller<Lending> {
     let steering = OuterLoop::new(owned.params(), owned.reference().clone(), owned.law());
-    let seat = Lending {
+    let holder = Lending {
         home: Some(steering),
         away: None,
     };
-    Controller::with_seat(*owned.params(), seat, Pose::default())
+    Controller::with_holder(*owned.params(), holder, Pose::default())
 }
 
 #[test]
@@ -294,7 +294,7 @@ fn a_lent_outer_loop_does_what_an_owned_one_does() {
         let duty = step(&mut owned, t);
         assert_eq!(lent.step(StepInput::on_time(t, SUPPLY_V)), duty, "step {k}");
         assert_eq!(lent.telemetry(), owned.telemetry(), "step {k}");
-        // The lending seat runs no job itself: each waits to be lent.
+        // The lending holder runs no job itself: each waits to be lent.
         if lent.lend_steering() {
             jobs += 1;
             // Away: what needs the outer loop waits.
@@ -314,14 +314,14 @@ fn a_lent_outer_loop_does_what_an_owned_one_does() {
 
 #[test]
 fn an_owned_outer_loop_is_never_lent_and_never_collected() {
-    // Lending and collecting are for seats that lend: on an owned outer loop they do
+    // Lending and collecting are for holders that lend: on an owned outer loop they do
     // nothing, and the controller runs its own jobs.
     let mut plain = on_a_line(5.0);
     let mut asked = on_a_line(5.0);
     plain.set_mode(Mode::FollowPath);
     asked.set_mode(Mode::FollowPath);
     for k in 0..50 {
-        assert!(asked.collect_steering(), "seated");
+        assert!(asked.collect_steering(), "held");
         if k == 11 {
             // The job due at step 10 runs aside here; its outcome is applied once.
             plain.set_pose(Pose::new(0.02, 0.01, 0.0));

@@ -181,7 +181,7 @@ pub fn run_scenario_with(
     let mut ticks = TickDeltas::default();
     let mut index = 0u32;
     for segment in &scenario.segments {
-        // An owned outer loop is always seated: this cannot be refused.
+        // An owned outer loop is always held: this cannot be refused.
         let _ = controller.set_law(segment.law);
         for _ in 0..segment.steps {
             let duty = controller.step(StepInput::on_time(ticks, scenario.supply_v));

@@ -457,7 +457,7 @@ impl<'a> VirtualRobot<'a> {
                     let _ = self.hardware.start_moving(v, omega);
                 }
             }
-            // The virtual robot runs its outer loop in the step: it is always seated.
+            // The virtual robot runs its outer loop in the step: it is always held.
             let steering = self.control.controller().steering();
             if let (RunMode::FollowPath, Some(steering)) = (mode, steering) {
                 let params = self.control.controller().params();

@@ -8,7 +8,7 @@
 //! ```
 //!
 //! The item is always initialised (the box starts with one), so the sender can prepare
-//! the next item in place while the box is Empty, building it in the room it will be
+//! the next item in place while the box is Empty, building it in the slot it will be
 //! read from instead of on the stack. The state is one atomic byte; whoever the state
 //! names owns the item (the sender in Empty and Done, the receiver in Staged), and the
 //! owner's `Release` store of the next state hands it over. Nobody waits: a sender finds
@@ -40,7 +40,7 @@ impl<T: Default> Default for Mailbox<T> {
 }
 
 impl<T> Mailbox<T> {
-    /// An empty mailbox whose room holds `item` until the sender prepares another.
+    /// An empty mailbox whose slot holds `item` until the sender prepares another.
     pub const fn new(item: T) -> Self {
         Self {
             state: AtomicU8::new(EMPTY),

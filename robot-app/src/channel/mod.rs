@@ -170,7 +170,7 @@ pub enum ToLink {
 }
 
 /// Bulk data handed from the link side to the control side through the staging area, to
-/// be installed atomically at a commit; between commits, the room a path upload is
+/// be installed atomically at a commit; between commits, the slot a path upload is
 /// assembled in.
 // A path is about 1 KiB; the staging area holds one item and there is no heap to box it.
 #[allow(clippy::large_enum_variant)]
@@ -196,9 +196,9 @@ pub enum Staged {
 }
 
 impl Staged {
-    /// An empty upload room (a constant: written from flash, not built on the stack).
+    /// An empty upload slot (a constant: written from flash, not built on the stack).
     pub const ASSEMBLING: Staged = Staged::Assembling(UploadSegments::new());
-    /// Room for a committed path to be built into ([`StagedPath::PLACEHOLDER`]), whole
+    /// Space for a committed path to be built into ([`StagedPath::PLACEHOLDER`]), whole
     /// for the same reason.
     pub const PATH_PLACEHOLDER: Staged = Staged::Path(StagedPath::PLACEHOLDER);
 }

@@ -223,12 +223,12 @@ impl<'a> Rig<'a> {
         rig
     }
 
-    /// The reference the controller follows (its outer loop is seated between steps).
+    /// The reference the controller follows (its outer loop is held between steps).
     pub fn active_reference(&self) -> &Reference {
         self.control
             .controller()
             .steering()
-            .expect("the outer loop is seated between steps")
+            .expect("the outer loop is held between steps")
             .reference()
     }
 
@@ -237,7 +237,7 @@ impl<'a> Rig<'a> {
         self.control
             .controller()
             .steering()
-            .expect("the outer loop is seated between steps")
+            .expect("the outer loop is held between steps")
             .law()
     }
 

@@ -87,13 +87,14 @@ impl fmt::Display for PilReport {
             writeln!(
                 f,
                 "station: {} answered {} requests ({} re-sent), {} telemetry frames, {} heartbeats, \
-                 {} velocity commands",
+                 {} velocity commands ({} refused after the robot stopped)",
                 station.robot,
                 station.replies,
                 station.resent,
                 station.telemetry_frames,
                 station.heartbeats,
-                station.velocity_commands
+                station.velocity_commands,
+                station.velocity_refused_after_stop
             )?;
         }
         writeln!(

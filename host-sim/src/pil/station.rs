@@ -30,6 +30,7 @@ use controller_core::kinematics::{BodyVelocity, Pose};
 use controller_core::law::LawKind;
 use controller_core::path::Path;
 use controller_core::reference::ReferenceMode;
+use controller_core::supervisor::Event;
 use link::upload::chunks;
 use link::{
     encode, path_checksum, ArmMode, Decoder, Downlink, ParamSet, PathBegin, PathCommit, ProtocolId,
@@ -170,6 +171,10 @@ pub struct StationReport {
     pub velocity_commands: u32,
     /// Requests sent in step that the robot refused, as text (module doc).
     pub refused_in_step: Vec<String>,
+    /// Velocity commands of the timeline refused after the robot reported a fault or a
+    /// disarm: the answer it owes them then (the simulator's own run hands its timeline
+    /// on the same way), so not counted among [`Self::refused_in_step`].
+    pub velocity_refused_after_stop: u32,
     /// Events received, as text.
     pub events: Vec<String>,
     /// The robot's last telemetry step.
@@ -186,6 +191,8 @@ struct Session {
     in_step: Vec<(u16, &'static str)>,
     /// The other end closed the connection.
     closed: bool,
+    /// The robot reported a fault or a disarm (its later velocity commands are refused).
+    stopped: bool,
 }
 
 /// Runs `script` against the link at `addr`, then sends what comes through `inbox` in
@@ -207,6 +214,7 @@ pub fn drive(
         report: StationReport::default(),
         in_step: Vec::new(),
         closed: false,
+        stopped: false,
     };
     session.configure(script)?;
     session.serve_in_step(inbox, stop)?;
@@ -440,6 +448,7 @@ impl Session {
                     self.answered_in_step(seq, &result);
                 }
                 Ok(Received::Message(Uplink::Event { step, event })) => {
+                    self.stopped |= matches!(event, Event::Faulted | Event::Disarmed(_));
                     self.report.events.push(format!("step {step}: {event:?}"));
                 }
                 Ok(Received::Message(message @ Uplink::Reply { .. })) if reply.is_none() => {
@@ -463,7 +472,9 @@ impl Session {
         };
         let (_, name) = self.in_step.swap_remove(at);
         self.report.replies += 1;
-        if let Err(refusal) = result {
+        if result.is_err() && self.stopped && name == "Velocity" {
+            self.report.velocity_refused_after_stop += 1;
+        } else if let Err(refusal) = result {
             self.report
                 .refused_in_step
                 .push(format!("{name} (seq {seq}): {refusal}"));

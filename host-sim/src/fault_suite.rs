@@ -8,16 +8,21 @@
 //! - **detectable**: the firmware's own signals can see it; it must stop the robot within
 //!   `limit_s`, which follows from the detector's settings (stated per case);
 //! - **harmless**: it must trip nothing (a short slip patch, one late step);
-//! - **undetectable**: odometry stays self-consistent, so nothing the firmware has can
-//!   see it; reported with `detected: false`, no limit, and the sensor that would;
+//! - **warn**: a gyro's own failure: the supervisor must warn within `limit_s` and the
+//!   robot drive on, its heading back on odometry;
+//! - **undetectable**: odometry stays self-consistent (and, on a robot with a gyro, the
+//!   yaw rates disagree too little), so nothing the robot has can see it; reported with
+//!   `detected: false`, no limit, and the sensor that would;
 //! - **re-arm**: the button pressed twice while following: the first press must stop the
 //!   robot within `limit_s`; the second re-arms it only once the wheels are at rest, from
 //!   the pose odometry kept, so it ends on the path ([`REARM_FINAL_ERROR_M`]). These cases
 //!   follow the path by projection (the true error is the distance to the path, whatever
 //!   the reference's clock).
 //!
-//! The detectors run on the robot's signals only (ticks, applied voltages, the step count,
-//! the supply measurement); the simulator's truth only measures what the fault did.
+//! The rows "with a gyro" run on a robot with the ICM-42688-P model steering by the fused
+//! heading, its disagreement check set to stop it. The detectors run on the robot's
+//! signals only (ticks, applied voltages, the step count, the supply measurement, the
+//! gyro's readings); the simulator's truth only measures what the fault did.
 
 use controller_core::gyro::GyroConfig;
 use controller_core::law::LawKind;
@@ -92,7 +97,7 @@ pub struct Case {
     pub again_after_s: Option<f64>,
     /// What it should do.
     pub expect: Expectation,
-    /// The robot carries a gyro (the ICM-42688-P model, the heading from odometry, a
+    /// The robot carries a gyro (the ICM-42688-P model, the heading fused, a
     /// disagreement configured to stop the robot).
     pub gyro: bool,
 }
@@ -372,8 +377,8 @@ const fn disagreement(limit_s: f64) -> Expectation {
 /// A left wheel turning backwards while its encoder counts forwards: the robot spins,
 /// e ≈ 2 v_l / L ≈ 3 rad/s, 0.1 s; with the reversal of the wheel, 0.2 s.
 const GYRO_INVERTED_LIMIT_S: f64 = 0.2;
-/// A tenth of the left wheel's ticks lost: e = 0.1 · v_l / L = 0.157 rad/s, 2.1 s; 2.5 s
-/// for the controller's correction, which slows the left wheel's odometry further.
+/// A tenth of the left wheel's ticks lost: e = 0.1 · v_l / L = 0.157 rad/s, 2.1 s, with
+/// a margin of 0.4 s for the wheel speeds the controller settles at meanwhile.
 const GYRO_TICKS_LOST_LIMIT_S: f64 = 2.5;
 
 /// One row of the table and of `faults.json`.
@@ -383,7 +388,7 @@ pub struct CaseResult {
     pub case: &'static str,
     /// The fault's kind.
     pub fault: String,
-    /// Whether the supervisor stopped the robot.
+    /// Whether the supervisor stopped the robot (for a warn case: whether it warned).
     pub detected: bool,
     /// How long after the injection, s (`null` if not).
     pub latency_s: Option<f64>,
@@ -451,7 +456,7 @@ pub fn run_case(
         }
         if case.gyro {
             let setup = GyroSetup {
-                heading: HeadingChoice::Odometry,
+                heading: HeadingChoice::Fused,
                 sensor: GyroSensor::ICM42688P,
                 rest_before_arming_s: 0.0,
                 sweep: GyroSweep::default(),
@@ -588,8 +593,10 @@ mod tests {
             assert!(r.passed, "{r:?}");
             match case.expect {
                 Expectation::Warn { .. } => {
+                    // Drove on, back on odometry's heading, still on the path.
                     assert_eq!(r.final_state, "Armed", "{r:?}");
                     assert!(r.report.distance_after_m > 2.0, "{r:?}");
+                    assert!(r.final_true_error_m.is_some_and(|e| e < 0.01), "{r:?}");
                 }
                 Expectation::Detect { .. } => {
                     assert_eq!(r.report.detected_by, ["heading_disagreement"], "{r:?}");

@@ -71,7 +71,8 @@ pub struct SimHardware {
     encoders: [Encoder; 2],
     rng: Rng,
     faults: Vec<Fault>,
-    /// Plant RK4 steps per control period, and their length, s.
+    /// Plant steps per control period (RK4's, where the plant cannot take the period in
+    /// one exact step), and their length, s.
     substeps: u32,
     dt_s: f64,
     /// Control periods simulated so far (the time).
@@ -85,8 +86,10 @@ pub struct SimHardware {
     actuation: Actuation,
     /// The gyro, if the scenario's robot has one.
     gyro: Option<SimGyro>,
-    /// Fractions of a tick lost but not yet dropped [left, right] (`ticks-lost`).
-    tick_loss: [f64; 2],
+    /// Fractions of a tick lost but not yet dropped [left, right] × [forward, backward]
+    /// (`ticks-lost`; one per direction, so a wheel dithering about a tick boundary
+    /// loses as many ticks each way).
+    tick_loss: [[f64; 2]; 2],
     /// The reading a stuck gyro repeats (`gyro-stuck`, while it lasts).
     stuck_gyro: Option<GyroSample>,
 }
@@ -137,7 +140,7 @@ impl SimHardware {
             late: (0, 1),
             frozen: [false; 2],
             actuation: Actuation::OFF,
-            tick_loss: [0.0; 2],
+            tick_loss: [[0.0; 2]; 2],
             stuck_gyro: None,
         })
     }
@@ -202,6 +205,7 @@ impl SimHardware {
             ticks[i] = if self.frozen[i] { 0 } else { delta };
         }
         let mut button_pressed = false;
+        let mut losing = [false; 2];
         for f in self.faults.iter().filter(|f| f.active_at(self.period)) {
             match f.kind {
                 FaultKind::EncoderGlitch(wheel, jump) if f.at_step == self.period => {
@@ -216,12 +220,19 @@ impl SimHardware {
                     // Whole ticks dropped as the lost fraction accumulates: the count
                     // the firmware sees falls behind the wheel for good.
                     let i = wheel.index();
-                    self.tick_loss[i] += f64::from(ticks[i].unsigned_abs()) * fraction;
-                    let lost = self.tick_loss[i].floor();
-                    self.tick_loss[i] -= lost;
+                    losing[i] = true;
+                    let owed = &mut self.tick_loss[i][usize::from(ticks[i] < 0)];
+                    *owed += f64::from(ticks[i].unsigned_abs()) * fraction;
+                    let lost = owed.floor();
+                    *owed -= lost;
                     ticks[i] -= ticks[i].signum() * lost as i32;
                 }
                 _ => {}
+            }
+        }
+        for (owed, losing) in self.tick_loss.iter_mut().zip(losing) {
+            if !losing {
+                *owed = [0.0; 2];
             }
         }
         let gyro = self.read_gyro(periods);
@@ -239,8 +250,8 @@ impl SimHardware {
     }
 
     /// The gyro's reading for a step of `periods` periods, with the gyro faults in
-    /// effect: absent (none), stuck (the reading when it stuck, repeated), saturated
-    /// (full scale, the sign of the true reading). The sensor is read every step
+    /// effect: absent (none), stuck (the first reading of the fault, repeated),
+    /// saturated (full scale, positive unless the reading is negative). The sensor is read every step
     /// whatever the faults, so its latency and noise stream go on.
     fn read_gyro(&mut self, periods: u32) -> Option<GyroSample> {
         let gyro = self.gyro.as_mut()?;
@@ -253,7 +264,11 @@ impl SimHardware {
                 FaultKind::GyroStuck => stuck = true,
                 FaultKind::GyroSaturated => {
                     if let Some(r) = reading.as_mut() {
-                        r.yaw_rate_radps = full_scale.copysign(r.yaw_rate_radps);
+                        r.yaw_rate_radps = if r.yaw_rate_radps < 0.0 {
+                            -full_scale
+                        } else {
+                            full_scale
+                        };
                     }
                 }
                 _ => {}

@@ -9,8 +9,9 @@
 //!   and a DC motor (armature and bridge resistance, K_t, K_e, gearbox efficiency by
 //!   power-flow direction, inertia reflected through the gearbox, viscous and Coulomb
 //!   friction), coupled through the chassis' mass, yaw inertia and centre of mass with
-//!   static friction that sees the coupling, integrated with RK4 at ≥ 10 × the control
-//!   rate; wheel slip; fault hooks (disconnected motor, jammed wheel, slip patch, supply
+//!   static friction that sees the coupling, integrated exactly over each control period
+//!   while it stays in one regime and with RK4 at ≥ 10 × the control rate otherwise;
+//!   wheel slip; fault hooks (disconnected motor, jammed wheel, slip patch, supply
 //!   sag); the true pose.
 //! - [`encoder`] — quadrature quantisation (lines × 4 × gear) with optional edge jitter.
 //! - [`hardware`] — the simulated robot as the firmware sees it: encoder ticks, the supply

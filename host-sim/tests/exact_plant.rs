@@ -79,11 +79,21 @@ fn on_the_paper_circle_and_the_figure_eight_the_exact_plant_stays_within_a_tenth
 
 #[test]
 fn through_faults_that_stop_or_drag_a_wheel_the_exact_plant_stays_with_rk4() {
-    let circle = robot_files::scenario::BUILTIN[0].1;
-    for fault in [
-        "at_s = 5\nkind = \"slip-patch\"\nwheel = \"right\"\nduration_s = 1",
-        "at_s = 5\nkind = \"wheel-blocked\"\nwheel = \"left\"",
-        "at_s = 5\nkind = \"motor-disconnect\"\nwheel = \"right\"",
+    let (_, circle) = robot_files::scenario::BUILTIN
+        .iter()
+        .find(|(name, _)| *name == "paper-circle")
+        .unwrap();
+    // (the fault, whether it stops the robot)
+    for (fault, stops) in [
+        (
+            "at_s = 5\nkind = \"slip-patch\"\nwheel = \"right\"\nduration_s = 1",
+            false,
+        ),
+        ("at_s = 5\nkind = \"wheel-blocked\"\nwheel = \"left\"", true),
+        (
+            "at_s = 5\nkind = \"motor-disconnect\"\nwheel = \"right\"",
+            true,
+        ),
     ] {
         let text = format!("{circle}\n[[faults]]\n{fault}\n");
         let scenario = Scenario::from_toml(&text, "circle-with-a-fault")
@@ -99,5 +109,6 @@ fn through_faults_that_stop_or_drag_a_wheel_the_exact_plant_stays_with_rk4() {
             exact.summary.supervisor.faults, rk4.summary.supervisor.faults,
             "{fault}"
         );
+        assert_eq!(exact.faulted(), stops, "{fault}");
     }
 }

@@ -123,7 +123,7 @@
 //! wheel-speed windows) and the supervisor (with the wheel-loop tune's state); the link
 //! service the frame decoder, the transmit buffer of [`service::TX_CAPACITY`] bytes, the
 //! active configuration and the last run and tune reports; the channels the staging area
-//! (room for one path, where uploads are also assembled) and the outer loop with its
+//! (a slot for one path, where uploads are also assembled) and the outer loop with its
 //! reference and path. A path is held twice: active in the outer loop, and staged. The
 //! budgets below are checked at compile time wherever the crate is built; `cargo run -p
 //! robot-app --example wiring` prints the sizes, and `cargo xtask size` the firmware's

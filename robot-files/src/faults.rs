@@ -22,13 +22,13 @@
 //! | `track-width-error` | the true track differs by `error_pct` (odometry cannot see it) | `error_pct` |
 //! | `both-inverted` | a wheel's motor and encoder are both inverted (odometry cannot see it) | `wheel` |
 //! | `ticks-lost` | the wheel's encoder loses `fraction` of its ticks (odometry cannot see it) | `wheel`, `fraction` (0…1, default 0.1) |
-//! | `gyro-stuck` | the gyro repeats its last reading | `duration_s` |
-//! | `gyro-absent` | the gyro stops answering | `duration_s` |
-//! | `gyro-saturated` | the gyro reads its full scale | `duration_s` |
+//! | `gyro-stuck` | the gyro repeats the reading it gave when the fault began | `duration_s` (default to the end) |
+//! | `gyro-absent` | the gyro stops answering | `duration_s` (default to the end) |
+//! | `gyro-saturated` | the gyro reads its full scale | `duration_s` (default to the end) |
 //!
 //! Every detector the supervisor runs sees only what the firmware sees (ticks, voltages,
-//! the step count, the supply measurement); the simulator's truth is used only to report
-//! what the fault did.
+//! the step count, the supply measurement, the gyro's readings); the simulator's truth is
+//! used only to report what the fault did.
 
 use serde::Deserialize;
 
@@ -83,7 +83,7 @@ pub enum FaultKind {
     BothInverted(Wheel),
     /// The wheel's encoder loses this fraction (0…1) of its ticks.
     TicksLost(Wheel, f64),
-    /// The gyro repeats its last reading.
+    /// The gyro repeats the reading it gave when the fault began.
     GyroStuck,
     /// The gyro gives no reading.
     GyroAbsent,

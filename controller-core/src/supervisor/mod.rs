@@ -420,10 +420,8 @@ impl Supervisor {
         let driving = self.state == State::Armed;
         let battery_event = self.battery_event();
         event = event.or(battery_event);
-        if event.is_none() {
-            // A warning waits for a step without another event (it is never lost).
-            event = self.gyro_event(controller);
-        }
+        let gyro_event = self.gyro_event(controller, event.is_none());
+        event = event.or(gyro_event);
 
         // 4. Outputs.
         let bridge = if driving {
@@ -577,7 +575,10 @@ impl Supervisor {
                     }
                 }
             }
-            if t.gyro.disagrees && controller.params().config().gyro.disagreement_stops {
+            if t.gyro.disagrees
+                && controller.params().config().gyro.disagreement_stops
+                && self.follows_a_path_or_velocities()
+            {
                 self.faults.set(Fault::HeadingDisagreement);
             }
             // The geofence is the operator's, whoever gives the body command.
@@ -615,20 +616,29 @@ impl Supervisor {
     }
 
     /// The gyro's warnings, once each per spell: [`Event::GyroFailed`] when the fusion
-    /// has given the gyro up (the heading follows odometry), and, while armed,
-    /// [`Event::GyroDisagrees`] when the two yaw rates disagree and the configuration
-    /// does not stop the robot for it.
-    fn gyro_event<S: OuterLoopHolder>(&mut self, controller: &Controller<S>) -> Option<Event> {
+    /// has given the gyro up (the heading follows odometry), and, while armed to follow a
+    /// path or velocities, [`Event::GyroDisagrees`] when the two yaw rates disagree and
+    /// the configuration does not stop the robot for it. The spells are tracked every
+    /// step; a warning due while `slot_free` is false (the step has another event) comes
+    /// at the next step without one, so none is lost while its condition lasts.
+    fn gyro_event<S: OuterLoopHolder>(
+        &mut self,
+        controller: &Controller<S>,
+        slot_free: bool,
+    ) -> Option<Event> {
         let report = controller.telemetry().gyro;
         let failure = match report.health {
             GyroHealth::Failed(failure) => Some(failure),
             GyroHealth::None | GyroHealth::Reading => None,
         };
         let warn_disagreement = report.disagrees
-            && self.state == State::Armed
+            && self.follows_a_path_or_velocities()
             && !controller.params().config().gyro.disagreement_stops;
         self.gyro_failure_warned &= failure.is_some();
         self.gyro_disagreement_warned &= warn_disagreement;
+        if !slot_free {
+            return None;
+        }
         if let Some(failure) = failure.filter(|_| !self.gyro_failure_warned) {
             self.gyro_failure_warned = true;
             return Some(Event::GyroFailed(failure));
@@ -638,6 +648,14 @@ impl Supervisor {
             return Some(Event::GyroDisagrees);
         }
         None
+    }
+
+    /// Armed to follow a path or velocity commands: the modes whose heading matters (not
+    /// the bench's wheel holds, tunes and motor pulses, which may run with the wheels in
+    /// the air).
+    fn follows_a_path_or_velocities(&self) -> bool {
+        self.state == State::Armed
+            && matches!(self.run_mode, RunMode::FollowPath | RunMode::FollowVelocity)
     }
 
     fn handle_button<S: OuterLoopHolder>(
@@ -935,6 +953,9 @@ impl Supervisor {
         self.missed.restart_window();
         self.supply = Supply::default();
         controller.clear_faults();
+        // The gyro is judged afresh (the controller's fusion too): a new spell warns again.
+        self.gyro_failure_warned = false;
+        self.gyro_disagreement_warned = false;
         self.state = State::Disarmed;
         Event::FaultsCleared
     }

@@ -26,7 +26,7 @@ const EMPTY: u8 = 0;
 const STAGED: u8 = 1;
 const DONE: u8 = 2;
 
-/// Room for one `T` handed from a [`Sender`] to a [`Receiver`] and back. Split it once
+/// A slot for one `T` handed from a [`Sender`] to a [`Receiver`] and back. Split it once
 /// with [`Mailbox::split`].
 pub struct Mailbox<T> {
     state: AtomicU8,

@@ -181,8 +181,8 @@ pub enum ToLink {
 #[derive(Clone, Debug)]
 pub enum Staged {
     /// The segments of the path upload being received (never published): a path is
-    /// assembled in the room it is then staged in, so the link side needs no room of its
-    /// own for it. Staging a configuration over it discards the open upload.
+    /// assembled in the slot it is then staged in, so the link side needs no storage of
+    /// its own for it. Staging a configuration over it discards the open upload.
     Assembling(UploadSegments),
     /// A new configuration, already validated.
     Params {
@@ -218,7 +218,7 @@ pub struct StagedPath {
 }
 
 impl StagedPath {
-    /// Room for a path to be built into in place ([`Reference::PLACEHOLDER`], the
+    /// Space for a path to be built into in place ([`Reference::PLACEHOLDER`], the
     /// tracking law, the supervisor's defaults at 1 kHz, an empty summary): a constant,
     /// written from flash.
     pub const PLACEHOLDER: StagedPath = StagedPath {
@@ -320,7 +320,7 @@ impl Status {
 
 /// Everything shared by the two sides (see the module doc), and the control side's outer
 /// loop, which it may lend to a third context (`crate::outer`). About 3 KiB, most of it
-/// the staging area's room for a path (where uploads are assembled too) and the outer
+/// the staging area's slot for a path (where uploads are assembled too) and the outer
 /// loop's reference; `const`-constructible for a `static`.
 pub struct Channels {
     commands: Ring<ToControl, COMMAND_CAPACITY>,

@@ -75,7 +75,7 @@ pub struct GyroSection {
     /// Time constant of the disagreement's running mean, s.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub disagreement_window_s: Option<f32>,
-    /// A disagreement while armed stops the robot (true) or warns (false).
+    /// A disagreement while armed stops the robot (true) or warns (false, the default).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub disagreement_stops: Option<bool>,
 }

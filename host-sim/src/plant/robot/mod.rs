@@ -42,7 +42,7 @@ use super::motor::WheelDrive;
 pub use self::integration::Integration;
 pub use self::params::{PlantError, PlantParams, TrueGeometry};
 
-/// The simulated robot: parameters, state, bridge and fault state, and the RK4 integrator
+/// The simulated robot: parameters, state, bridge and fault state, and the integrator
 /// (module doc; each group of fields is the concern of one file, named beside it).
 #[derive(Clone, Debug)]
 pub struct Plant {

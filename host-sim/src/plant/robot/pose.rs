@@ -7,7 +7,8 @@
 //!
 //! ## True pose and slip
 //!
-//! Each plant step the wheels turn by Δφ_l, Δφ_r (from RK4). Wheel i moves its contact
+//! Each plant step (an RK4 step, or a whole control period taken exactly) the wheels turn
+//! by Δφ_l, Δφ_r. Wheel i moves its contact
 //! point by (1 − s_i)·R_i·Δφ_i over the ground, s_i being a longitudinal slip ratio
 //! (0 = pure rolling). The true pose moves along the arc those two distances define on the
 //! true track width L — exact for a constant curvature over the 0.1 ms step. The heading's

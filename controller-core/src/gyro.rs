@@ -186,7 +186,8 @@ pub enum GyroHealth {
     None,
     /// Reading and used.
     Reading,
-    /// Failed: the heading follows odometry until the supervisor's faults are cleared.
+    /// Failed: the heading follows odometry until the supervisor's faults are next
+    /// cleared (a fault, acknowledged) or the robot restarts.
     Failed(GyroFailure),
 }
 

@@ -198,7 +198,7 @@ pub enum Event {
     /// reply).
     ArmRefused(CommandRefusal),
     /// A warning: the gyro failed this way, and the heading follows odometry until the
-    /// faults are next cleared.
+    /// supervisor's faults are next cleared or the robot restarts.
     GyroFailed(GyroFailure),
     /// A warning: armed, the gyro's and odometry's yaw rates disagree beyond
     /// [`GyroConfig::disagreement_threshold_radps`] (the track width, a wheel radius, slip

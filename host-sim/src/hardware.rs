@@ -217,15 +217,9 @@ impl SimHardware {
                 }
                 FaultKind::ButtonPress => button_pressed = true,
                 FaultKind::TicksLost(wheel, fraction) => {
-                    // Whole ticks dropped as the lost fraction accumulates: the count
-                    // the firmware sees falls behind the wheel for good.
                     let i = wheel.index();
                     losing[i] = true;
-                    let owed = &mut self.tick_loss[i][usize::from(ticks[i] < 0)];
-                    *owed += f64::from(ticks[i].unsigned_abs()) * fraction;
-                    let lost = owed.floor();
-                    *owed -= lost;
-                    ticks[i] -= ticks[i].signum() * lost as i32;
+                    ticks[i] = lose_ticks(ticks[i], fraction, &mut self.tick_loss[i]);
                 }
                 _ => {}
             }
@@ -338,5 +332,48 @@ impl SimHardware {
         if self.plant.supply_v() != supply && supply > 0.0 {
             let _ = self.plant.set_supply_v(supply);
         }
+    }
+}
+
+/// `ticks` (one reading's delta) with `fraction` (0…1) of them lost: whole ticks dropped
+/// as the lost fraction accumulates in `owed` [forward, backward], one remainder per
+/// direction so that a wheel dithering about a tick boundary loses as many each way.
+/// The count the firmware sees falls behind the wheel for good; never past zero.
+fn lose_ticks(ticks: i32, fraction: f64, owed: &mut [f64; 2]) -> i32 {
+    let owed = &mut owed[usize::from(ticks < 0)];
+    *owed += f64::from(ticks.unsigned_abs()) * fraction;
+    // At most the reading's own ticks: a remainder carried in cannot reverse it.
+    let lost = owed.floor().min(f64::from(ticks.unsigned_abs()));
+    *owed -= lost;
+    ticks - ticks.signum() * lost as i32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::lose_ticks;
+
+    #[test]
+    fn a_tenth_of_the_ticks_lost_is_one_in_ten_either_way() {
+        let mut owed = [0.0; 2];
+        // Within a tick: the remainder is a binary fraction, and 0.1 is not one.
+        let forward: i32 = (0..100).map(|_| lose_ticks(1, 0.1, &mut owed)).sum();
+        assert!((90..=91).contains(&forward), "{forward}");
+        let backward: i32 = (0..10).map(|_| lose_ticks(-10, 0.1, &mut owed)).sum();
+        assert!((-91..=-90).contains(&backward), "{backward}");
+        assert_eq!(lose_ticks(0, 0.1, &mut owed), 0);
+        assert_eq!(
+            lose_ticks(7, 1.0, &mut owed),
+            0,
+            "all lost, never past zero"
+        );
+    }
+
+    #[test]
+    fn a_wheel_dithering_about_a_tick_loses_as_much_each_way() {
+        let mut owed = [0.0; 2];
+        let net: i32 = (0..100)
+            .map(|_| lose_ticks(1, 0.5, &mut owed) + lose_ticks(-1, 0.5, &mut owed))
+            .sum();
+        assert_eq!(net, 0);
     }
 }

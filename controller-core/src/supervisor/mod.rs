@@ -418,7 +418,7 @@ impl Supervisor {
         }
         // The tune may have ended, disarming.
         let driving = self.state == State::Armed;
-        let battery_event = self.battery_event();
+        let battery_event = self.battery_event(event.is_none());
         event = event.or(battery_event);
         let gyro_event = self.gyro_event(controller, event.is_none());
         event = event.or(gyro_event);
@@ -602,13 +602,14 @@ impl Supervisor {
     }
 
     /// The low-battery warning's event, once each time the supply falls below the
-    /// warning threshold.
-    fn battery_event(&mut self) -> Option<Event> {
+    /// warning threshold; due while `slot_free` is false (the step has another event), it
+    /// comes at the next step without one, as the gyro's warnings do.
+    fn battery_event(&mut self, slot_free: bool) -> Option<Event> {
         if !self.battery_low {
             self.battery_warned = false;
             return None;
         }
-        if self.battery_warned || self.faults.has(Fault::SupplyLow) {
+        if !slot_free || self.battery_warned || self.faults.has(Fault::SupplyLow) {
             return None;
         }
         self.battery_warned = true;

@@ -258,11 +258,7 @@ impl SimHardware {
                 FaultKind::GyroStuck => stuck = true,
                 FaultKind::GyroSaturated => {
                     if let Some(r) = reading.as_mut() {
-                        r.yaw_rate_radps = if r.yaw_rate_radps < 0.0 {
-                            -full_scale
-                        } else {
-                            full_scale
-                        };
+                        r.yaw_rate_radps = saturated(r.yaw_rate_radps, full_scale);
                     }
                 }
                 _ => {}
@@ -335,6 +331,16 @@ impl SimHardware {
     }
 }
 
+/// A saturated gyro's reading of `rate_radps`: the full scale `full_scale_radps`,
+/// negative for a negative reading, positive otherwise (a reading of 0 too).
+fn saturated(rate_radps: f32, full_scale_radps: f32) -> f32 {
+    if rate_radps < 0.0 {
+        -full_scale_radps
+    } else {
+        full_scale_radps
+    }
+}
+
 /// `ticks` (one reading's delta) with `fraction` (0…1) of them lost: whole ticks dropped
 /// as the lost fraction accumulates in `owed` [forward, backward], one remainder per
 /// direction so that a wheel dithering about a tick boundary loses as many each way.
@@ -350,7 +356,14 @@ fn lose_ticks(ticks: i32, fraction: f64, owed: &mut [f64; 2]) -> i32 {
 
 #[cfg(test)]
 mod tests {
-    use super::lose_ticks;
+    use super::{lose_ticks, saturated};
+
+    #[test]
+    fn a_saturated_gyro_reads_full_scale_with_the_readings_sign() {
+        assert_eq!(saturated(-0.1, 34.9), -34.9);
+        assert_eq!(saturated(0.0, 34.9), 34.9);
+        assert_eq!(saturated(0.2, 34.9), 34.9);
+    }
 
     #[test]
     fn a_tenth_of_the_ticks_lost_is_one_in_ten_either_way() {

@@ -205,11 +205,17 @@ pub struct GyroReport {
     pub bias_radps: f32,
     /// Running mean of gyro minus odometry yaw rate, rad/s.
     pub disagreement_radps: f32,
-    /// |disagreement| is beyond [`GyroConfig::disagreement_threshold_radps`].
+    /// |disagreement| went beyond [`GyroConfig::disagreement_threshold_radps`] and has not
+    /// since fallen below [`DISAGREEMENT_CLEAR_FRACTION`] of it (hysteresis, so that a
+    /// mean hovering at the threshold is one spell, not a warning each crossing).
     pub disagrees: bool,
     /// The gyro's state.
     pub health: GyroHealth,
 }
+
+/// A disagreement spell ends once |the running mean| falls below this fraction of
+/// [`GyroConfig::disagreement_threshold_radps`].
+pub const DISAGREEMENT_CLEAR_FRACTION: f32 = 0.8;
 
 /// The heading fusion: the gyro's bias learned at rest, the gyro's rate integrated into a
 /// fixed-point heading, the gyro judged, its disagreement with odometry measured.
@@ -371,7 +377,13 @@ impl HeadingFusion {
         let k = if window > dt_s { dt_s / window } else { 1.0 };
         let r = &mut self.report;
         r.disagreement_radps += k * (difference_radps - r.disagreement_radps);
-        r.disagrees = math::abs(r.disagreement_radps) > self.config.disagreement_threshold_radps;
+        let threshold = self.config.disagreement_threshold_radps;
+        let magnitude = math::abs(r.disagreement_radps);
+        r.disagrees = if r.disagrees {
+            magnitude >= DISAGREEMENT_CLEAR_FRACTION * threshold
+        } else {
+            magnitude > threshold
+        };
     }
 
     /// Judges `sample` (health, bias) and returns its rate, robot frame, bias removed
@@ -660,6 +672,16 @@ mod tests {
             "{}",
             f.report().disagreement_radps
         );
+        // Agreeing again: the spell lasts while the mean decays to 0.8 × 0.03 rad/s,
+        // (0.1 → 0.024 rad/s: 10 s · ln(0.1 / 0.024) ≈ 14.3 s), and not beyond.
+        for k in 0..13_000 {
+            f.step(live(0.1, k), odometry_turn, 1, false);
+        }
+        assert!(f.report().disagrees, "{}", f.report().disagreement_radps);
+        for k in 0..3_000 {
+            f.step(live(0.1, k), odometry_turn, 1, false);
+        }
+        assert!(!f.report().disagrees, "{}", f.report().disagreement_radps);
     }
 
     /// The k-th reading of a test's gyro.

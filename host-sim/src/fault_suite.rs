@@ -102,6 +102,38 @@ pub struct Case {
     pub gyro: bool,
 }
 
+impl Case {
+    /// `kind` to the end of the run, once, on a robot without a gyro, expected to `expect`.
+    const fn new(name: &'static str, kind: FaultKind, expect: Expectation) -> Self {
+        Self {
+            name,
+            kind,
+            duration_s: None,
+            again_after_s: None,
+            expect,
+            gyro: false,
+        }
+    }
+
+    /// The fault lasts `s` seconds.
+    const fn lasting(mut self, s: f64) -> Self {
+        self.duration_s = Some(s);
+        self
+    }
+
+    /// The same fault again, `s` seconds after the first began.
+    const fn again_after(mut self, s: f64) -> Self {
+        self.again_after_s = Some(s);
+        self
+    }
+
+    /// On a robot with a gyro ([`Case::gyro`]).
+    const fn with_gyro(mut self) -> Self {
+        self.gyro = true;
+        self
+    }
+}
+
 /// The cases `host-sim faults` runs (module doc).
 pub fn cases() -> Vec<Case> {
     use Expectation::*;
@@ -111,253 +143,187 @@ pub fn cases() -> Vec<Case> {
         because: "stall check: 0.5 s at ≥ 3.6 V below 1 rad/s",
     };
     vec![
-        Case {
-            name: "encoder disconnected",
-            kind: EncoderDisconnect(Wheel::Left),
-            duration_s: None,
-            again_after_s: None,
-            expect: stall,
-            gyro: false,
-        },
-        Case {
-            name: "encoder glitch",
-            kind: EncoderGlitch(Wheel::Left, 1000),
-            duration_s: None,
-            again_after_s: None,
-            expect: Detect {
+        Case::new(
+            "encoder disconnected",
+            EncoderDisconnect(Wheel::Left),
+            stall,
+        ),
+        Case::new(
+            "encoder glitch",
+            EncoderGlitch(Wheel::Left, 1000),
+            Detect {
                 limit_s: 0.001,
                 because: "encoder-jump check: one step",
             },
-            gyro: false,
-        },
-        Case {
-            name: "encoder cables swapped",
-            kind: EncodersSwapped,
-            duration_s: None,
-            again_after_s: None,
-            expect: Detect {
+        ),
+        Case::new(
+            "encoder cables swapped",
+            EncodersSwapped,
+            Detect {
                 limit_s: 1.5,
                 because: "divergence check: 0.5 m for 1 s (or the stall check first)",
             },
-            gyro: false,
-        },
-        Case {
-            name: "motor disconnected",
-            kind: MotorDisconnect(Wheel::Left),
-            duration_s: None,
-            again_after_s: None,
-            expect: Detect {
+        ),
+        Case::new(
+            "motor disconnected",
+            MotorDisconnect(Wheel::Left),
+            Detect {
                 limit_s: 1.5,
                 because: "stall check, or divergence if the chassis drags the wheel",
             },
-            gyro: false,
-        },
-        Case {
-            name: "wheel blocked",
-            kind: WheelBlocked(Wheel::Right),
-            duration_s: None,
-            again_after_s: None,
-            expect: stall,
-            gyro: false,
-        },
-        Case {
-            name: "slip patch (0.2 s at 30 %)",
-            kind: SlipPatch(Wheel::Left, 0.3),
-            duration_s: Some(0.2),
-            again_after_s: None,
-            expect: Harmless,
-            gyro: false,
-        },
-        Case {
-            name: "supply sag to 4.0 V",
-            kind: SupplySag(4.0),
-            duration_s: Some(2.0),
-            again_after_s: None,
-            expect: Detect {
+        ),
+        Case::new("wheel blocked", WheelBlocked(Wheel::Right), stall),
+        Case::new(
+            "slip patch (0.2 s at 30 %)",
+            SlipPatch(Wheel::Left, 0.3),
+            Harmless,
+        )
+        .lasting(0.2),
+        Case::new(
+            "supply sag to 4.0 V",
+            SupplySag(4.0),
+            Detect {
                 limit_s: 0.3,
                 because: "battery check: below 4.6 V for 0.2 s (20 ms supply filter)",
             },
-            gyro: false,
-        },
-        Case {
-            name: "supply dip to 4.8 V",
-            kind: SupplySag(4.8),
-            duration_s: Some(2.0),
-            again_after_s: None,
-            expect: Harmless,
-            gyro: false,
-        },
-        Case {
-            name: "one step 3 periods late",
-            kind: LateSteps {
+        )
+        .lasting(2.0),
+        Case::new("supply dip to 4.8 V", SupplySag(4.8), Harmless).lasting(2.0),
+        Case::new(
+            "one step 3 periods late",
+            LateSteps {
                 count: 1,
                 periods: 3,
             },
-            duration_s: None,
-            again_after_s: None,
-            expect: Harmless,
-            gyro: false,
-        },
-        Case {
-            name: "control loop blind 12 ms",
-            kind: LateSteps {
+            Harmless,
+        ),
+        Case::new(
+            "control loop blind 12 ms",
+            LateSteps {
                 count: 1,
                 periods: 12,
             },
-            duration_s: None,
-            again_after_s: None,
-            expect: Detect {
+            Detect {
                 limit_s: 0.012,
                 because: "missed-tick check: a gap of 10 periods",
             },
-            gyro: false,
-        },
-        Case {
-            name: "button pressed",
-            kind: ButtonPress,
-            duration_s: Some(0.1),
-            again_after_s: None,
-            expect: Detect {
+        ),
+        Case::new(
+            "button pressed",
+            ButtonPress,
+            Detect {
                 limit_s: 0.021,
                 because: "button: disarm on the debounced press (20 ms)",
             },
-            gyro: false,
-        },
-        Case {
-            name: "button pressed twice 60 ms apart",
-            kind: ButtonPress,
-            duration_s: Some(0.03),
-            again_after_s: Some(0.06),
-            expect: Rearm {
+        )
+        .lasting(0.1),
+        Case::new(
+            "button pressed twice 60 ms apart",
+            ButtonPress,
+            Rearm {
                 limit_s: 0.021,
                 armed_again: false,
                 because: "re-arming needs both wheels below 0.5 rad/s for 0.1 s",
             },
-            gyro: false,
-        },
-        Case {
-            name: "button pressed twice 1 s apart",
-            kind: ButtonPress,
-            duration_s: Some(0.03),
-            again_after_s: Some(1.0),
-            expect: Rearm {
+        )
+        .lasting(0.03)
+        .again_after(0.06),
+        Case::new(
+            "button pressed twice 1 s apart",
+            ButtonPress,
+            Rearm {
                 limit_s: 0.021,
                 armed_again: true,
                 because: "at rest: re-armed where it stopped, back on the path",
             },
-            gyro: false,
-        },
-        Case {
-            name: "track width 5 % off",
-            kind: TrackWidthError(5.0),
-            duration_s: None,
-            again_after_s: None,
-            expect: Undetectable {
+        )
+        .lasting(0.03)
+        .again_after(1.0),
+        Case::new(
+            "track width 5 % off",
+            TrackWidthError(5.0),
+            Undetectable {
                 sensor: "a gyro (its yaw rate against odometry's) or an absolute position fix",
             },
-            gyro: false,
-        },
-        Case {
-            name: "left motor and encoder both inverted",
-            kind: BothInverted(Wheel::Left),
-            duration_s: None,
-            again_after_s: None,
-            expect: Undetectable {
+        ),
+        Case::new(
+            "left motor and encoder both inverted",
+            BothInverted(Wheel::Left),
+            Undetectable {
                 sensor: "a gyro (its yaw rate against odometry's) or an absolute position fix",
             },
-            gyro: false,
-        },
-        Case {
-            name: "left encoder loses 1 tick in 10",
-            kind: TicksLost(Wheel::Left, 0.1),
-            duration_s: None,
-            again_after_s: None,
-            expect: Undetectable {
+        ),
+        Case::new(
+            "left encoder loses 1 tick in 10",
+            TicksLost(Wheel::Left, 0.1),
+            Undetectable {
                 sensor: "a gyro (its yaw rate against odometry's) or an absolute position fix",
             },
-            gyro: false,
-        },
-        Case {
-            name: "left wheel slips 2 %, steadily",
-            kind: SlipPatch(Wheel::Left, 0.02),
-            duration_s: None,
-            again_after_s: None,
-            expect: Undetectable {
+        ),
+        Case::new(
+            "left wheel slips 2 %, steadily",
+            SlipPatch(Wheel::Left, 0.02),
+            Undetectable {
                 sensor: "a gyro (its yaw rate against odometry's) or an absolute position fix",
             },
-            gyro: false,
-        },
-        Case {
-            name: "track width 5 % off, with a gyro",
-            kind: TrackWidthError(5.0),
-            duration_s: None,
-            again_after_s: None,
-            expect: Undetectable {
+        ),
+        Case::new(
+            "track width 5 % off, with a gyro",
+            TrackWidthError(5.0),
+            Undetectable {
                 sensor: "an absolute position fix (the yaw-rate error, 5 % of 0.2 rad/s, is \
                          below the gyro check's 0.03 rad/s)",
             },
-            gyro: true,
-        },
-        Case {
-            name: "left motor and encoder inverted, with a gyro",
-            kind: BothInverted(Wheel::Left),
-            duration_s: None,
-            again_after_s: None,
-            expect: disagreement(GYRO_INVERTED_LIMIT_S),
-            gyro: true,
-        },
-        Case {
-            name: "left encoder loses 1 tick in 10, with a gyro",
-            kind: TicksLost(Wheel::Left, 0.1),
-            duration_s: None,
-            again_after_s: None,
-            expect: disagreement(GYRO_TICKS_LOST_LIMIT_S),
-            gyro: true,
-        },
-        Case {
-            name: "left wheel slips 2 %, with a gyro",
-            kind: SlipPatch(Wheel::Left, 0.02),
-            duration_s: None,
-            again_after_s: None,
-            expect: Undetectable {
+        )
+        .with_gyro(),
+        Case::new(
+            "left motor and encoder inverted, with a gyro",
+            BothInverted(Wheel::Left),
+            disagreement(GYRO_INVERTED_LIMIT_S),
+        )
+        .with_gyro(),
+        Case::new(
+            "left encoder loses 1 tick in 10, with a gyro",
+            TicksLost(Wheel::Left, 0.1),
+            disagreement(GYRO_TICKS_LOST_LIMIT_S),
+        )
+        .with_gyro(),
+        Case::new(
+            "left wheel slips 2 %, with a gyro",
+            SlipPatch(Wheel::Left, 0.02),
+            Undetectable {
                 sensor: "an absolute position fix (the yaw-rate error, 0.032 rad/s, passes \
                          the gyro check's 0.03 rad/s only after 27 s)",
             },
-            gyro: true,
-        },
-        Case {
-            name: "gyro stuck",
-            kind: GyroStuck,
-            duration_s: None,
-            again_after_s: None,
-            expect: Warn {
+        )
+        .with_gyro(),
+        Case::new(
+            "gyro stuck",
+            GyroStuck,
+            Warn {
                 limit_s: 0.201,
                 because: "stuck check: 200 identical readings while odometry turns 0.01 rad",
             },
-            gyro: true,
-        },
-        Case {
-            name: "gyro absent",
-            kind: GyroAbsent,
-            duration_s: None,
-            again_after_s: None,
-            expect: Warn {
+        )
+        .with_gyro(),
+        Case::new(
+            "gyro absent",
+            GyroAbsent,
+            Warn {
                 limit_s: 0.021,
                 because: "absent check: 20 steps without a reading",
             },
-            gyro: true,
-        },
-        Case {
-            name: "gyro saturated",
-            kind: GyroSaturated,
-            duration_s: None,
-            again_after_s: None,
-            expect: Warn {
+        )
+        .with_gyro(),
+        Case::new(
+            "gyro saturated",
+            GyroSaturated,
+            Warn {
                 limit_s: 0.001,
                 because: "saturation check: one reading at full scale",
             },
-            gyro: true,
-        },
+        )
+        .with_gyro(),
     ]
 }
 

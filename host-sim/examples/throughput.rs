@@ -28,8 +28,9 @@ use host_sim::{run_scenario_with, RunOptions};
 use robot_files::scenario::Scenario;
 use robot_files::truth::TruePose;
 
-fn best_of<F: FnMut() -> f64>(runs: usize, mut f: F) -> f64 {
-    (0..runs).map(|_| f()).fold(f64::INFINITY, f64::min)
+/// The shortest of `runs` timings by `f`, s; the first error, if one fails.
+fn best_of<F: FnMut() -> anyhow::Result<f64>>(runs: usize, mut f: F) -> anyhow::Result<f64> {
+    (0..runs).try_fold(f64::INFINITY, |best, _| Ok(best.min(f()?)))
 }
 
 /// Seconds `f` took.
@@ -99,7 +100,7 @@ fn main() -> anyhow::Result<()> {
     let steps = (scenario.duration_s * f64::from(control_hz)).round() as u64;
 
     // The whole loop: encoders, supervisor and controller, PWM, plant, metrics; with the
-    // plant's exact hold and with RK4 at the plant rate (the previous simulator's).
+    // plant's exact hold and with RK4 at the plant rate (the baseline).
     let exact = RunOptions::default();
     let rk4 = RunOptions {
         integration: Integration::Rk4,
@@ -107,20 +108,12 @@ fn main() -> anyhow::Result<()> {
     };
     let whole_loop = |options: RunOptions| -> anyhow::Result<(f64, Option<[u32; 3]>)> {
         let first = run_scenario_with(&scenario, LawKind::Tracking, options)?;
-        let mut failed = None;
         let best = best_of(5, || {
-            match run_scenario_with(&scenario, LawKind::Tracking, options) {
-                Ok(r) => r.summary.wall_time_s,
-                Err(e) => {
-                    failed = Some(e);
-                    f64::INFINITY
-                }
-            }
-        });
-        match failed {
-            Some(e) => Err(e.into()),
-            None => Ok((best, first.digest.map(|d| d.true_pose_bits))),
-        }
+            Ok(run_scenario_with(&scenario, LawKind::Tracking, options)?
+                .summary
+                .wall_time_s)
+        })?;
+        Ok((best, first.digest.map(|d| d.true_pose_bits)))
     };
     let (full_rk4, _) = whole_loop(rk4)?;
     let (full, final_pose) = whole_loop(exact)?;
@@ -139,90 +132,69 @@ fn main() -> anyhow::Result<()> {
         "the recording ended at {recorded_pose:?}, not where the run ended"
     );
 
-    let mut failed = None;
     let logic = best_of(5, || {
-        let mut robot = match armed_robot(&scenario) {
-            Ok(r) => r,
-            Err(e) => {
-                failed = Some(e);
-                return f64::INFINITY;
-            }
-        };
-        timed(|| {
+        let mut robot = armed_robot(&scenario)?;
+        Ok(timed(|| {
             for read in &sensors {
                 if let Ok(decision) = robot.step(read) {
                     std::hint::black_box(decision.out.duty);
                 }
             }
-        })
-    });
-    if let Some(e) = failed {
-        return Err(e);
-    }
+        }))
+    })?;
 
     let params = scenario.params()?;
     let controller = best_of(5, || {
-        let Ok(reference) = Reference::new(
+        let reference = Reference::new(
             scenario.path.clone(),
             scenario.reference_speed_m_s,
             scenario.reference_mode,
-        ) else {
-            return f64::INFINITY;
-        };
+        )
+        .map_err(|e| anyhow::anyhow!("reference: {e}"))?;
         let s = scenario.start;
         let start = Pose::new(s.x_m as f32, s.y_m as f32, s.theta_rad as f32);
         let mut c = Controller::new(params, reference, LawKind::Tracking, start);
         c.set_mode(Mode::FollowPath);
-        timed(|| {
+        Ok(timed(|| {
             for read in &sensors {
                 let out = c.step(StepInput::on_time(read.ticks, read.supply_v));
                 std::hint::black_box(out.left);
             }
-        })
-    });
+        }))
+    })?;
 
-    let mut failed = None;
     let hardware = best_of(5, || {
-        let mut hardware = match started_hardware(&scenario) {
-            Ok(h) => h,
-            Err(e) => {
-                failed = Some(e);
-                return f64::INFINITY;
-            }
-        };
-        timed(|| {
+        let mut hardware = started_hardware(&scenario)?;
+        Ok(timed(|| {
             for actuation in &actuations {
                 let periods = hardware.periods_until_next_step();
                 std::hint::black_box(hardware.sense(periods));
                 hardware.actuate(*actuation);
                 hardware.advance();
             }
-        })
-    });
-    if let Some(e) = failed {
-        return Err(e);
-    }
+        }))
+    })?;
 
     // The plant alone, on the recorded bridge states.
     let dt = 1.0 / f64::from(scenario.plant_rate_hz);
     let start = started_hardware(&scenario)?;
-    let plant_alone = |integration: Integration| -> f64 {
+    let plant_alone = |integration: Integration| -> anyhow::Result<f64> {
         let mut plant: Plant = start.plant().clone();
         plant.set_integration(integration);
         best_of(5, || {
             let mut plant = plant.clone();
-            timed(|| {
+            Ok(timed(|| {
                 for a in &actuations {
                     plant.set_driver_enabled(a.bridge.enabled());
                     plant.set_duty(a.duty.left, a.duty.right);
                     plant.advance(dt, substeps);
                 }
                 std::hint::black_box(plant.pose());
-            })
+            }))
         })
     };
-    let plant_rk4 = plant_alone(Integration::Rk4);
-    let plant_exact = plant_alone(Integration::Exact);
+    let plant_rk4 = plant_alone(Integration::Rk4)?;
+    let plant_exact = plant_alone(Integration::Exact)?;
 
     let per_step = |s: f64| s / steps as f64 * 1e9;
     let share = |s: f64| 100.0 * s / full;

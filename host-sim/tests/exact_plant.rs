@@ -3,10 +3,10 @@
 //!
 //! Bound: the true pose of the two runs stays within 0.1 mm over the whole run, and the
 //! summary's true-error figures within 0.1 mm; with a fault, the supervisor ends both
-//! runs with the same faults. In closed loop the two cannot be bit-equal:
-//! an encoder tick that flips at a step boundary changes the next duty, and the
-//! controller corrects either run back to its path, so the difference stays at the
-//! scale of a tick's travel (0.1 mm here) instead of growing.
+//! runs with the same faults. The bound is the open-loop replay's: in closed loop the two
+//! cannot be bit-equal (an encoder tick that flips at a step boundary changes the next
+//! duty), but the controller steers either run back to its path, so a difference does
+//! not grow.
 
 use controller_core::law::LawKind;
 use host_sim::plant::Integration;

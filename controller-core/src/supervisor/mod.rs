@@ -160,6 +160,7 @@ mod config;
 mod faults;
 mod rest;
 mod vocabulary;
+mod warning;
 
 pub use button::MODE_SELECT_FACTOR;
 pub use config::{
@@ -184,6 +185,7 @@ use crate::math;
 use crate::outer_loop::OuterLoopHolder;
 use crate::params::Params;
 use crate::tune::{TuneAbort, TuneConfig, TuneResult, TuneStep, Tuner};
+use warning::OncePerSpell;
 
 use button::{Debouncer, Length, Press};
 use checks::{outside_geofence, Divergence, MissedTicks, Saturation, Stall, Supply};
@@ -222,12 +224,10 @@ pub struct Supervisor {
     last_heartbeat: Option<u32>,
     steps_since_heartbeat: u32,
     battery_low: bool,
-    /// [`Event::BatteryLow`] has been reported for the present low-battery spell.
-    battery_warned: bool,
-    /// [`Event::GyroFailed`] has been reported for the present failure, and
-    /// [`Event::GyroDisagrees`] for the present disagreement.
-    gyro_failure_warned: bool,
-    gyro_disagreement_warned: bool,
+    /// The warnings: [`Event::BatteryLow`], [`Event::GyroFailed`], [`Event::GyroDisagrees`].
+    battery_warning: OncePerSpell,
+    gyro_failure_warning: OncePerSpell,
+    gyro_disagreement_warning: OncePerSpell,
     missed: MissedTicks,
     stall: Stall,
     saturation: Saturation,
@@ -272,9 +272,9 @@ impl Supervisor {
             last_heartbeat: None,
             steps_since_heartbeat: 0,
             battery_low: false,
-            battery_warned: false,
-            gyro_failure_warned: false,
-            gyro_disagreement_warned: false,
+            battery_warning: OncePerSpell::default(),
+            gyro_failure_warning: OncePerSpell::default(),
+            gyro_disagreement_warning: OncePerSpell::default(),
             missed: MissedTicks::default(),
             stall: Stall::default(),
             saturation: Saturation::default(),
@@ -575,14 +575,12 @@ impl Supervisor {
                     }
                 }
             }
-            if t.gyro.disagrees
-                && controller.params().config().gyro.disagreement_stops
-                && self.follows_a_path_or_velocities()
-            {
-                self.faults.set(Fault::HeadingDisagreement);
-            }
-            // The geofence is the operator's, whoever gives the body command.
-            if matches!(self.run_mode, RunMode::FollowPath | RunMode::FollowVelocity) {
+            // The geofence is the operator's, whoever gives the body command, and the
+            // heading matters in these modes only.
+            if self.follows_a_path_or_velocities() {
+                if t.gyro.disagrees && controller.params().config().gyro.disagreement_stops {
+                    self.faults.set(Fault::HeadingDisagreement);
+                }
                 if let Some(radius) = self.config.geofence_radius_m {
                     if outside_geofence(&t.pose, &self.config.start_pose, radius) {
                         self.faults.set(Fault::Geofence);
@@ -602,26 +600,20 @@ impl Supervisor {
     }
 
     /// The low-battery warning's event, once each time the supply falls below the
-    /// warning threshold; due while `slot_free` is false (the step has another event), it
-    /// comes at the next step without one, as the gyro's warnings do.
+    /// warning threshold (not while the supply's fault is latched), in the first step
+    /// whose event slot is free (`slot_free`; [`OncePerSpell`]).
     fn battery_event(&mut self, slot_free: bool) -> Option<Event> {
-        if !self.battery_low {
-            self.battery_warned = false;
-            return None;
-        }
-        if !slot_free || self.battery_warned || self.faults.has(Fault::SupplyLow) {
-            return None;
-        }
-        self.battery_warned = true;
-        Some(Event::BatteryLow)
+        let slot_free = slot_free && !self.faults.has(Fault::SupplyLow);
+        self.battery_warning
+            .due(self.battery_low, slot_free)
+            .then_some(Event::BatteryLow)
     }
 
-    /// The gyro's warnings, once each per spell: [`Event::GyroFailed`] when the fusion
-    /// has given the gyro up (the heading follows odometry), and, while armed to follow a
-    /// path or velocities, [`Event::GyroDisagrees`] when the two yaw rates disagree and
-    /// the configuration does not stop the robot for it. The spells are tracked every
-    /// step; a warning due while `slot_free` is false (the step has another event) comes
-    /// at the next step without one, so none is lost while its condition lasts.
+    /// The gyro's warnings, once each per spell ([`OncePerSpell`], the event slot
+    /// `slot_free`): [`Event::GyroFailed`] when the fusion has given the gyro up (the
+    /// heading follows odometry), and, while armed to follow a path or velocities,
+    /// [`Event::GyroDisagrees`] when the two yaw rates disagree and the configuration
+    /// does not stop the robot for it.
     fn gyro_event<S: OuterLoopHolder>(
         &mut self,
         controller: &Controller<S>,
@@ -635,20 +627,14 @@ impl Supervisor {
         let warn_disagreement = report.disagrees
             && self.follows_a_path_or_velocities()
             && !controller.params().config().gyro.disagreement_stops;
-        self.gyro_failure_warned &= failure.is_some();
-        self.gyro_disagreement_warned &= warn_disagreement;
-        if !slot_free {
-            return None;
+        let failure_due = self.gyro_failure_warning.due(failure.is_some(), slot_free);
+        let disagreement_due = self
+            .gyro_disagreement_warning
+            .due(warn_disagreement, slot_free && !failure_due);
+        match failure {
+            Some(failure) if failure_due => Some(Event::GyroFailed(failure)),
+            _ => disagreement_due.then_some(Event::GyroDisagrees),
         }
-        if let Some(failure) = failure.filter(|_| !self.gyro_failure_warned) {
-            self.gyro_failure_warned = true;
-            return Some(Event::GyroFailed(failure));
-        }
-        if warn_disagreement && !self.gyro_disagreement_warned {
-            self.gyro_disagreement_warned = true;
-            return Some(Event::GyroDisagrees);
-        }
-        None
     }
 
     /// Armed to follow a path or velocity commands: the modes whose heading matters (not
@@ -955,8 +941,8 @@ impl Supervisor {
         self.supply = Supply::default();
         controller.clear_faults();
         // The gyro is judged afresh (the controller's fusion too): a new spell warns again.
-        self.gyro_failure_warned = false;
-        self.gyro_disagreement_warned = false;
+        self.gyro_failure_warning.restart();
+        self.gyro_disagreement_warning.restart();
         self.state = State::Disarmed;
         Event::FaultsCleared
     }

@@ -854,3 +854,43 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn the_odometry_heading_is_the_encoders_own() {
+    // Turning on the spot, left back and right forward: without a gyro the pose's
+    // heading is odometry's.
+    let mut c = controller();
+    for _ in 0..200 {
+        step(&mut c, ticks(-1, 1));
+    }
+    let heading = c.odometry_heading_rad();
+    assert!(heading > 0.05, "{heading}");
+    assert_eq!(heading, c.pose().theta_rad);
+    assert_eq!(
+        heading,
+        c.fused_heading_rad(),
+        "no gyro: the fused heading is odometry's"
+    );
+}
+
+#[test]
+fn after_a_resync_the_estimate_does_not_depend_on_how_long_the_robot_stood() {
+    // The same drive, after standing 10 and 37 steps (different phases of the heading's
+    // periodic recomputation), resynced before it: bit-identical poses.
+    let drive = |stood: u32| {
+        let mut c = controller();
+        for _ in 0..30 {
+            step(&mut c, ticks(2, 3));
+        }
+        for _ in 0..stood {
+            step(&mut c, ticks(0, 0));
+        }
+        c.resync_heading();
+        for k in 0..500 {
+            step(&mut c, ticks(3 + (k % 2), 2 + (k % 5)));
+        }
+        let p = c.pose();
+        [p.x_m, p.y_m, p.theta_rad].map(f32::to_bits)
+    };
+    assert_eq!(drive(10), drive(37));
+}

@@ -720,6 +720,68 @@ mod tests {
     }
 
     #[test]
+    fn the_blend_comes_1_minus_1_over_e_of_the_way_in_one_time_constant() {
+        let mut config = GyroConfig::ICM42688P.with_heading(HeadingSource::Fused);
+        config.odometry_blend_time_constant_s = 0.25;
+        let mut f = HeadingFusion::new(config, PERIOD_S, BinaryAngle::default());
+        let mut turn = AngleDelta::from_rad(0.5);
+        for k in 0..250 {
+            f.step(sample(1e-6 * (k % 2) as f32), turn, 1, false);
+            turn = AngleDelta::default();
+        }
+        let expected = 0.5 * (1.0 - (-1.0f32).exp());
+        assert!(
+            (f.fused_heading_rad() - expected).abs() < 0.005,
+            "{} vs {expected}",
+            f.fused_heading_rad()
+        );
+    }
+
+    #[test]
+    fn saturation_is_judged_at_99_percent_of_full_scale() {
+        let full_scale = GyroConfig::ICM42688P.full_scale_radps;
+        let mut f = fusion(HeadingSource::Fused);
+        f.step(sample(0.985 * full_scale), AngleDelta::default(), 1, false);
+        assert_eq!(f.report().health, GyroHealth::Reading);
+        f.step(sample(-0.995 * full_scale), AngleDelta::default(), 1, false);
+        assert_eq!(
+            f.report().health,
+            GyroHealth::Failed(GyroFailure::Saturated)
+        );
+    }
+
+    #[test]
+    fn a_gyro_is_stuck_at_exactly_its_limit_of_repeats() {
+        let limit = GyroConfig::ICM42688P.stuck_limit_steps;
+        let mut f = fusion(HeadingSource::Fused);
+        // Odometry turns 0.1 rad a step, far beyond the stuck turn, from the first repeat.
+        let turn = AngleDelta::from_rad(0.1);
+        f.step(sample(0.3), turn, 1, false);
+        for _ in 1..limit {
+            f.step(sample(0.3), turn, 1, false);
+        }
+        assert_eq!(
+            f.report().health,
+            GyroHealth::Reading,
+            "{} repeats",
+            limit - 1
+        );
+        f.step(sample(0.3), turn, 1, false);
+        assert_eq!(f.report().health, GyroHealth::Failed(GyroFailure::Stuck));
+    }
+
+    #[test]
+    fn the_bias_is_the_mean_of_the_still_readings() {
+        let mut f = fusion(HeadingSource::Fused);
+        for k in 0..1000 {
+            let rate = if k % 2 == 0 { 0.01 } else { 0.03 };
+            f.step(sample(rate), AngleDelta::default(), 1, true);
+        }
+        let bias = f.report().bias_radps;
+        assert!((bias - 0.02).abs() < 1e-4, "{bias}");
+    }
+
+    #[test]
     fn a_stuck_reading_at_rest_is_not_a_failure() {
         let mut f = fusion(HeadingSource::Fused);
         for _ in 0..5000 {

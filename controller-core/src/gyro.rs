@@ -217,6 +217,16 @@ pub struct GyroReport {
 /// [`GyroConfig::disagreement_threshold_radps`].
 pub const DISAGREEMENT_CLEAR_FRACTION: f32 = 0.8;
 
+/// A still reading further than this from the bias estimate, rad/s, is a turn the
+/// encoders do not see (a robot lifted and turned, or the first moments of a turn by hand
+/// before its wheels count) and is not learned: 2.9 °/s, six times the ICM-42688-P's
+/// typical zero-rate offset and 45 times its noise at 1 kHz.
+pub const BIAS_GATE_RADPS: f32 = 0.05;
+
+/// The gate applies once this many still readings are averaged (0.2 s at 1 kHz), so that
+/// any turn-on offset is learned from the first readings.
+pub const BIAS_GATE_AFTER_SAMPLES: u32 = 200;
+
 /// The heading fusion: the gyro's bias learned at rest, the gyro's rate integrated into a
 /// fixed-point heading, the gyro judged, its disagreement with odometry measured.
 ///
@@ -269,8 +279,14 @@ impl HeadingFusion {
         &self.config
     }
 
-    /// Replaces the configuration, keeping the bias, the headings and the health.
+    /// Replaces the configuration, keeping the headings, the health and the bias: the
+    /// bias is the sensor's, so when the axis sign or the scale changes (a bring-up's
+    /// calibration) its estimate, kept in the robot's frame, is converted to the new one
+    /// rather than learned again.
     pub fn set_config(&mut self, config: GyroConfig) {
+        let robot_per_sensor = |c: &GyroConfig| if c.axis_inverted { -c.scale } else { c.scale };
+        let before = robot_per_sensor(&self.config);
+        self.report.bias_radps *= robot_per_sensor(&config) / before;
         self.config = config;
     }
 
@@ -443,8 +459,14 @@ impl HeadingFusion {
     }
 
     /// One still reading `rate` (robot frame, rad/s) into the bias: the mean of all still
-    /// readings so far, then a low-pass of the bias time constant.
+    /// readings so far, then a low-pass of the bias time constant; a reading beyond
+    /// [`BIAS_GATE_RADPS`] of the estimate is left out once the gate applies.
     fn learn_bias(&mut self, rate_radps: f32) {
+        if self.bias_samples >= BIAS_GATE_AFTER_SAMPLES
+            && math::abs(rate_radps - self.report.bias_radps) > BIAS_GATE_RADPS
+        {
+            return;
+        }
         let cap = (self.config.bias_time_constant_s / self.period_s) as u32;
         if self.bias_samples < cap.max(1) {
             self.bias_samples += 1;
@@ -628,6 +650,51 @@ mod tests {
             "{}",
             f.fused_heading_rad()
         );
+    }
+
+    #[test]
+    fn a_turn_the_encoders_do_not_see_is_not_learned_as_bias() {
+        let mut f = fusion(HeadingSource::Fused);
+        // A turn-on offset beyond the gate, learned from the first readings.
+        for k in 0..BIAS_GATE_AFTER_SAMPLES {
+            f.step(live(0.08, k), AngleDelta::default(), 1, true);
+        }
+        let learned = f.report().bias_radps;
+        assert!((learned - 0.08).abs() < 1e-4, "{learned}");
+        // Lifted and turned at 0.2 rad/s, the wheels still: not the bias.
+        for k in 0..100 {
+            f.step(live(0.08 + 0.2, k), AngleDelta::default(), 1, true);
+        }
+        assert_eq!(f.report().bias_radps, learned);
+        // A reading just inside the gate is learned.
+        f.step(sample(0.08 + 0.049), AngleDelta::default(), 1, true);
+        assert!(f.report().bias_radps > learned);
+    }
+
+    #[test]
+    fn a_new_calibration_converts_the_bias_to_the_robots_frame() {
+        let mut f = fusion(HeadingSource::Fused);
+        // A sensor reading 0.01 rad/s at rest: the bias, learned still.
+        for k in 0..1000 {
+            f.step(live(0.01, k), AngleDelta::default(), 1, true);
+        }
+        assert!((f.report().bias_radps - 0.01).abs() < 1e-5);
+        // Bring-up finds the axis upside down and the scale 2: the same sensor bias is
+        // −0.02 rad/s in the robot's frame, so the still sensor still reads no turn.
+        let mut config = *f.config();
+        config.axis_inverted = true;
+        config.scale = 2.0;
+        f.set_config(config);
+        assert!(
+            (f.report().bias_radps + 0.02).abs() < 2e-5,
+            "{}",
+            f.report().bias_radps
+        );
+        let before = f.fused_heading_rad();
+        for k in 0..1000 {
+            f.step(live(0.01, k), AngleDelta::default(), 1, false);
+        }
+        assert!((f.fused_heading_rad() - before).abs() < 1e-4);
     }
 
     #[test]

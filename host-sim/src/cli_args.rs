@@ -216,12 +216,12 @@ pub enum Command {
         /// Miswire the robot between the plant and its board, over the scenario's
         /// `[virtual_robot] miswire`: a comma-separated list of left-motor-inverted,
         /// right-motor-inverted, left-encoder-inverted, right-encoder-inverted,
-        /// encoders-swapped, motors-swapped, cpr=xK, supply-scale=F.
+        /// encoders-swapped, motors-swapped, gyro-inverted, cpr=xK, supply-scale=F.
         #[arg(long)]
         miswire: Option<String>,
         /// For tests: read the bench's hands from standard input, one command a line
-        /// (`turn left 1`, `turn right -0.5`, `press 2000`, `led`), each answered on
-        /// standard output with a line starting `hands: `.
+        /// (`turn left 1`, `turn right -0.5`, `rotate 1`, `press 2000`, `led`,
+        /// `measure`), each answered on standard output with a line starting `hands: `.
         #[arg(long)]
         hands: bool,
         /// Also stream the robot live to Foxglove (WebSocket, subprotocol

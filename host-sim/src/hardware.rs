@@ -243,10 +243,24 @@ impl SimHardware {
         }
     }
 
+    /// Turns the robot on the spot by `yaw_rad` (rad, counter-clockwise positive), by
+    /// hand ([`Plant::rotate_by_hand`]).
+    pub fn rotate_by_hand(&mut self, yaw_rad: f64) {
+        self.plant.rotate_by_hand(yaw_rad);
+    }
+
+    /// Takes the gyro's state from `other` (its noise stream, bias, latency and the
+    /// heading it last read): a copy's sensors were read while this hardware held still,
+    /// and the gyro reads on, as a real IMU does while its robot waits.
+    pub fn keep_gyro_of(&mut self, other: &SimHardware) {
+        self.gyro.clone_from(&other.gyro);
+        self.stuck_gyro = other.stuck_gyro;
+    }
+
     /// The gyro's reading for a step of `periods` periods, with the gyro faults in
     /// effect: absent (none), stuck (the first reading of the fault, repeated),
-    /// saturated (full scale, positive unless the reading is negative). The sensor is read every step
-    /// whatever the faults, so its latency and noise stream go on.
+    /// saturated (full scale, positive unless the reading is negative). The sensor is
+    /// read every step whatever the faults, so its latency and noise stream go on.
     fn read_gyro(&mut self, periods: u32) -> Option<GyroSample> {
         let gyro = self.gyro.as_mut()?;
         let full_scale = gyro.full_scale_rad_s() as f32;

@@ -8,7 +8,9 @@
 //! CI runs a few cases; `cargo xtask bringup-matrix` runs every single miswiring and a
 //! few pairs (`the_whole_matrix`, ignored otherwise), and the two steps the matrix leaves
 //! out, the tune and the calibration, on a robot whose wheels and track are off
-//! (`the_tune_and_the_calibration`, ignored otherwise).
+//! (`the_tune_and_the_calibration`, ignored otherwise). The gyro step runs on a robot
+//! whose IMU is mounted upside down and reads 3 % high
+//! (`the_gyro_step_finds_an_upside_down_imu_and_its_scale`).
 
 use std::io::{BufRead, BufReader, Write};
 use std::net::TcpListener;
@@ -191,6 +193,13 @@ fn bring_up_steps(
             let reply = answer(question, remote, supply_v);
             writeln!(stdin, "{reply}").expect("the station reads");
             stdin.flush().expect("flushed");
+        } else if line.contains("now turn the robot by hand one full turn on the spot") {
+            // The gyro step watches, asking nothing: the hands turn, the station sees it.
+            remote
+                .commands
+                .send(HandCommand::Rotate { turns: 1.0 })
+                .expect("hands");
+            assert!(matches!(wait_for(remote), HandAnswer::Rotated { .. }));
         }
     }
     drop(stdin);
@@ -393,4 +402,30 @@ fn the_tune_and_the_calibration() {
     );
     assert!(track_error.abs() < 0.01, "{printed}");
     assert!(ratio_error.abs() < 0.002, "{printed}");
+}
+
+#[test]
+fn the_gyro_step_finds_an_upside_down_imu_and_its_scale() {
+    let _one = one_at_a_time();
+    let mut scenario = Scenario::load("paper-circle-gyro").expect("built in");
+    let sensor = &mut scenario.gyro.as_mut().expect("a gyro").sensor;
+    sensor.scale_error_pct = 3.0;
+    sensor.turn_on_bias_rad_s = 0.5_f64.to_radians();
+    let (address, remote) = served(scenario, "gyro-inverted".parse().expect("valid"), 200.0);
+    let dir = std::env::temp_dir().join(format!("station-bringup-gyro-{}", std::process::id()));
+    let before = robot_params(&address).robot.gyro;
+    let printed = bring_up_steps(&address, &remote, &dir, &["gyro"]);
+    let after = robot_params(&address).robot.gyro;
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(!before.axis_inverted && before.scale == 1.0, "{before:?}");
+    assert!(after.axis_inverted, "{printed}");
+    // The sensor reads 3 % high: the robot's turn per sensor turn is 1/1.03.
+    let scale_error = f64::from(after.scale) * 1.03 - 1.0;
+    println!(
+        "gyro step: axis inverted found, scale {:.5} ({:+.3} % off the true 1/1.03)",
+        after.scale,
+        scale_error * 100.0
+    );
+    assert!(scale_error.abs() < 0.001, "{printed}");
+    assert!(printed.contains("scale 0.97"), "{printed}");
 }

@@ -1,4 +1,5 @@
-//! A miswired robot: what stands between the plant's true wheels and what the board sees
+//! A miswired robot: what stands between the plant's true wheels and gyro and what the
+//! board sees
 //! (`host-sim serve --miswire`). The robot's own wiring corrections
 //! (`controller_core::wiring`) are the robot's business; this is the truth they must
 //! undo.
@@ -12,6 +13,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use controller_core::controller::{MotorCommand, TickDeltas};
+use controller_core::gyro::GyroSample;
 
 /// Why a miswiring list was refused.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -20,7 +22,7 @@ pub enum MiswireError {
     #[error(
         "unknown miswiring `{0}` (known: left-motor-inverted, right-motor-inverted, \
          left-encoder-inverted, right-encoder-inverted, encoders-swapped, motors-swapped, \
-         cpr=xK, supply-scale=F)"
+         gyro-inverted, cpr=xK, supply-scale=F)"
     )]
     Unknown(String),
     /// `cpr=` or `supply-scale=` with a value that is not a number in its range.
@@ -50,6 +52,9 @@ pub struct Miswiring {
     pub right_encoder_inverted: bool,
     /// The left wheel's encoder is on the board's right input, and the right's on the left.
     pub encoders_swapped: bool,
+    /// The IMU is mounted upside down: its z axis points down, so its yaw rate is the
+    /// robot's negated.
+    pub gyro_inverted: bool,
     /// The encoders' true counts per turn over what the robot is configured with
     /// (`cpr=x2`: twice as many), in [1/8, 8].
     pub cpr_factor: f64,
@@ -67,6 +72,7 @@ impl Default for Miswiring {
             left_encoder_inverted: false,
             right_encoder_inverted: false,
             encoders_swapped: false,
+            gyro_inverted: false,
             cpr_factor: 1.0,
             supply_scale: 1.0,
         }
@@ -114,6 +120,7 @@ impl FromStr for Miswiring {
                 "left-encoder-inverted" => m.left_encoder_inverted = true,
                 "right-encoder-inverted" => m.right_encoder_inverted = true,
                 "encoders-swapped" => m.encoders_swapped = true,
+                "gyro-inverted" => m.gyro_inverted = true,
                 _ => {
                     if let Some(value) = word.strip_prefix("cpr=") {
                         let factor = value.strip_prefix('x').unwrap_or(value);
@@ -142,6 +149,7 @@ impl fmt::Display for Miswiring {
             (self.right_encoder_inverted, "right-encoder-inverted"),
             (self.encoders_swapped, "encoders-swapped"),
             (self.motors_swapped, "motors-swapped"),
+            (self.gyro_inverted, "gyro-inverted"),
         ]
         .iter()
         .filter(|(on, _)| *on)
@@ -232,6 +240,19 @@ impl Wires {
         }
     }
 
+    /// The board's reading of the gyro's `reading` (the sensor's yaw rate about the
+    /// robot's upward axis).
+    pub fn board_gyro(&self, reading: Option<GyroSample>) -> Option<GyroSample> {
+        reading.map(|r| GyroSample {
+            yaw_rate_radps: if self.miswiring.gyro_inverted {
+                -r.yaw_rate_radps
+            } else {
+                r.yaw_rate_radps
+            },
+            ..r
+        })
+    }
+
     /// The board's reading of the true supply `true_v`, V.
     pub fn board_supply(&self, true_v: f32) -> f32 {
         (f64::from(true_v) * self.miswiring.supply_scale) as f32
@@ -245,9 +266,10 @@ mod tests {
 
     #[test]
     fn a_list_reads_back_as_written() {
-        let text = "left-motor-inverted,right-encoder-inverted,encoders-swapped,motors-swapped,cpr=x2,supply-scale=1.1";
+        let text = "left-motor-inverted,right-encoder-inverted,encoders-swapped,motors-swapped,gyro-inverted,cpr=x2,supply-scale=1.1";
         let m: Miswiring = text.parse().expect("valid");
         assert!(m.left_motor_inverted && m.right_encoder_inverted && m.encoders_swapped);
+        assert!(m.gyro_inverted);
         assert!(m.motors_swapped && !m.right_motor_inverted && !m.left_encoder_inverted);
         assert_eq!((m.cpr_factor, m.supply_scale), (2.0, 1.1));
         assert_eq!(m.to_string().parse::<Miswiring>(), Ok(m));
@@ -290,6 +312,20 @@ mod tests {
             right: -0.7,
         };
         assert_eq!(wires.wheel_duties(robot.duties_to_board(duty)), duty);
+    }
+
+    #[test]
+    fn an_upside_down_imu_reads_the_yaw_rate_negated() {
+        let reading = Some(GyroSample {
+            yaw_rate_radps: 0.25,
+            age_periods: 2,
+        });
+        let upright = Wires::new(Miswiring::default());
+        assert_eq!(upright.board_gyro(reading), reading);
+        let upside_down = Wires::new("gyro-inverted".parse().expect("valid"));
+        let read = upside_down.board_gyro(reading).expect("a reading");
+        assert_eq!((read.yaw_rate_radps, read.age_periods), (-0.25, 2));
+        assert_eq!(upside_down.board_gyro(None), None);
     }
 
     #[test]

@@ -30,7 +30,9 @@
 //! - **The plant holds still until the robot is armed**: while it waits, each control
 //!   step reads the sensors of a copy of the hardware, so the noise the run will see
 //!   starts at the arming step, the run's first, exactly as in `host-sim run`, and the
-//!   supply filter holds the one reading it would take at arming.
+//!   supply filter holds the one reading it would take at arming. The gyro alone reads
+//!   on, as a real IMU does while its robot waits: the robot learns its bias at rest and
+//!   sees a turn by hand.
 //! - **Arming in motion** (an `Arm` whose `initial_motion` is set): the plant's wheels are
 //!   spun up to that motion at the arming step. When the asserted motion (f32 on the
 //!   wire) is the scenario's start motion rounded to f32, the scenario's own f64 values are
@@ -87,9 +89,9 @@ use robot_files::trace::{SampleDetail, TraceRow};
 use robot_files::truth::{tracking_error_f64, true_error, TruePose};
 
 use crate::hardware::{Actuation, SimHardware};
-use crate::plant::PlantError;
+use crate::plant::{Plant, PlantError};
 
-use self::hands::Hands;
+use self::hands::{Bench, HandStep, Hands};
 use self::hosts::Hosts;
 pub use self::live::LiveStream;
 use self::miswire::{MiswireError, Miswiring, Wires};
@@ -389,14 +391,24 @@ impl<'a> VirtualRobot<'a> {
         }
         self.pending_in.drain(..taken);
 
-        // 2. The sensors: of a copy while the plant holds still (module doc).
+        // 2. The hands, then the sensors: of a copy while the plant holds still (module
+        // doc). The hands turn the encoders at the plant's resolution, before the wires,
+        // and a robot they rotate on the spot turns before its gyro reads.
         let pose = self.hardware.plant().pose();
         let wheels = self.hardware.plant().wheel_speeds();
         let velocity = self.hardware.plant().body_velocity();
+        let by_hand = match &mut self.hands {
+            Some(hands) => hands.step(&bench(&self.scenario, self.hardware.plant()), &pose),
+            None => HandStep::default(),
+        };
+        if by_hand.yaw_rad != 0.0 {
+            self.hardware.rotate_by_hand(by_hand.yaw_rad);
+        }
         let mut probe = None;
         let sensed = if self.frozen {
             let mut copy = self.hardware.clone();
             let sensed = copy.sense(1);
+            self.hardware.keep_gyro_of(&copy);
             probe = Some(copy);
             sensed
         } else {
@@ -405,28 +417,18 @@ impl<'a> VirtualRobot<'a> {
         };
         self.background = self.background.wrapping_add(1);
         let periods = NonZeroU32::new(sensed.periods).unwrap_or(NonZeroU32::MIN);
-        // The hands turn the encoders at the plant's resolution, before the wires.
-        let (by_hand, hand_pressed) = match &mut self.hands {
-            Some(hands) => {
-                let c = &self.scenario.robot;
-                let ticks_per_turn =
-                    f64::from(c.encoder_lines_per_motor_rev) * 4.0 * f64::from(c.gear_ratio);
-                hands.step(f64::from(c.control_rate_hz), ticks_per_turn, &pose)
-            }
-            None => (Default::default(), false),
-        };
         let wheel_ticks = controller_core::controller::TickDeltas {
-            left: sensed.ticks.left.wrapping_add(by_hand.left),
-            right: sensed.ticks.right.wrapping_add(by_hand.right),
+            left: sensed.ticks.left.wrapping_add(by_hand.ticks.left),
+            right: sensed.ticks.right.wrapping_add(by_hand.ticks.right),
         };
         let out = self.control.step(Sensors {
             ticks: self.wires.board_ticks(wheel_ticks),
             periods,
             supply_v: self.wires.board_supply(sensed.supply_v),
-            button_pressed: sensed.button_pressed || hand_pressed,
+            button_pressed: sensed.button_pressed || by_hand.pressed,
             overrun: false,
             background_heartbeat: self.background,
-            gyro: sensed.gyro,
+            gyro: self.wires.board_gyro(sensed.gyro),
         });
         if let Some(hands) = &mut self.hands {
             hands.see_led(out.led_on);
@@ -600,6 +602,20 @@ impl<'a> VirtualRobot<'a> {
 }
 
 /// `scenario` with the robot placed at `start` (pose and motion).
+/// What the bench's hands need to know of the robot of `scenario` with `plant`: its
+/// control rate, its encoders' counts per wheel turn (the configured ones: a miswired
+/// resolution is the wires') and how far its true wheels roll in a turn on the spot.
+fn bench(scenario: &Scenario, plant: &Plant) -> Bench {
+    let c = &scenario.robot;
+    let g = &plant.params().geometry;
+    Bench {
+        rate_hz: f64::from(c.control_rate_hz),
+        ticks_per_turn: f64::from(c.encoder_lines_per_motor_rev) * 4.0 * f64::from(c.gear_ratio),
+        wheel_turns_per_robot_turn: [g.wheel_radius_left_m, g.wheel_radius_right_m]
+            .map(|r| 0.5 * g.track_width_m / r),
+    }
+}
+
 fn placed(scenario: &Scenario, start: &StartState) -> Scenario {
     let mut s = scenario.clone();
     s.start = *start;

@@ -13,8 +13,10 @@
 //!    counts per turn;
 //! 5. [`motors`]: a short pulse per motor and direction, the wheels lifted, gives each
 //!    motor's output and sign, and any that does not respond;
-//! 6. [`tune`]: the wheel-loop self-tune, on the ground;
-//! 7. [`calibration`]: the UMBmark odometry calibration.
+//! 6. [`gyro`]: the robot turned one turn on the spot by hand gives the gyro's axis sign
+//!    and scale (skipped without a gyro);
+//! 7. [`tune`]: the wheel-loop self-tune, on the ground;
+//! 8. [`calibration`]: the UMBmark odometry calibration.
 //!
 //! Where it stands is kept in the output directory ([`state`]): run again, it resumes
 //! with the first step not yet done.
@@ -24,6 +26,7 @@ pub mod button;
 pub mod calibration;
 pub mod diff;
 pub mod encoders;
+pub mod gyro;
 pub mod link_check;
 pub mod motors;
 pub mod signals;
@@ -59,6 +62,8 @@ pub enum Step {
     Encoders,
     /// The motors, pulsed with the wheels lifted.
     Motors,
+    /// The gyro's axis sign and scale, the robot turned one turn by hand.
+    Gyro,
     /// The wheel-loop self-tune, on the ground.
     Tune,
     /// The odometry calibration.
@@ -67,17 +72,18 @@ pub enum Step {
 
 impl Step {
     /// Every step, in order.
-    pub const ALL: [Step; 7] = [
+    pub const ALL: [Step; 8] = [
         Step::Link,
         Step::Button,
         Step::Supply,
         Step::Encoders,
         Step::Motors,
+        Step::Gyro,
         Step::Tune,
         Step::Calibrate,
     ];
 
-    /// The step's number, 1…7.
+    /// The step's number, 1…8.
     pub fn number(self) -> usize {
         Self::ALL.iter().position(|s| *s == self).unwrap_or(0) + 1
     }
@@ -91,6 +97,7 @@ impl fmt::Display for Step {
             Step::Supply => "supply",
             Step::Encoders => "encoders",
             Step::Motors => "motors",
+            Step::Gyro => "gyro",
             Step::Tune => "tune",
             Step::Calibrate => "calibrate",
         })
@@ -202,13 +209,19 @@ pub fn run<T: Transport>(
         out,
     };
     for step in steps {
-        writeln!(session.out, "step {} of 7, {step}:", step.number())?;
+        writeln!(
+            session.out,
+            "step {} of {}, {step}:",
+            step.number(),
+            Step::ALL.len()
+        )?;
         let finding = match step {
             Step::Link => link_check::run(&mut session)?,
             Step::Button => button::run(&mut session)?,
             Step::Supply => supply::run(&mut session)?,
             Step::Encoders => encoders::run(&mut session)?,
             Step::Motors => motors::run(&mut session)?,
+            Step::Gyro => gyro::run(&mut session)?,
             Step::Tune => tune::run(&mut session)?,
             Step::Calibrate => calibration::run(&mut session)?,
         };

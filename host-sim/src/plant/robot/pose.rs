@@ -105,6 +105,15 @@ impl Plant {
         self.angle = [0.0; 2];
     }
 
+    /// Turns the robot on the spot by `yaw_rad` (rad, counter-clockwise positive) about
+    /// the middle of its axle, as hands lifting it would: the wheels' state is kept (what
+    /// the encoders count of such a turn is the caller's).
+    pub fn rotate_by_hand(&mut self, yaw_rad: f64) {
+        let mut pose = self.pose.true_pose();
+        pose.theta_rad = wrap_angle(pose.theta_rad + yaw_rad);
+        self.pose = PoseTrack::at(pose);
+    }
+
     /// True pose, world frame.
     pub fn pose(&self) -> TruePose {
         self.pose.true_pose()

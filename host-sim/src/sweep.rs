@@ -55,6 +55,8 @@ pub struct Draws {
     pub gyro_scale_error_pct: f64,
     /// Left − right motor torque constant (K_t and K_e), % of nominal.
     pub motor_left_right_pct: f64,
+    /// Fraction of its ticks each encoder loses [left, right] (0 without a gyro).
+    pub ticks_lost: [f64; 2],
 }
 
 /// One Monte-Carlo run.
@@ -175,6 +177,7 @@ pub fn perturb(base: &Scenario, rng: &mut Rng) -> (Scenario, Draws) {
         gyro_bias_rad_s: 0.0,
         gyro_scale_error_pct: 0.0,
         motor_left_right_pct: 0.0,
+        ticks_lost: [0.0; 2],
     };
     let mut d = d;
     let mut out = base.clone();
@@ -219,6 +222,20 @@ pub fn perturb(base: &Scenario, rng: &mut Rng) -> (Scenario, Draws) {
     // Drawn last, so that the draws above are those of a sweep without it.
     d.motor_left_right_pct = rng.symmetric(s.motor_left_right_pct);
     out.plant.motor_mismatch.torque_constant_left_right_pct += d.motor_left_right_pct;
+    // After every other draw, and only when asked for, so that a sweep without it draws
+    // as before.
+    let ticks_lost_max = out.gyro.map_or(0.0, |g| g.sweep.ticks_lost_max);
+    if ticks_lost_max > 0.0 {
+        for wheel in [Wheel::Left, Wheel::Right] {
+            let fraction = rng.uniform_in(0.0, ticks_lost_max);
+            d.ticks_lost[wheel.index()] = fraction;
+            out.faults.push(Fault {
+                kind: FaultKind::TicksLost(wheel, fraction),
+                at_step: 0,
+                duration_steps: None,
+            });
+        }
+    }
     (out, d)
 }
 
@@ -342,5 +359,43 @@ mod tests {
             base.plant.motor_mismatch.torque_constant_left_right_pct + da.motor_left_right_pct
         );
         assert!((a.start.x_m - base.start.x_m).abs() <= base.sweep.start_position_m);
+        assert_eq!(da.ticks_lost, [0.0; 2], "no gyro: no tick loss drawn");
+        assert!(a.faults.is_empty());
+    }
+
+    #[test]
+    fn a_gyro_sweep_draws_slip_patches_and_each_encoders_tick_loss_last() {
+        let base = Scenario::builtin("paper-circle-gyro").unwrap().unwrap();
+        let g = base.gyro.expect("a gyro").sweep;
+        assert!(g.ticks_lost_max > 0.0);
+        let (a, da) = perturb(&base, &mut Rng::new(9));
+        let patches = a
+            .faults
+            .iter()
+            .filter(|f| matches!(f.kind, FaultKind::SlipPatch(..)))
+            .count();
+        assert_eq!(patches, g.slip_patches as usize);
+        for wheel in [Wheel::Left, Wheel::Right] {
+            let fraction = da.ticks_lost[wheel.index()];
+            assert!((0.0..=g.ticks_lost_max).contains(&fraction), "{fraction}");
+            assert!(a.faults.contains(&Fault {
+                kind: FaultKind::TicksLost(wheel, fraction),
+                at_step: 0,
+                duration_steps: None,
+            }));
+        }
+        // Drawn last: without it, every other draw is the same.
+        let mut without = base.clone();
+        if let Some(gyro) = &mut without.gyro {
+            gyro.sweep.ticks_lost_max = 0.0;
+        }
+        let (_, d0) = perturb(&without, &mut Rng::new(9));
+        assert_eq!(
+            Draws {
+                ticks_lost: [0.0; 2],
+                ..da
+            },
+            d0
+        );
     }
 }

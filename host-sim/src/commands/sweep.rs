@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use anyhow::{ensure, Context, Result};
 use controller_core::law::LawKind;
 use indicatif::{ProgressBar, ProgressStyle};
-use robot_files::scenario::{HeadingChoice, SweepSpec};
+use robot_files::scenario::{GyroSweep, HeadingChoice, SweepSpec};
 
 use super::{create_dir, load, Report};
 use crate::sweep::{sweep, SweepReport};
@@ -39,6 +39,9 @@ pub struct SweepCommandReport {
     pub report: SweepReport,
     /// The spreads drawn from.
     pub spreads: SweepSpec,
+    /// The gyro's spreads and the slip patches and tick loss drawn with them, for a
+    /// scenario with a gyro.
+    pub gyro_spreads: Option<GyroSweep>,
     /// Worker threads the runs were spread over.
     pub threads: usize,
     /// `sweep.json`, when asked for.
@@ -69,6 +72,19 @@ motor left/right ±{}%, slip 0…{}, encoder jitter 0…{} ticks, start ±{} m /
             s.start_position_m,
             s.start_heading_rad
         )?;
+        if let Some(g) = &self.gyro_spreads {
+            writeln!(
+                f,
+                "  gyro spreads: turn-on bias ±{:.2}°/s, scale ±{}%, {} slip patches of 0…{} \
+for up to {} s, ticks lost 0…{}% per encoder",
+                g.turn_on_bias_rad_s.to_degrees(),
+                g.scale_error_pct,
+                g.slip_patches,
+                g.slip_patch_max,
+                g.slip_patch_s,
+                g.ticks_lost_max * 100.0
+            )?;
+        }
         writeln!(
             f,
             "  success (the controller's own error settles to 1 cm / 1°, no fault): {:.1} %",
@@ -169,6 +185,7 @@ pub fn run(options: &Options) -> Result<SweepCommandReport> {
     Ok(SweepCommandReport {
         report,
         spreads: scenario.sweep,
+        gyro_spreads: scenario.gyro.map(|g| g.sweep),
         threads: rayon::current_num_threads(),
         file,
     })

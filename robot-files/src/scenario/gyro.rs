@@ -18,6 +18,7 @@
 //! sweep_slip_patches = 0                     # sweep: this many slip patches per run …
 //! sweep_slip_patch_max = 0.0                 # … each of a slip ratio in [0, this] …
 //! sweep_slip_patch_s = 0.0                   # … lasting up to this long, s
+//! sweep_ticks_lost_max = 0.0                 # sweep: each encoder loses a fraction in [0, this] of its ticks
 //! ```
 
 use controller_core::gyro::{GyroConfig, HeadingSource};
@@ -97,6 +98,9 @@ pub struct GyroSweep {
     pub slip_patch_max: f64,
     /// Each patch lasts up to this long, s.
     pub slip_patch_s: f64,
+    /// Each wheel's encoder loses a fraction of its ticks drawn in [0, this], for the
+    /// whole run (a marginal encoder signal).
+    pub ticks_lost_max: f64,
 }
 
 /// A run with a gyro: the sensor, the heading steered by, the rest before arming.
@@ -146,6 +150,7 @@ pub(super) struct FileGyro {
     sweep_slip_patches: Option<u32>,
     sweep_slip_patch_max: Option<f64>,
     sweep_slip_patch_s: Option<f64>,
+    sweep_ticks_lost_max: Option<f64>,
 }
 
 impl FileGyro {
@@ -184,6 +189,16 @@ impl FileGyro {
             "gyro.sweep_slip_patch_max",
             "must be < 1",
             slip_max,
+        )?;
+        let ticks_lost_max = non_negative(
+            "gyro.sweep_ticks_lost_max",
+            self.sweep_ticks_lost_max.unwrap_or(0.0),
+        )?;
+        check(
+            ticks_lost_max < 1.0,
+            "gyro.sweep_ticks_lost_max",
+            "must be < 1",
+            ticks_lost_max,
         )?;
         Ok(GyroSetup {
             heading: self.heading.unwrap_or_default(),
@@ -226,6 +241,7 @@ impl FileGyro {
                     "gyro.sweep_slip_patch_s",
                     self.sweep_slip_patch_s.unwrap_or(0.0),
                 )?,
+                ticks_lost_max,
             },
         })
     }

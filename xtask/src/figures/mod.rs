@@ -5,7 +5,8 @@
 //! `cargo xtask figures` builds `host-sim` and runs, into `target/figures/`: `host-sim
 //! paper` (the paper's two experiments with every law), `host-sim run` of each built-in
 //! scenario, `host-sim faults` (the fault suite), `host-sim margins --measure`, `host-sim
-//! param-sweep` and `host-sim tune`. It reads the runs' `summary.json` and `faults.json`
+//! param-sweep`, `host-sim tune` and `host-sim sweep paper-circle-gyro` with each heading.
+//! It reads the runs' `summary.json` and `faults.json`
 //! into tables, takes the last three commands' printed tables as they are, and writes the
 //! page and the README's block between [`README_START`] and [`README_END`]. `cargo xtask
 //! ci` runs the same with `--check`: it fails when either differs from what the build
@@ -22,7 +23,7 @@ use std::process::Command;
 use anyhow::{bail, ensure, Context as _, Result};
 use serde_json::Value;
 
-use self::rows::{fault_row, paper_row, read_json, scenario_row, settle};
+use self::rows::{fault_row, gyro_sweep_row, paper_row, read_json, scenario_row, settle};
 use crate::steps::{display_command, Context};
 
 /// The page, relative to the workspace root.
@@ -47,6 +48,11 @@ const SCENARIOS: [&str; 5] = [
     "longest-path",
 ];
 
+/// The headings the gyro sweep runs with, in the order the page shows them.
+const HEADINGS: [&str; 3] = ["fused", "odometry", "oracle"];
+/// Runs of each gyro sweep (the issue's 1 000: about 4 s of CPU each).
+const GYRO_SWEEP_RUNS: &str = "1000";
+
 /// What the commands printed, for the page's verbatim sections.
 struct Printed {
     margins: String,
@@ -66,6 +72,21 @@ pub fn run(ctx: &Context, check: bool) -> Result<()> {
             &host_sim,
             &["run", scenario, "--out"],
             Some(&out.join("run").join(scenario)),
+        )?;
+    }
+    for heading in HEADINGS {
+        host_sim_output(
+            &host_sim,
+            &[
+                "sweep",
+                "paper-circle-gyro",
+                "--runs",
+                GYRO_SWEEP_RUNS,
+                "--heading",
+                heading,
+                "--out",
+            ],
+            Some(&out.join("gyro-sweep").join(heading)),
         )?;
     }
     let printed = Printed {
@@ -197,6 +218,22 @@ fn render(out: &Path, printed: &Printed) -> Result<String> {
     );
     for case in fault_cases(out)? {
         page.push_str(&fault_row(&case)?);
+    }
+    page.push_str(&format!(
+        "\n## The gyro sweep (`host-sim sweep paper-circle-gyro --runs {GYRO_SWEEP_RUNS} \
+         --heading H`)\n\n\
+         The paper's circle with the gyro, {GYRO_SWEEP_RUNS} robots drawn as the scenario's \
+         `[sweep]` and `[gyro]` spreads say (slip patches, tick loss, the gyro's turn-on \
+         bias and residual scale error), each steering by the fused heading, by odometry \
+         alone, or by the true heading (simulation only). Position and heading errors are \
+         the true ones at the end; a run disagrees when the running mean of gyro minus \
+         odometry yaw rate passes its threshold.\n\n\
+         | heading | position p50 | position p90 | heading p90 | runs that disagreed | largest disagreement |\n\
+         |---|---|---|---|---|---|\n"
+    ));
+    for heading in HEADINGS {
+        let sweep = read_json(&out.join("gyro-sweep").join(heading).join("sweep.json"))?;
+        page.push_str(&gyro_sweep_row(heading, &sweep)?);
     }
     for (title, command, text) in [
         (

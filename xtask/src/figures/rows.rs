@@ -55,6 +55,18 @@ pub fn paper_row(experiment: &str, law: &str, summary: &Value) -> Result<String>
     ))
 }
 
+/// One row of the gyro sweep's table: `heading` steered by, from its `sweep.json`.
+pub fn gyro_sweep_row(heading: &str, sweep: &Value) -> Result<String> {
+    Ok(format!(
+        "| {heading} | {} m | {} m | {}° | {} | {} rad/s |\n",
+        fixed(number(sweep, "/final_true_position_error_m/p50")?, 3),
+        fixed(number(sweep, "/final_true_position_error_m/p90")?, 3),
+        fixed(number(sweep, "/heading/final_error_deg/p90")?, 3),
+        number(sweep, "/heading/disagreeing_runs")?,
+        fixed(number(sweep, "/heading/max_disagreement_radps/max")?, 4),
+    ))
+}
+
 /// One row of the fault table.
 pub fn fault_row(case: &Value) -> Result<String> {
     let name = case["case"]

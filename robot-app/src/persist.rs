@@ -453,7 +453,10 @@ mod tests {
     #[test]
     fn a_record_reads_back_as_written() {
         let p = params();
+        let mut written = [0xff; 512];
+        let len = encode(&p, 7, &mut written).expect("fits");
         let page = page(&p, 7);
+        assert_eq!(written, page);
         assert_eq!(
             decode(&page, RATE),
             Ok(Loaded {
@@ -465,7 +468,36 @@ mod tests {
         let body = postcard::to_allocvec(&p).unwrap();
         assert_eq!(&page[HEADER_LEN..HEADER_LEN + body.len()], &body[..]);
         assert_eq!(&page[..4], b"RPRM");
-        assert!(HEADER_LEN + body.len() + CRC_LEN <= MAX_RECORD_LEN);
+        // The length returned is the whole record's: header, body and CRC, and nothing
+        // after it is written.
+        assert_eq!(len, HEADER_LEN + body.len() + CRC_LEN);
+        assert!(page[len..].iter().all(|&b| b == 0xff));
+        assert!(len <= MAX_RECORD_LEN);
+    }
+
+    #[test]
+    fn the_sequence_is_newer_when_less_than_half_the_range_ahead() {
+        assert!(is_newer(1, 0) && !is_newer(0, 1) && !is_newer(5, 5));
+        // Across the wrap.
+        assert!(is_newer(2, u32::MAX - 1));
+        // Half the range ahead is as far behind: neither is newer.
+        assert!(is_newer((1 << 31) - 1, 0));
+        assert!(!is_newer(1 << 31, 0) && !is_newer(0, 1 << 31));
+    }
+
+    #[test]
+    fn the_store_errors_say_what_went_wrong() {
+        assert_eq!(
+            StoreError::PageTooSmall { available: 40 }.to_string(),
+            format!(
+                "a page image of 40 bytes cannot hold the record ({MAX_RECORD_LEN} always \
+                 suffice)"
+            )
+        );
+        assert_eq!(
+            StoreError::TooLarge.to_string(),
+            "the configuration exceeds the record's body"
+        );
     }
 
     #[test]

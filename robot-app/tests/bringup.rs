@@ -161,3 +161,17 @@ fn an_inverted_encoder_is_corrected_but_its_raw_count_is_not() {
         frame.wheel_speed
     );
 }
+
+#[test]
+fn a_pulse_of_the_longest_duration_is_accepted_and_runs_its_time() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    rig.run(100);
+    assert_eq!(rig.ask(pulse(Wheel::Left, 1.0, 500)), Ok(Reply::Ack));
+    let driven_steps = (0..700).filter(|_| rig.step().duty.left > 0.0).count();
+    // 500 ms at 1 kHz, give or take the step that took the request.
+    assert!((495..=501).contains(&driven_steps), "{driven_steps}");
+    assert!(rig
+        .events()
+        .contains(&Event::Disarmed(DisarmReason::Timeout)));
+}

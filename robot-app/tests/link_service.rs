@@ -648,3 +648,94 @@ fn an_arm_request_s_time_limit_holds_for_its_run_only_and_changes_no_setting() {
     rig.run(400);
     assert_eq!(rig.control.supervisor().state(), State::Armed);
 }
+
+#[test]
+fn a_velocity_command_names_a_field_that_is_not_finite_and_needs_the_velocity_mode() {
+    use link::NotPermitted;
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    let velocity = |v_m_s, omega_rad_s| Request::Velocity { v_m_s, omega_rad_s };
+    for (request, field) in [
+        (velocity(f32::NAN, 0.0), "v_m_s"),
+        (velocity(0.1, f32::INFINITY), "omega_rad_s"),
+    ] {
+        assert_eq!(
+            rig.ask(request),
+            Err(Refusal::InvalidArgument(FieldProblem::new(
+                field,
+                "must be finite"
+            )))
+        );
+    }
+    // Disarmed, a velocity is refused as outside the velocity mode, not as busy.
+    assert_eq!(
+        rig.ask(velocity(0.1, 0.0)),
+        Err(Refusal::NotPermitted(NotPermitted::NotInVelocityMode))
+    );
+    // Armed in the velocity mode, it drives the wheels forward.
+    rig.heartbeat_every = Some(50);
+    assert_eq!(
+        rig.ask(Request::Arm {
+            mode: ArmMode::FollowVelocity,
+            initial_motion: None,
+            run_time_limit_steps: None,
+        }),
+        Ok(Reply::Ack)
+    );
+    assert_eq!(rig.ask(velocity(0.1, 0.0)), Ok(Reply::Ack));
+    rig.run(300);
+    let duty = rig.last.expect("stepped").duty;
+    assert!(duty.left > 0.05 && duty.right > 0.05, "{duty:?}");
+}
+
+#[test]
+fn a_second_configuration_before_the_first_is_installed_is_busy() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    let mut first = default_params();
+    first.supervisor.heartbeat_timeout_steps = 321;
+    let mut second = default_params();
+    second.supervisor.heartbeat_timeout_steps = 654;
+    let a = rig.send(Request::SetParams(first));
+    let b = rig.send(Request::SetParams(second));
+    // Both straight into the link side, with no control step to install the first.
+    let bytes = std::mem::take(&mut rig.to_robot);
+    let taken = rig.link.receive(&bytes, &robot_app::NoBoardStats);
+    assert_eq!(taken, bytes.len());
+    rig.link.poll();
+    rig.drain_tx();
+    assert_eq!(rig.reply(b), Some(Err(Refusal::Busy)));
+    rig.run(10);
+    assert!(matches!(
+        rig.reply(a),
+        Some(Ok(Reply::ParamsApplied { .. }))
+    ));
+    let Ok(Reply::Params(active)) = rig.ask(Request::GetParams) else {
+        panic!("no params");
+    };
+    assert_eq!(active.supervisor.heartbeat_timeout_steps, 321);
+}
+
+#[test]
+fn a_stalled_line_keeps_room_for_the_largest_reply_and_every_forwarded_ones() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    assert_eq!(
+        rig.ask(Request::SetTelemetryRate { hz: 100 }),
+        Ok(Reply::Ack)
+    );
+    rig.tx_paused = true;
+    rig.run(300);
+    // Three requests for the control side and the largest reply the link side gives, in
+    // one go, into a buffer that telemetry filled as far as it may.
+    let heartbeats: Vec<u16> = (0..3).map(|_| rig.send(Request::Heartbeat)).collect();
+    let params = rig.send(Request::GetParams);
+    rig.run(20);
+    rig.tx_paused = false;
+    rig.run(5);
+    for seq in heartbeats {
+        assert_eq!(rig.reply(seq), Some(Ok(Reply::Ack)));
+    }
+    assert!(matches!(rig.reply(params), Some(Ok(Reply::Params(_)))));
+    assert_eq!(rig.link.counters().replies_dropped, 0);
+}

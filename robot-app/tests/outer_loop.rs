@@ -106,3 +106,31 @@ fn every_step_takes_a_waiting_request_the_ones_that_apply_the_law_too() {
         "{on_steering_steps} requests fell on a steering step"
     );
 }
+
+#[test]
+fn a_lending_robot_runs_no_steering_job_in_the_control_step_even_when_it_disarms() {
+    // Disarmed at each phase of the steering period: every steering update the lending
+    // robot applies was lent out first, none ran in the control step.
+    for phase in 0..10 {
+        let mut channels = Channels::new();
+        let mut rig = Rig::lending(&mut channels, BAUD, false);
+        rig.heartbeat_every = Some(50);
+        assert_eq!(rig.ask(follow_path()), Ok(Reply::Ack));
+        rig.run(500 + phase);
+        rig.send(Request::Disarm);
+        let (mut lent, mut updates) = (0, 0);
+        for _ in 0..50 {
+            lent += u32::from(rig.step().steering_lent);
+            updates += u32::from(rig.control.controller().telemetry().steering_updated);
+        }
+        assert_eq!(
+            rig.last.map(|a| a.state),
+            Some(State::Disarmed),
+            "phase {phase}"
+        );
+        assert!(
+            updates <= lent,
+            "phase {phase}: {updates} updates, {lent} lent"
+        );
+    }
+}

@@ -310,3 +310,55 @@ fn a_configuration_set_during_an_upload_discards_it() {
     ));
     assert!((rig.active_reference().path().length_m() - 1.8).abs() < 1e-5);
 }
+
+#[test]
+fn a_configuration_sent_while_a_commit_installs_is_busy_and_the_commit_stays_repeatable() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    assert_eq!(rig.ask(Request::PathBegin(begin(4))), Ok(Reply::Ack));
+    for chunk in chunks(4, &segments()) {
+        assert!(rig.ask(Request::PathChunk(chunk)).is_ok());
+    }
+    // The commit and a configuration in one go: the commit is staged, and the
+    // configuration finds the staging area taken before the control side installs it.
+    let commit_seq = rig.send(Request::PathCommit(commit(4)));
+    let params_seq = rig.send(Request::SetParams(support::default_params()));
+    let bytes = std::mem::take(&mut rig.to_robot);
+    let taken = rig.link.receive(&bytes, &robot_app::NoBoardStats);
+    assert_eq!(taken, bytes.len());
+    rig.link.poll();
+    rig.drain_tx();
+    assert_eq!(rig.reply(params_seq), Some(Err(Refusal::Busy)));
+    rig.run(10);
+    let Some(Ok(Reply::PathCommitted(summary))) = rig.reply(commit_seq) else {
+        panic!("not committed: {:?}", rig.reply(commit_seq));
+    };
+    // The host lost the reply and commits again: the same answer.
+    assert_eq!(
+        rig.ask(Request::PathCommit(commit(4))),
+        Ok(Reply::PathCommitted(summary))
+    );
+    assert_eq!(rig.link.counters().busy, 1);
+}
+
+#[test]
+fn a_commit_the_control_side_refused_is_not_committed_when_repeated() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    // Faulted: the control side refuses to install anything until faults are cleared.
+    assert_eq!(rig.ask(Request::EmergencyStop), Ok(Reply::Ack));
+    assert_eq!(rig.ask(Request::PathBegin(begin(5))), Ok(Reply::Ack));
+    for chunk in chunks(5, &segments()) {
+        assert!(rig.ask(Request::PathChunk(chunk)).is_ok());
+    }
+    let refused = rig.ask(Request::PathCommit(commit(5)));
+    assert!(refused.is_err(), "{refused:?}");
+    assert_eq!(rig.active_reference().path().length_m(), 2.0);
+    // Cleared and repeated: the segments are gone, so the host must upload again.
+    assert_eq!(rig.ask(Request::ClearFaults), Ok(Reply::Ack));
+    assert_eq!(
+        rig.ask(Request::PathCommit(commit(5))),
+        Err(Refusal::UnknownUpload { upload_id: 5 })
+    );
+    assert_eq!(rig.active_reference().path().length_m(), 2.0);
+}

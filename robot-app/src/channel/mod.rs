@@ -425,11 +425,6 @@ impl LinkEnd<'_> {
     pub(crate) fn set_telemetry_hz(&self, hz: u8) {
         self.status.telemetry_hz.store(hz, Ordering::Relaxed);
     }
-
-    /// The telemetry rate in force, Hz (0: off).
-    pub fn telemetry_hz(&self) -> u8 {
-        self.status.telemetry_hz.load(Ordering::Relaxed)
-    }
 }
 
 /// The control side's end of the [`Channels`]: give it to

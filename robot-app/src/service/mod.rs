@@ -896,7 +896,11 @@ mod tests {
             921_600,
             3_000_000,
             u32::MAX,
-        ] {
+        ]
+        .into_iter()
+        // And every rate below the cap, where each digit of the arithmetic counts.
+        .chain((0..200_000).step_by(7))
+        {
             assert_eq!(
                 max_telemetry_rate_hz(baud),
                 link::max_telemetry_rate_hz(baud, link::bandwidth::DEFAULT_RESERVED_PERCENT),

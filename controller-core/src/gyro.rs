@@ -695,6 +695,13 @@ mod tests {
             f.step(live(0.01, k), AngleDelta::default(), 1, false);
         }
         assert!((f.fused_heading_rad() - before).abs() < 1e-4);
+        // And back: the bias is the sensor's again.
+        f.set_config(GyroConfig::ICM42688P.with_heading(HeadingSource::Fused));
+        assert!(
+            (f.report().bias_radps - 0.01).abs() < 1e-5,
+            "{}",
+            f.report().bias_radps
+        );
     }
 
     #[test]

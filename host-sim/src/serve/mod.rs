@@ -601,7 +601,6 @@ impl<'a> VirtualRobot<'a> {
     }
 }
 
-/// `scenario` with the robot placed at `start` (pose and motion).
 /// What the bench's hands need to know of the robot of `scenario` with `plant`: its
 /// control rate, its encoders' counts per wheel turn (the configured ones: a miswired
 /// resolution is the wires') and how far its true wheels roll in a turn on the spot.
@@ -616,6 +615,7 @@ fn bench(scenario: &Scenario, plant: &Plant) -> Bench {
     }
 }
 
+/// `scenario` with the robot placed at `start` (pose and motion).
 fn placed(scenario: &Scenario, start: &StartState) -> Scenario {
     let mut s = scenario.clone();
     s.start = *start;

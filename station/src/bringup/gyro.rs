@@ -17,15 +17,18 @@ use std::time::{Duration, Instant};
 use controller_core::gyro::{GyroConfig, GyroHealth};
 use link::TelemetryFrame;
 
-use super::signals::{catch_up, next_frame, wait_still, Heard};
+use super::signals::{catch_up, counted, next_frame, wait_still, Heard};
 use super::{BringupError, Finding, Session};
 use crate::ops;
 use crate::transport::Transport;
 
 /// Control steps the robot stands still before the turn, for the gyro's bias.
 pub const BIAS_STEPS: u32 = 2000;
-/// Control steps without an encoder count after which the turn is over.
+/// Control steps without an encoder moving after which the turn is over.
 pub const TURN_OVER_STEPS: u32 = 1000;
+/// An encoder that changed by at most this many counts has not moved: a still encoder
+/// sitting on an edge may flicker by a count.
+const JITTER_COUNTS: i64 = 2;
 /// How long the station waits for the turn to start and end, host time.
 const TURN_LIMIT: Duration = Duration::from_secs(60);
 /// Odometry's turn must be one turn within this fraction (a hand's turn slips, and the
@@ -114,8 +117,9 @@ fn gyro_state<T: Transport>(s: &mut Session<'_, T>) -> Result<Option<GyroHealth>
 }
 
 /// Prints `instruction` and watches the turn it asks for: from the last frame before the
-/// encoders count to the first after they have stood still for [`TURN_OVER_STEPS`]. The
-/// watch starts before the instruction is printed, so that no turn can begin unseen.
+/// encoders move (beyond [`JITTER_COUNTS`]) to the first after they have stood still for
+/// [`TURN_OVER_STEPS`]. The watch starts before the instruction is printed, so that no
+/// turn can begin unseen.
 fn watch_turn<T: Transport>(
     s: &mut Session<'_, T>,
     instruction: &str,
@@ -128,21 +132,27 @@ fn watch_turn<T: Transport>(
     s.out.flush()?;
     let mut watch = TurnWatch::new(frame, period_s);
     let (mut moving, mut since, mut counts) = (false, frame.step, frame.raw_counts);
+    let mut last_counts = frame.raw_counts;
     while start.elapsed() < TURN_LIMIT {
         frame = next_frame(s.client, &mut heard)?;
         if let GyroHealth::Failed(why) = frame.gyro_health {
             return Err(failed(why));
         }
-        if frame.raw_counts != counts {
-            (moving, since, counts) = (true, frame.step, frame.raw_counts);
-        } else if !moving {
+        let moved = counted(counts, frame.raw_counts)
+            .iter()
+            .any(|c| c.abs() > JITTER_COUNTS);
+        if !moving && !moved && frame.raw_counts == last_counts {
+            // Still since the last frame: the turn, if any, starts after this one.
             watch = TurnWatch::new(frame, period_s);
-            continue;
-        } else if frame.step.wrapping_sub(since) >= TURN_OVER_STEPS {
+        } else {
             watch.add(frame);
+        }
+        last_counts = frame.raw_counts;
+        if moved {
+            (moving, since, counts) = (true, frame.step, frame.raw_counts);
+        } else if moving && frame.step.wrapping_sub(since) >= TURN_OVER_STEPS {
             return Ok(watch.turn);
         }
-        watch.add(frame);
     }
     Err(BringupError::Silent(if moving {
         "the robot never stood still again after its turn".into()

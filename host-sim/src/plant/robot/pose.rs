@@ -106,8 +106,8 @@ impl Plant {
     }
 
     /// Turns the robot on the spot by `yaw_rad` (rad, counter-clockwise positive) about
-    /// the middle of its axle, as hands lifting it would: the wheels' state is kept (what
-    /// the encoders count of such a turn is the caller's).
+    /// the middle of its axle, as hands turning it on the floor would: the wheels' state
+    /// is kept (what the encoders count of the wheels' roll is the caller's).
     pub fn rotate_by_hand(&mut self, yaw_rad: f64) {
         let mut pose = self.pose.true_pose();
         pose.theta_rad = wrap_angle(pose.theta_rad + yaw_rad);

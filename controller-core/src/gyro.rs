@@ -227,6 +227,11 @@ pub const BIAS_GATE_RADPS: f32 = 0.05;
 /// any turn-on offset is learned from the first readings.
 pub const BIAS_GATE_AFTER_SAMPLES: u32 = 200;
 
+/// This many still readings in a row left out by the gate (1 s at 1 kHz) say the estimate
+/// is what is wrong (learned while the robot was turned unseen, or the offset jumped): it
+/// is learned again from the next readings, gate off as at start.
+pub const BIAS_RELEARN_AFTER_GATED: u16 = 1000;
+
 /// The heading fusion: the gyro's bias learned at rest, the gyro's rate integrated into a
 /// fixed-point heading, the gyro judged, its disagreement with odometry measured.
 ///
@@ -252,6 +257,8 @@ pub struct HeadingFusion {
     held_rate_radps: f32,
     /// Still readings averaged into the bias (saturates at the time constant's count).
     bias_samples: u32,
+    /// Still readings in a row the bias gate left out.
+    gated_in_a_row: u16,
     /// Control period, s.
     period_s: f32,
 }
@@ -270,6 +277,7 @@ impl HeadingFusion {
             absent_steps: 0,
             held_rate_radps: 0.0,
             bias_samples: 0,
+            gated_in_a_row: 0,
             period_s,
         }
     }
@@ -282,7 +290,8 @@ impl HeadingFusion {
     /// Replaces the configuration, keeping the headings, the health and the bias: the
     /// bias is the sensor's, so when the axis sign or the scale changes (a bring-up's
     /// calibration) its estimate, kept in the robot's frame, is converted to the new one
-    /// rather than learned again.
+    /// rather than learned again. `config` is a validated one ([`GyroConfig::validate`]:
+    /// a scale of 0 would make the bias non-finite).
     pub fn set_config(&mut self, config: GyroConfig) {
         let robot_per_sensor = |c: &GyroConfig| if c.axis_inverted { -c.scale } else { c.scale };
         let before = robot_per_sensor(&self.config);
@@ -460,13 +469,19 @@ impl HeadingFusion {
 
     /// One still reading `rate` (robot frame, rad/s) into the bias: the mean of all still
     /// readings so far, then a low-pass of the bias time constant; a reading beyond
-    /// [`BIAS_GATE_RADPS`] of the estimate is left out once the gate applies.
+    /// [`BIAS_GATE_RADPS`] of the estimate is left out once the gate applies, until
+    /// [`BIAS_RELEARN_AFTER_GATED`] in a row start the estimate again.
     fn learn_bias(&mut self, rate_radps: f32) {
         if self.bias_samples >= BIAS_GATE_AFTER_SAMPLES
             && math::abs(rate_radps - self.report.bias_radps) > BIAS_GATE_RADPS
         {
-            return;
+            self.gated_in_a_row = self.gated_in_a_row.saturating_add(1);
+            if self.gated_in_a_row < BIAS_RELEARN_AFTER_GATED {
+                return;
+            }
+            self.bias_samples = 0;
         }
+        self.gated_in_a_row = 0;
         let cap = (self.config.bias_time_constant_s / self.period_s) as u32;
         if self.bias_samples < cap.max(1) {
             self.bias_samples += 1;
@@ -669,6 +684,49 @@ mod tests {
         // A reading just inside the gate is learned.
         f.step(sample(0.08 + 0.049), AngleDelta::default(), 1, true);
         assert!(f.report().bias_radps > learned);
+    }
+
+    #[test]
+    fn an_estimate_the_gate_keeps_refusing_is_learned_again() {
+        let mut f = fusion(HeadingSource::Fused);
+        // Learned while the robot was turned unseen at 0.3 rad/s.
+        for k in 0..1000 {
+            f.step(live(0.3, k), AngleDelta::default(), 1, true);
+        }
+        // Still now, the sensor at 0.01 rad/s: left out for just under a second, then
+        // learned again from scratch.
+        let gated = u32::from(BIAS_RELEARN_AFTER_GATED) - 1;
+        for k in 0..gated {
+            f.step(live(0.01, k), AngleDelta::default(), 1, true);
+        }
+        assert!((f.report().bias_radps - 0.3).abs() < 1e-3);
+        for k in 0..1000 {
+            f.step(live(0.01, k), AngleDelta::default(), 1, true);
+        }
+        assert!(
+            (f.report().bias_radps - 0.01).abs() < 1e-4,
+            "{}",
+            f.report().bias_radps
+        );
+    }
+
+    #[test]
+    fn the_bias_averages_at_most_its_time_constant_of_readings() {
+        // A time constant of 3 periods: the mean of the first three readings, then a
+        // low-pass of gain 1/3.
+        let mut config = GyroConfig::ICM42688P.with_heading(HeadingSource::Fused);
+        config.bias_time_constant_s = 3.0 * PERIOD_S;
+        let mut f = HeadingFusion::new(config, PERIOD_S, BinaryAngle::default());
+        for rate in [0.003, 0.0, 0.0] {
+            f.step(sample(rate), AngleDelta::default(), 1, true);
+        }
+        assert!((f.report().bias_radps - 0.001).abs() < 1e-9);
+        f.step(sample(0.031), AngleDelta::default(), 1, true);
+        assert!(
+            (f.report().bias_radps - 0.011).abs() < 1e-7,
+            "{}",
+            f.report().bias_radps
+        );
     }
 
     #[test]

@@ -362,3 +362,38 @@ fn a_commit_the_control_side_refused_is_not_committed_when_repeated() {
     );
     assert_eq!(rig.active_reference().path().length_m(), 2.0);
 }
+
+#[test]
+fn a_configuration_refused_busy_leaves_the_upload_begun_behind_a_staged_commit_open() {
+    let mut channels = Channels::new();
+    let mut rig = Rig::new(&mut channels, BAUD, false);
+    assert_eq!(rig.ask(Request::PathBegin(begin(4))), Ok(Reply::Ack));
+    for chunk in chunks(4, &segments()) {
+        assert!(rig.ask(Request::PathChunk(chunk)).is_ok());
+    }
+    // In one go: the commit is staged, a new upload begins, and a configuration comes
+    // before the control side has installed the path.
+    let commit_seq = rig.send(Request::PathCommit(commit(4)));
+    let begin_seq = rig.send(Request::PathBegin(begin(6)));
+    let params_seq = rig.send(Request::SetParams(support::default_params()));
+    let bytes = std::mem::take(&mut rig.to_robot);
+    let taken = rig.link.receive(&bytes, &robot_app::NoBoardStats);
+    assert_eq!(taken, bytes.len());
+    rig.link.poll();
+    rig.drain_tx();
+    assert_eq!(rig.reply(params_seq), Some(Err(Refusal::Busy)));
+    rig.run(10);
+    assert!(matches!(
+        rig.reply(commit_seq),
+        Some(Ok(Reply::PathCommitted(_)))
+    ));
+    assert_eq!(rig.reply(begin_seq), Some(Ok(Reply::Ack)));
+    // The refused configuration left the new upload open: it completes.
+    for chunk in chunks(6, &segments()) {
+        assert!(rig.ask(Request::PathChunk(chunk)).is_ok());
+    }
+    assert!(matches!(
+        rig.ask(Request::PathCommit(commit(6))),
+        Ok(Reply::PathCommitted(_))
+    ));
+}

@@ -171,9 +171,11 @@ pub struct Rig<'a> {
     pub last: Option<Actuation>,
     /// The outer loop's worker when the control side lends it (as the firmware does).
     pub worker: Option<OuterLoopWorker<'a>>,
-    /// Leave the outer loop unrun after the next step that lends it (it overruns the
-    /// period).
-    pub stall_worker_once: bool,
+    /// Leave the outer loop unrun for this many steps after the next step that lends it
+    /// (it overruns the period; 0: it runs between every two steps).
+    pub stall_worker_steps: u32,
+    /// The stall has begun.
+    stalling: bool,
     next_seq: u16,
     background: u32,
 }
@@ -201,7 +203,8 @@ impl<'a> Rig<'a> {
             heartbeat_every: None,
             last: None,
             worker: None,
-            stall_worker_once: false,
+            stall_worker_steps: 0,
+            stalling: false,
             next_seq: 1000,
             background: 0,
         }
@@ -293,8 +296,10 @@ impl<'a> Rig<'a> {
         self.last = Some(out);
         // The lower-priority task runs between this step and the next.
         if let Some(worker) = &mut self.worker {
-            if self.stall_worker_once && out.steering_lent {
-                self.stall_worker_once = false;
+            self.stalling |= self.stall_worker_steps > 0 && out.steering_lent;
+            if self.stalling {
+                self.stall_worker_steps -= 1;
+                self.stalling = self.stall_worker_steps > 0;
             } else {
                 worker.run();
             }

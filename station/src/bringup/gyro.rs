@@ -5,11 +5,13 @@
 //! a gyro skips the step.
 //!
 //! The turn's size is the mark's (a hand aligns a mark to a degree or two: 0.3–0.6 % of a
-//! turn); odometry says only which way the robot turned and that it was about one turn,
-//! since a hand's turn slips and the track width may not be calibrated yet. The rate is
-//! integrated frame by frame (the trapezoid rule over each frame's control steps), which
-//! holds to the turn's precision for a turn of a second or more at the bring-up's 50
-//! frames a second.
+//! turn); odometry checks only that the robot turned about one turn counter-clockwise, as
+//! asked, since a hand's turn slips and the track width may not be calibrated yet. A
+//! clockwise turn by odometry is refused rather than taken: it is the user's turn the
+//! wrong way or encoders whose wiring is not corrected yet, and the axis sign learned
+//! from either would be wrong. The rate is integrated between frames (the trapezoid rule
+//! on the instantaneous rates of the 50 frames a second the bring-up asks for), which
+//! holds to the turn's precision for a turn of a second or more.
 
 use std::f64::consts::TAU;
 use std::time::{Duration, Instant};
@@ -77,24 +79,38 @@ impl TurnWatch {
     }
 }
 
-/// The gyro configuration `config` corrected by `turn`, one full turn by the mark in the
-/// direction odometry says.
+/// The gyro configuration `config` corrected by `turn`, one full turn counter-clockwise
+/// by the mark.
 pub fn learn(config: &GyroConfig, turn: &MeasuredTurn) -> Result<GyroConfig, BringupError> {
     let odometry = turn.odometry_rad;
-    if (odometry.abs() - TAU).abs() > ODOMETRY_TOLERANCE * TAU {
+    if odometry < 0.0 {
+        return Err(BringupError::Found(format!(
+            "odometry says the robot turned {:.0}°, clockwise: turn it counter-clockwise \
+             seen from above, or, if you did, correct the encoders' wiring first (`station \
+             bringup encoders`)",
+            odometry.to_degrees()
+        )));
+    }
+    if (odometry - TAU).abs() > ODOMETRY_TOLERANCE * TAU {
         return Err(BringupError::Found(format!(
             "odometry says the robot turned {:.0}°, not one turn: turn it one full turn on \
              the spot, back to its mark, with both wheels on the floor",
             odometry.to_degrees()
         )));
     }
-    let factor = TAU.copysign(odometry) / turn.gyro_rad;
-    if !factor.is_finite() || !(1.0 / SCALE_LIMIT..=SCALE_LIMIT).contains(&factor.abs()) {
+    let factor = TAU / turn.gyro_rad;
+    let seen = format!(
+        "the gyro saw {:.0}° of a 360° turn",
+        turn.gyro_rad.to_degrees()
+    );
+    if !factor.is_finite() || factor.abs() > SCALE_LIMIT {
         return Err(BringupError::Found(format!(
-            "the gyro saw {:.0}° of a {:.0}° turn: its z axis is not vertical, it is not \
-             read, or its full-scale setting is not the configured {:.0}°/s",
-            turn.gyro_rad.to_degrees(),
-            odometry.signum() * 360.0,
+            "{seen}: its z axis is not vertical, or it is not read"
+        )));
+    }
+    if factor.abs() < 1.0 / SCALE_LIMIT {
+        return Err(BringupError::Found(format!(
+            "{seen}: its full-scale setting is not the configured {:.0}°/s",
             f64::from(config.full_scale_radps).to_degrees()
         )));
     }
@@ -205,10 +221,9 @@ pub fn run<T: Transport>(s: &mut Session<'_, T>) -> Result<Finding, BringupError
     )?;
     writeln!(
         s.out,
-        "  the gyro turned {:.1}°, odometry {:.1}°, by the mark {:.0}°",
+        "  the gyro turned {:.1}°, odometry {:.1}°, by the mark 360°",
         turn.gyro_rad.to_degrees(),
         turn.odometry_rad.to_degrees(),
-        360.0_f64.copysign(turn.odometry_rad)
     )?;
     let gyro = learn(&current.robot.gyro, &turn)?;
     let summary = format!(
@@ -262,17 +277,17 @@ mod tests {
     }
 
     #[test]
-    fn an_upside_down_gyro_is_inverted_and_a_clockwise_turn_counts_too() {
+    fn an_upside_down_gyro_is_inverted_and_a_correction_composes() {
         let learned = learn(&GYRO, &turn(-360.0, 365.0)).expect("one turn");
         assert!(learned.axis_inverted && learned.scale == 1.0);
-        // Clockwise, already inverted and scaled 0.5: the correction composes.
+        // Already inverted and scaled 0.5, the gyro now sees half the turn the wrong way.
         let configured = GyroConfig {
             axis_inverted: true,
             scale: 0.5,
             ..GYRO
         };
-        let learned = learn(&configured, &turn(-180.0, -340.0)).expect("one turn");
-        assert!(learned.axis_inverted);
+        let learned = learn(&configured, &turn(-180.0, 340.0)).expect("one turn");
+        assert!(!learned.axis_inverted);
         assert!((learned.scale - 1.0).abs() < 1e-6, "{}", learned.scale);
     }
 
@@ -281,6 +296,7 @@ mod tests {
         for (gyro, odometry, words) in [
             (180.0, 180.0, "not one turn"),
             (360.0, 460.0, "not one turn"),
+            (-360.0, -360.0, "clockwise"),
             (10.0, 360.0, "not vertical"),
             (900.0, 360.0, "full-scale"),
             (0.0, 360.0, "not vertical"),

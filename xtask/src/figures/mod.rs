@@ -6,11 +6,11 @@
 //! paper` (the paper's two experiments with every law), `host-sim run` of each built-in
 //! scenario, `host-sim faults` (the fault suite), `host-sim margins --measure`, `host-sim
 //! param-sweep`, `host-sim tune` and `host-sim sweep paper-circle-gyro` with each heading.
-//! It reads the runs' `summary.json` and `faults.json`
-//! into tables, takes the last three commands' printed tables as they are, and writes the
-//! page and the README's block between [`README_START`] and [`README_END`]. `cargo xtask
-//! ci` runs the same with `--check`: it fails when either differs from what the build
-//! generates, and names the command that refreshes them.
+//! It reads the runs' `summary.json`, `faults.json` and the sweeps' `sweep.json` into
+//! tables, takes the printed tables of `margins`, `param-sweep` and `tune` as they are, and
+//! writes the page and the README's block between [`README_START`] and [`README_END`].
+//! `cargo xtask ci` runs the same with `--check`: it fails when either differs from what
+//! the build generates, and names the command that refreshes them.
 //!
 //! The simulator is deterministic (fixed seeds, integer time), so the figures change only
 //! when the code does.

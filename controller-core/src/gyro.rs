@@ -700,6 +700,9 @@ mod tests {
             f.step(live(0.01, k), AngleDelta::default(), 1, true);
         }
         assert!((f.report().bias_radps - 0.3).abs() < 1e-3);
+        // The next one left out is the limit: the estimate starts from it.
+        f.step(sample(0.01), AngleDelta::default(), 1, true);
+        assert!((f.report().bias_radps - 0.01).abs() < 1e-6);
         for k in 0..1000 {
             f.step(live(0.01, k), AngleDelta::default(), 1, true);
         }

@@ -290,8 +290,9 @@ impl HeadingFusion {
     /// Replaces the configuration, keeping the headings, the health and the bias: the
     /// bias is the sensor's, so when the axis sign or the scale changes (a bring-up's
     /// calibration) its estimate, kept in the robot's frame, is converted to the new one
-    /// rather than learned again. `config` is a validated one ([`GyroConfig::validate`]:
-    /// a scale of 0 would make the bias non-finite).
+    /// rather than learned again. `config` is a validated one, as
+    /// [`crate::params::Params::new`] checks it: a scale of 0 would make the bias
+    /// non-finite.
     pub fn set_config(&mut self, config: GyroConfig) {
         let robot_per_sensor = |c: &GyroConfig| if c.axis_inverted { -c.scale } else { c.scale };
         let before = robot_per_sensor(&self.config);

@@ -17,6 +17,20 @@ use support::{app_config, default_params, Rig, IDENTITY};
 
 const BAUD: u32 = 921_600;
 
+/// Asks each request and checks it is refused naming its field as not finite.
+fn refuses_each_as_not_finite<const N: usize>(rig: &mut Rig<'_>, cases: [(Request, &str); N]) {
+    for (request, field) in cases {
+        assert_eq!(
+            rig.ask(request),
+            Err(Refusal::InvalidArgument(FieldProblem::new(
+                field,
+                "must be finite"
+            ))),
+            "{field}"
+        );
+    }
+}
+
 #[test]
 fn requests_in_random_chunks_get_their_replies() {
     let mut channels = Channels::new();
@@ -376,11 +390,7 @@ fn a_full_command_queue_answers_busy_but_keeps_room_for_an_emergency_stop() {
         seqs.push(seq);
     }
     let stop = rig.send(Request::EmergencyStop);
-    let bytes = std::mem::take(&mut rig.to_robot);
-    let taken = rig.link.receive(&bytes, &robot_app::NoBoardStats);
-    assert_eq!(taken, bytes.len());
-    rig.link.poll();
-    rig.drain_tx();
+    rig.deliver_at_once();
     // Three heartbeats queued, the fourth refused: the last place is the stop's.
     assert_eq!(rig.reply(seqs[3]), Some(Err(Refusal::Busy)));
     assert_eq!(rig.link.counters().busy, 1);
@@ -598,19 +608,14 @@ fn the_pose_command_sets_the_pose_while_disarmed_only_and_names_a_bad_field() {
     assert_eq!((pose.x_m, pose.y_m), (0.5, -0.25));
     assert!((pose.theta_rad - 1.0).abs() < 1e-6, "{pose:?}");
     assert!(rig.events().contains(&Event::PoseSet));
-    for (request, field) in [
-        (set(f32::NAN, 0.0, 0.0), "x_m"),
-        (set(0.0, f32::INFINITY, 0.0), "y_m"),
-        (set(0.0, 0.0, f32::NEG_INFINITY), "theta_rad"),
-    ] {
-        assert_eq!(
-            rig.ask(request),
-            Err(Refusal::InvalidArgument(FieldProblem::new(
-                field,
-                "must be finite"
-            )))
-        );
-    }
+    refuses_each_as_not_finite(
+        &mut rig,
+        [
+            (set(f32::NAN, 0.0, 0.0), "x_m"),
+            (set(0.0, f32::INFINITY, 0.0), "y_m"),
+            (set(0.0, 0.0, f32::NEG_INFINITY), "theta_rad"),
+        ],
+    );
     assert_eq!(
         rig.control.controller().pose(),
         pose,
@@ -655,18 +660,13 @@ fn a_velocity_command_names_a_field_that_is_not_finite_and_needs_the_velocity_mo
     let mut channels = Channels::new();
     let mut rig = Rig::new(&mut channels, BAUD, false);
     let velocity = |v_m_s, omega_rad_s| Request::Velocity { v_m_s, omega_rad_s };
-    for (request, field) in [
-        (velocity(f32::NAN, 0.0), "v_m_s"),
-        (velocity(0.1, f32::INFINITY), "omega_rad_s"),
-    ] {
-        assert_eq!(
-            rig.ask(request),
-            Err(Refusal::InvalidArgument(FieldProblem::new(
-                field,
-                "must be finite"
-            )))
-        );
-    }
+    refuses_each_as_not_finite(
+        &mut rig,
+        [
+            (velocity(f32::NAN, 0.0), "v_m_s"),
+            (velocity(0.1, f32::INFINITY), "omega_rad_s"),
+        ],
+    );
     // Disarmed, a velocity is refused as outside the velocity mode, not as busy.
     assert_eq!(
         rig.ask(velocity(0.1, 0.0)),
@@ -699,11 +699,7 @@ fn a_second_configuration_before_the_first_is_installed_is_busy() {
     let a = rig.send(Request::SetParams(first));
     let b = rig.send(Request::SetParams(second));
     // Both straight into the link side, with no control step to install the first.
-    let bytes = std::mem::take(&mut rig.to_robot);
-    let taken = rig.link.receive(&bytes, &robot_app::NoBoardStats);
-    assert_eq!(taken, bytes.len());
-    rig.link.poll();
-    rig.drain_tx();
+    rig.deliver_at_once();
     assert_eq!(rig.reply(b), Some(Err(Refusal::Busy)));
     rig.run(10);
     assert!(matches!(

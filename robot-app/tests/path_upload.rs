@@ -247,6 +247,17 @@ fn a_commit_moves_an_enabled_geofence_to_the_new_path() {
 }
 
 /// Uploads `segments` under `upload_id` and commits them; the commit's reply.
+/// Begins upload `upload_id` of [`segments`] and sends all its chunks, not the commit.
+fn begin_and_send_chunks(rig: &mut Rig<'_>, upload_id: u16) {
+    assert_eq!(
+        rig.ask(Request::PathBegin(begin(upload_id))),
+        Ok(Reply::Ack)
+    );
+    for chunk in chunks(upload_id, &segments()) {
+        assert!(rig.ask(Request::PathChunk(chunk)).is_ok());
+    }
+}
+
 fn upload(rig: &mut Rig<'_>, upload_id: u16, segments: &[Segment]) -> Result<Reply, Refusal> {
     let count = segments.len() as u8;
     let begin = PathBegin {
@@ -315,19 +326,12 @@ fn a_configuration_set_during_an_upload_discards_it() {
 fn a_configuration_sent_while_a_commit_installs_is_busy_and_the_commit_stays_repeatable() {
     let mut channels = Channels::new();
     let mut rig = Rig::new(&mut channels, BAUD, false);
-    assert_eq!(rig.ask(Request::PathBegin(begin(4))), Ok(Reply::Ack));
-    for chunk in chunks(4, &segments()) {
-        assert!(rig.ask(Request::PathChunk(chunk)).is_ok());
-    }
+    begin_and_send_chunks(&mut rig, 4);
     // The commit and a configuration in one go: the commit is staged, and the
     // configuration finds the staging area taken before the control side installs it.
     let commit_seq = rig.send(Request::PathCommit(commit(4)));
     let params_seq = rig.send(Request::SetParams(support::default_params()));
-    let bytes = std::mem::take(&mut rig.to_robot);
-    let taken = rig.link.receive(&bytes, &robot_app::NoBoardStats);
-    assert_eq!(taken, bytes.len());
-    rig.link.poll();
-    rig.drain_tx();
+    rig.deliver_at_once();
     assert_eq!(rig.reply(params_seq), Some(Err(Refusal::Busy)));
     rig.run(10);
     let Some(Ok(Reply::PathCommitted(summary))) = rig.reply(commit_seq) else {
@@ -347,10 +351,7 @@ fn a_commit_the_control_side_refused_is_not_committed_when_repeated() {
     let mut rig = Rig::new(&mut channels, BAUD, false);
     // Faulted: the control side refuses to install anything until faults are cleared.
     assert_eq!(rig.ask(Request::EmergencyStop), Ok(Reply::Ack));
-    assert_eq!(rig.ask(Request::PathBegin(begin(5))), Ok(Reply::Ack));
-    for chunk in chunks(5, &segments()) {
-        assert!(rig.ask(Request::PathChunk(chunk)).is_ok());
-    }
+    begin_and_send_chunks(&mut rig, 5);
     let refused = rig.ask(Request::PathCommit(commit(5)));
     assert!(refused.is_err(), "{refused:?}");
     assert_eq!(rig.active_reference().path().length_m(), 2.0);
@@ -367,20 +368,13 @@ fn a_commit_the_control_side_refused_is_not_committed_when_repeated() {
 fn a_configuration_refused_busy_leaves_the_upload_begun_behind_a_staged_commit_open() {
     let mut channels = Channels::new();
     let mut rig = Rig::new(&mut channels, BAUD, false);
-    assert_eq!(rig.ask(Request::PathBegin(begin(4))), Ok(Reply::Ack));
-    for chunk in chunks(4, &segments()) {
-        assert!(rig.ask(Request::PathChunk(chunk)).is_ok());
-    }
+    begin_and_send_chunks(&mut rig, 4);
     // In one go: the commit is staged, a new upload begins, and a configuration comes
     // before the control side has installed the path.
     let commit_seq = rig.send(Request::PathCommit(commit(4)));
     let begin_seq = rig.send(Request::PathBegin(begin(6)));
     let params_seq = rig.send(Request::SetParams(support::default_params()));
-    let bytes = std::mem::take(&mut rig.to_robot);
-    let taken = rig.link.receive(&bytes, &robot_app::NoBoardStats);
-    assert_eq!(taken, bytes.len());
-    rig.link.poll();
-    rig.drain_tx();
+    rig.deliver_at_once();
     assert_eq!(rig.reply(params_seq), Some(Err(Refusal::Busy)));
     rig.run(10);
     assert!(matches!(

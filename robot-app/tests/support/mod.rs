@@ -311,6 +311,17 @@ impl<'a> Rig<'a> {
         out
     }
 
+    /// Everything sent so far straight into the link side at once, with no control step
+    /// in between (as a link task that runs before the next control period would take
+    /// it), then the link's poll and what it queued sent to the host.
+    pub fn deliver_at_once(&mut self) {
+        let bytes = std::mem::take(&mut self.to_robot);
+        let taken = self.link.receive(&bytes, &NoBoardStats);
+        assert_eq!(taken, bytes.len(), "the link side takes every byte");
+        self.link.poll();
+        self.drain_tx();
+    }
+
     /// Sends what the robot has queued, in random-size chunks, to the host's decoder.
     pub fn drain_tx(&mut self) {
         loop {

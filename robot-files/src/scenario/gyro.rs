@@ -24,7 +24,7 @@
 use controller_core::gyro::{GyroConfig, HeadingSource};
 use serde::Deserialize;
 
-use super::checks::{check, finite, non_negative};
+use super::checks::{check, finite, in_range, non_negative};
 use super::ScenarioError;
 
 /// The heading the robot steers by in a run with a gyro.
@@ -180,26 +180,11 @@ impl FileGyro {
             "must be within ±50",
             scale_error,
         )?;
-        let slip_max = non_negative(
-            "gyro.sweep_slip_patch_max",
-            self.sweep_slip_patch_max.unwrap_or(0.0),
-        )?;
-        check(
-            slip_max < 1.0,
-            "gyro.sweep_slip_patch_max",
-            "must be < 1",
-            slip_max,
-        )?;
-        let ticks_lost_max = non_negative(
-            "gyro.sweep_ticks_lost_max",
-            self.sweep_ticks_lost_max.unwrap_or(0.0),
-        )?;
-        check(
-            ticks_lost_max < 1.0,
-            "gyro.sweep_ticks_lost_max",
-            "must be < 1",
-            ticks_lost_max,
-        )?;
+        let fraction = |key, value: Option<f64>| {
+            in_range(key, value.unwrap_or(0.0), 0.0, 1.0, "must be in [0, 1)")
+        };
+        let slip_max = fraction("gyro.sweep_slip_patch_max", self.sweep_slip_patch_max)?;
+        let ticks_lost_max = fraction("gyro.sweep_ticks_lost_max", self.sweep_ticks_lost_max)?;
         Ok(GyroSetup {
             heading: self.heading.unwrap_or_default(),
             sensor: GyroSensor {

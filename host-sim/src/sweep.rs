@@ -222,8 +222,8 @@ pub fn perturb(base: &Scenario, rng: &mut Rng) -> (Scenario, Draws) {
     // Drawn last, so that the draws above are those of a sweep without it.
     d.motor_left_right_pct = rng.symmetric(s.motor_left_right_pct);
     out.plant.motor_mismatch.torque_constant_left_right_pct += d.motor_left_right_pct;
-    // After every other draw, and only when asked for, so that a sweep without it draws
-    // as before.
+    // After every other draw, and only when asked for: the other draws do not depend on
+    // whether tick loss is drawn.
     let ticks_lost_max = out.gyro.map_or(0.0, |g| g.sweep.ticks_lost_max);
     if ticks_lost_max > 0.0 {
         for wheel in [Wheel::Left, Wheel::Right] {

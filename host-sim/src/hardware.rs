@@ -128,10 +128,11 @@ impl SimHardware {
             gyro,
             nominal_supply_v: plant.supply_v(),
             plant,
-            encoders: [
-                Encoder::new(ticks_per_rev, noise, 0.0),
-                Encoder::new(ticks_per_rev, noise, 0.0),
-            ],
+            // Each encoder's edges laid out by a seed of its own, derived from the
+            // scenario's: the run's random stream is not drawn from.
+            encoders: [1, 2].map(|wheel| {
+                Encoder::new(ticks_per_rev, noise, 0.0, scenario.seed.wrapping_add(wheel))
+            }),
             rng: Rng::new(scenario.seed),
             faults: faults.to_vec(),
             substeps: scenario.plant_rate_hz / control_hz,
@@ -201,7 +202,7 @@ impl SimHardware {
         let angles = self.plant.wheel_angles();
         let mut ticks = [0i32; 2];
         for i in 0..2 {
-            let delta = self.encoders[i].read_delta(angles[i], &mut self.rng);
+            let delta = self.encoders[i].read_delta(angles[i]);
             ticks[i] = if self.frozen[i] { 0 } else { delta };
         }
         let mut button_pressed = false;

@@ -19,7 +19,7 @@ use robot_files::faults::{Fault, FaultKind, Wheel};
 use robot_files::metrics::ErrorReport;
 use robot_files::metrics::Summary;
 use robot_files::rng::Rng;
-use robot_files::scenario::Scenario;
+use robot_files::scenario::{Scenario, MAX_EDGE_JITTER_TICKS_RMS};
 use serde::Serialize;
 
 use crate::run::{run_scenario_with, RunError, RunOptions};
@@ -136,7 +136,7 @@ pub struct SweepReport {
     pub settle_time_s: Option<Percentiles>,
     /// Fraction of runs whose *true* error settled (1 cm, 1°).
     pub true_settle_rate: f64,
-    /// Final true position error of all runs (odometry drift included), m.
+    /// Final true position error of every run that armed (odometry drift included), m.
     pub final_true_position_error_m: Option<Percentiles>,
     /// The heading estimate's final error, for a scenario with a gyro.
     pub heading: Option<HeadingReport>,
@@ -190,7 +190,9 @@ pub fn perturb(base: &Scenario, rng: &mut Rng) -> (Scenario, Draws) {
     // Slip stays below 1 whatever the base scenario had.
     p.slip[0] = (p.slip[0] + d.slip_left).min(0.95);
     p.slip[1] = (p.slip[1] + d.slip_right).min(0.95);
-    p.encoder_noise_ticks_rms += d.encoder_noise_ticks_rms;
+    // The jitter stays within the model's range whatever the base scenario had.
+    p.encoder_noise_ticks_rms =
+        (p.encoder_noise_ticks_rms + d.encoder_noise_ticks_rms).min(MAX_EDGE_JITTER_TICKS_RMS);
     out.start.x_m += d.start_dx_m;
     out.start.y_m += d.start_dy_m;
     out.start.theta_rad += d.start_dtheta_rad;
@@ -292,9 +294,13 @@ pub fn sweep(
         .filter(|r| r.success())
         .filter_map(|r| r.estimated.settle_time_s)
         .collect();
+    // A run that never armed has no final error (its report's zero is no sample); it
+    // counts against the success rate instead.
     let finals: Vec<f64> = details
         .iter()
-        .map(|r| r.summary.headline_error().final_position_error_m)
+        .map(|r| r.summary.headline_error())
+        .filter(|e| e.samples > 0)
+        .map(|e| e.final_position_error_m)
         .collect();
     Ok(SweepReport {
         scenario: base.name.clone(),
@@ -397,5 +403,29 @@ mod tests {
             },
             d0
         );
+    }
+
+    #[test]
+    fn a_run_that_never_armed_has_no_final_error_and_fails() {
+        let mut base = Scenario::builtin("paper-line").unwrap().unwrap();
+        base.duration_s = 0.5;
+        base.arm_at_start = false;
+        let report = sweep(&base, LawKind::Tracking, 3, 1, None, &|| {}).unwrap();
+        assert_eq!(report.success_rate, 0.0);
+        assert!(report.final_true_position_error_m.is_none());
+        base.arm_at_start = true;
+        let report = sweep(&base, LawKind::Tracking, 3, 1, None, &|| {}).unwrap();
+        assert!(report
+            .final_true_position_error_m
+            .is_some_and(|p| p.p50 > 0.0));
+    }
+
+    #[test]
+    fn the_drawn_edge_jitter_stays_within_the_model() {
+        let mut base = Scenario::builtin("paper-circle").unwrap().unwrap();
+        base.plant.encoder_noise_ticks_rms = MAX_EDGE_JITTER_TICKS_RMS;
+        let (a, da) = perturb(&base, &mut Rng::new(9));
+        assert!(da.encoder_noise_ticks_rms > 0.0);
+        assert_eq!(a.plant.encoder_noise_ticks_rms, MAX_EDGE_JITTER_TICKS_RMS);
     }
 }

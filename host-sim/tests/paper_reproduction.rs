@@ -2,6 +2,7 @@
 
 use controller_core::law::LawKind;
 use host_sim::{run_scenario, run_scenario_with, RunOptions};
+use robot_files::faults::{Fault, FaultKind, Wheel};
 use robot_files::scenario::Scenario;
 
 fn scenario(name: &str) -> Scenario {
@@ -144,7 +145,11 @@ fn runs_are_reproducible() {
 #[test]
 fn a_fault_before_the_first_steering_update_is_reported_as_such() {
     let mut s = scenario("paper-circle");
-    s.plant.encoder_noise_ticks_rms = 1e6;
+    s.faults.push(Fault {
+        kind: FaultKind::EncoderGlitch(Wheel::Left, 1_000_000),
+        at_step: 0,
+        duration_steps: None,
+    });
     s.duration_s = 2.0;
     let r = run_scenario_with(&s, LawKind::Tracking, RunOptions::traced_every(1)).unwrap();
     assert_eq!(r.summary.supervisor.final_state, "Faulted");

@@ -97,6 +97,15 @@ fn plant_and_sim_values_are_checked_with_their_key_and_value() {
         error("[sweep]\nslip_max = 0.9"),
         "sweep.slip_max must be in [0, 0.5], got 0.9"
     );
+    assert_eq!(
+        error("[plant]\nencoder_noise_ticks_rms = 0.6"),
+        "plant.encoder_noise_ticks_rms must be in [0, 0.5] (each edge within a tick of its \
+         place), got 0.6"
+    );
+    assert_eq!(
+        error("[sweep]\nencoder_noise_ticks_rms_max = 0.6"),
+        "sweep.encoder_noise_ticks_rms_max must be in [0, 0.5], got 0.6"
+    );
     // [sim] is set by the built-in, so use a scenario of our own for it.
     let text = BUILTIN[0]
         .1

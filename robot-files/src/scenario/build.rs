@@ -18,6 +18,7 @@ use super::schema::{
 };
 use super::{
     Mismatch, PlantSpec, Scenario, ScenarioError, StartState, SweepSpec, MAX_CONTROL_RATE_HZ,
+    MAX_EDGE_JITTER_TICKS_RMS,
 };
 use crate::plant::{BodyParams, DriverKind, DriverParams, Load, MotorMismatch, MotorParams};
 use crate::robot_file::PathContext;
@@ -283,7 +284,7 @@ fn build_plant(p: &FilePlant) -> Result<PlantSpec, ScenarioError> {
             "must be in [0, 1)",
         )?,
     ];
-    let encoder_noise_ticks_rms = non_negative(
+    let encoder_noise_ticks_rms = jitter(
         "plant.encoder_noise_ticks_rms",
         p.encoder_noise_ticks_rms.unwrap_or(0.0),
     )?;
@@ -300,6 +301,20 @@ fn build_plant(p: &FilePlant) -> Result<PlantSpec, ScenarioError> {
             Some(LoadName::Lifted) => Load::Lifted,
         },
     })
+}
+
+/// `v`, an encoder edge jitter in ticks RMS, if the simulator models it (at most
+/// [`MAX_EDGE_JITTER_TICKS_RMS`]).
+fn jitter(key: &str, v: f64) -> Result<f64, ScenarioError> {
+    check(
+        (0.0..=MAX_EDGE_JITTER_TICKS_RMS).contains(&v),
+        key,
+        &format!(
+            "must be in [0, {MAX_EDGE_JITTER_TICKS_RMS}] (each edge within a tick of its place)"
+        ),
+        v,
+    )?;
+    Ok(v)
 }
 
 /// The Monte-Carlo spreads `[sweep]` describes, defaults for what it leaves out.
@@ -352,7 +367,7 @@ fn build_sweep(s: &FileSweep) -> Result<SweepSpec, ScenarioError> {
             "sweep.encoder_noise_ticks_rms_max",
             s.encoder_noise_ticks_rms_max,
             d.encoder_noise_ticks_rms_max,
-            10.0,
+            MAX_EDGE_JITTER_TICKS_RMS,
         )?,
         start_position_m: spread(
             "sweep.start_position_m",

@@ -48,7 +48,7 @@
 //! supply_v = 6.0             # ≤ the driver's absolute maximum (15 V, 11.8 V)
 //! pwm_levels = 5000          # compare value of 100 % (TIM3: 100 MHz / 20 kHz)
 //! dead_band_duty = 0.02      # |duty| below this brakes (u = 0)
-//! encoder_noise_ticks_rms = 0.0
+//! encoder_noise_ticks_rms = 0.0 # edge jitter, ticks RMS, ≤ 0.5
 //! load = "ground"            # or "lifted": on a stand, wheels in the air (no chassis)
 //! [plant.motor]              # resistance_ohm, torque_constant_nm_per_a, …
 //! [plant.body]               # mass_kg, yaw_inertia_kg_m2 (about the axle midpoint),
@@ -235,7 +235,8 @@ pub struct PlantSpec {
     pub motor_mismatch: MotorMismatch,
     /// Longitudinal slip ratios [left, right], in [0, 1).
     pub slip: [f64; 2],
-    /// Encoder edge jitter, ticks RMS (0 = ideal).
+    /// Encoder edge jitter, ticks RMS (0 = ideal), in [0, [`MAX_EDGE_JITTER_TICKS_RMS`]]:
+    /// each edge sits off its true place by a fixed offset of its own.
     pub encoder_noise_ticks_rms: f64,
     /// On the ground (default) or lifted on a stand.
     pub load: Load,
@@ -256,6 +257,11 @@ impl Default for PlantSpec {
     }
 }
 
+/// Largest encoder edge jitter the simulator models, ticks RMS: an edge's offset is
+/// uniform in ±√3 · the jitter, so every edge stays within a tick of its true place and
+/// the edges keep their order.
+pub const MAX_EDGE_JITTER_TICKS_RMS: f64 = 0.5;
+
 /// Monte-Carlo spreads for `host-sim sweep`: each run draws every quantity uniformly in
 /// the stated range, on top of the scenario's own values.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -274,7 +280,8 @@ pub struct SweepSpec {
     pub motor_left_right_pct: f64,
     /// Slip ratio of each wheel, drawn in [0, slip_max].
     pub slip_max: f64,
-    /// Encoder edge jitter, drawn in [0, max] ticks RMS.
+    /// Encoder edge jitter, drawn in [0, max] ticks RMS; with the scenario's own, at
+    /// most [`MAX_EDGE_JITTER_TICKS_RMS`].
     pub encoder_noise_ticks_rms_max: f64,
     /// Start position offset in x and in y, ± m.
     pub start_position_m: f64,

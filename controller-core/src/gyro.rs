@@ -12,7 +12,7 @@
 
 use crate::fixed::{AngleDelta, BinaryAngle};
 use crate::math;
-use crate::params::{non_negative, positive, ParamError};
+use crate::params::{calibration_scale, non_negative, positive, ParamError};
 
 /// One reading of the gyro's yaw axis, as the sensor gave it.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -64,7 +64,9 @@ pub struct GyroConfig {
     /// above is positive in the robot's frame.
     pub axis_inverted: bool,
     /// Robot yaw rate per unit of sensor rate (1 for a perfect sensor), from bring-up:
-    /// turn through a known angle and divide.
+    /// turn through a known angle and divide. In
+    /// [`MIN_CALIBRATION_SCALE`](crate::params::MIN_CALIBRATION_SCALE) …
+    /// [`MAX_CALIBRATION_SCALE`](crate::params::MAX_CALIBRATION_SCALE).
     pub scale: f32,
     /// The sensor's full scale, rad/s: a reading at or beyond 0.99 of it is saturated.
     pub full_scale_radps: f32,
@@ -115,6 +117,15 @@ impl GyroConfig {
         disagreement_stops: false,
     };
 
+    /// Robot yaw rate per unit of sensor rate: the scale, negated for an inverted axis.
+    pub fn robot_per_sensor(&self) -> f32 {
+        if self.axis_inverted {
+            -self.scale
+        } else {
+            self.scale
+        }
+    }
+
     /// The same with `source` as the heading.
     #[must_use]
     pub const fn with_heading(mut self, source: HeadingSource) -> Self {
@@ -122,12 +133,13 @@ impl GyroConfig {
         self
     }
 
-    /// Every value usable: the scale, full scale, bias time constant, stuck turn and the
-    /// disagreement's threshold and window finite and > 0 (the stuck turn and the blend
-    /// time constant ≥ 0, 0 meaning none), and the absent and stuck limits at least one
-    /// step; otherwise the first field that is not, named as in [`crate::params`].
+    /// Every value usable: the scale a calibration's (0.5 … 2), the full scale, bias time
+    /// constant and the disagreement's threshold and window finite and > 0 (the stuck
+    /// turn and the blend time constant ≥ 0, 0 meaning none), and the absent and stuck
+    /// limits at least one step; otherwise the first field that is not, named as in
+    /// [`crate::params`].
     pub(crate) fn validate(&self) -> Result<(), ParamError> {
-        positive(self.scale, "gyro.scale")?;
+        calibration_scale(self.scale, "gyro.scale")?;
         positive(self.full_scale_radps, "gyro.full_scale_radps")?;
         positive(self.bias_time_constant_s, "gyro.bias_time_constant_s")?;
         non_negative(
@@ -223,14 +235,21 @@ pub const DISAGREEMENT_CLEAR_FRACTION: f32 = 0.8;
 /// typical zero-rate offset and 45 times its noise at 1 kHz.
 pub const BIAS_GATE_RADPS: f32 = 0.05;
 
-/// The gate applies once this many still readings are averaged (0.2 s at 1 kHz), so that
-/// any turn-on offset is learned from the first readings.
+/// The gate applies once this many still readings are averaged (0.2 s at 1 kHz), or the
+/// bias time constant's count if that is fewer, so that any turn-on offset is learned
+/// from the first readings.
 pub const BIAS_GATE_AFTER_SAMPLES: u32 = 200;
 
-/// This many still readings in a row left out by the gate (1 s at 1 kHz) say the estimate
-/// is what is wrong (learned while the robot was turned unseen, or the offset jumped): it
-/// is learned again from the next readings, gate off as at start.
-pub const BIAS_RELEARN_AFTER_GATED: u16 = 1000;
+/// Still readings left out by the gate that stay within [`BIAS_STEADY_BAND_RADPS`] of
+/// their own mean this many in a row (1 s at 1 kHz) are a still sensor whose offset the
+/// estimate has wrong (learned while the robot was turned unseen, or the offset jumped):
+/// their mean becomes the estimate. A robot turned by hand or carried with its wheels
+/// still does not hold its rate that steady for that long, so its turn is never learned.
+pub const BIAS_RELEARN_AFTER_STEADY: u16 = 1000;
+
+/// See [`BIAS_RELEARN_AFTER_STEADY`], rad/s: 0.57 °/s, about nine times the
+/// ICM-42688-P's noise at 1 kHz.
+pub const BIAS_STEADY_BAND_RADPS: f32 = 0.01;
 
 /// The heading fusion: the gyro's bias learned at rest, the gyro's rate integrated into a
 /// fixed-point heading, the gyro judged, its disagreement with odometry measured.
@@ -257,8 +276,10 @@ pub struct HeadingFusion {
     held_rate_radps: f32,
     /// Still readings averaged into the bias (saturates at the time constant's count).
     bias_samples: u32,
-    /// Still readings in a row the bias gate left out.
-    gated_in_a_row: u16,
+    /// Still readings in a row the bias gate left out within
+    /// [`BIAS_STEADY_BAND_RADPS`] of their mean, and that mean, rad/s (robot frame).
+    steady_gated: u16,
+    steady_mean_radps: f32,
     /// Control period, s.
     period_s: f32,
 }
@@ -277,7 +298,8 @@ impl HeadingFusion {
             absent_steps: 0,
             held_rate_radps: 0.0,
             bias_samples: 0,
-            gated_in_a_row: 0,
+            steady_gated: 0,
+            steady_mean_radps: 0.0,
             period_s,
         }
     }
@@ -294,9 +316,7 @@ impl HeadingFusion {
     /// [`crate::params::Params::new`] checks it: a scale of 0 would make the bias
     /// non-finite.
     pub fn set_config(&mut self, config: GyroConfig) {
-        let robot_per_sensor = |c: &GyroConfig| if c.axis_inverted { -c.scale } else { c.scale };
-        let before = robot_per_sensor(&self.config);
-        self.report.bias_radps *= robot_per_sensor(&config) / before;
+        self.report.bias_radps *= config.robot_per_sensor() / self.config.robot_per_sensor();
         self.config = config;
     }
 
@@ -458,10 +478,11 @@ impl HeadingFusion {
             self.last_bits = raw.to_bits();
         }
         self.report.health = GyroHealth::Reading;
-        let signed = if self.config.axis_inverted { -raw } else { raw };
-        let rate = signed * self.config.scale;
+        let rate = raw * self.config.robot_per_sensor();
         if still {
             self.learn_bias(rate);
+        } else {
+            self.steady_gated = 0;
         }
         let corrected = rate - self.report.bias_radps;
         self.report.yaw_rate_radps = corrected;
@@ -469,22 +490,34 @@ impl HeadingFusion {
     }
 
     /// One still reading `rate` (robot frame, rad/s) into the bias: the mean of all still
-    /// readings so far, then a low-pass of the bias time constant; a reading beyond
-    /// [`BIAS_GATE_RADPS`] of the estimate is left out once the gate applies, until
-    /// [`BIAS_RELEARN_AFTER_GATED`] in a row start the estimate again.
+    /// readings so far, then a low-pass of the bias time constant. Once the gate applies
+    /// (after [`BIAS_GATE_AFTER_SAMPLES`], or the time constant's count if fewer), a
+    /// reading beyond [`BIAS_GATE_RADPS`] of the estimate is left out, unless it ends
+    /// [`BIAS_RELEARN_AFTER_STEADY`] steady ones, whose mean then becomes the estimate.
     fn learn_bias(&mut self, rate_radps: f32) {
-        if self.bias_samples >= BIAS_GATE_AFTER_SAMPLES
+        let cap = ((self.config.bias_time_constant_s / self.period_s) as u32).max(1);
+        if self.bias_samples >= BIAS_GATE_AFTER_SAMPLES.min(cap)
             && math::abs(rate_radps - self.report.bias_radps) > BIAS_GATE_RADPS
         {
-            self.gated_in_a_row = self.gated_in_a_row.saturating_add(1);
-            if self.gated_in_a_row < BIAS_RELEARN_AFTER_GATED {
-                return;
+            if self.steady_gated > 0
+                && math::abs(rate_radps - self.steady_mean_radps) <= BIAS_STEADY_BAND_RADPS
+            {
+                self.steady_gated += 1;
+                self.steady_mean_radps +=
+                    (rate_radps - self.steady_mean_radps) / f32::from(self.steady_gated);
+            } else {
+                self.steady_gated = 1;
+                self.steady_mean_radps = rate_radps;
             }
-            self.bias_samples = 0;
+            if self.steady_gated >= BIAS_RELEARN_AFTER_STEADY {
+                self.report.bias_radps = self.steady_mean_radps;
+                self.bias_samples = u32::from(self.steady_gated).min(cap);
+                self.steady_gated = 0;
+            }
+            return;
         }
-        self.gated_in_a_row = 0;
-        let cap = (self.config.bias_time_constant_s / self.period_s) as u32;
-        if self.bias_samples < cap.max(1) {
+        self.steady_gated = 0;
+        if self.bias_samples < cap {
             self.bias_samples += 1;
         }
         let k = 1.0 / self.bias_samples as f32;
@@ -506,8 +539,9 @@ mod tests {
     fn every_unusable_value_is_refused_by_its_field() {
         assert_eq!(GyroConfig::ICM42688P.validate(), Ok(()));
         type Spoil = fn(&mut GyroConfig);
-        let cases: [(Spoil, &str); 9] = [
+        let cases: [(Spoil, &str); 10] = [
             (|g| g.scale = f32::NAN, "gyro.scale"),
+            (|g| g.scale = 2.01, "gyro.scale"),
             (|g| g.full_scale_radps = 0.0, "gyro.full_scale_radps"),
             (
                 |g| g.bias_time_constant_s = -1.0,
@@ -688,30 +722,82 @@ mod tests {
     }
 
     #[test]
-    fn an_estimate_the_gate_keeps_refusing_is_learned_again() {
+    fn an_estimate_the_gate_keeps_refusing_is_learned_again_from_steady_readings() {
         let mut f = fusion(HeadingSource::Fused);
         // Learned while the robot was turned unseen at 0.3 rad/s.
         for k in 0..1000 {
             f.step(live(0.3, k), AngleDelta::default(), 1, true);
         }
-        // Still now, the sensor at 0.01 rad/s: left out for just under a second, then
-        // learned again from scratch.
-        let gated = u32::from(BIAS_RELEARN_AFTER_GATED) - 1;
-        for k in 0..gated {
+        // Still now, the sensor steady at 0.01 rad/s: left out for just under a second,
+        // then their mean is the estimate.
+        let steady = u32::from(BIAS_RELEARN_AFTER_STEADY) - 1;
+        for k in 0..steady {
             f.step(live(0.01, k), AngleDelta::default(), 1, true);
         }
         assert!((f.report().bias_radps - 0.3).abs() < 1e-3);
-        // The next one left out is the limit: the estimate starts from it.
         f.step(sample(0.01), AngleDelta::default(), 1, true);
-        assert!((f.report().bias_radps - 0.01).abs() < 1e-6);
+        let relearned = f.report().bias_radps;
+        assert!((relearned - 0.010_005).abs() < 1e-6, "{relearned}");
+        // Gated from it at once: a turn now is not learned.
+        f.step(sample(0.5), AngleDelta::default(), 1, true);
+        assert_eq!(f.report().bias_radps, relearned);
+    }
+
+    #[test]
+    fn a_robot_carried_and_turned_with_its_wheels_still_never_becomes_the_bias() {
+        let mut f = fusion(HeadingSource::Fused);
+        for k in 0..5000 {
+            f.step(live(0.01, k), AngleDelta::default(), 1, true);
+        }
+        let learned = f.report().bias_radps;
+        // Five seconds turned by hand at about 0.5 rad/s, wavering by ±0.02 rad/s (a hand
+        // holds no rate steadier): each reading is left out.
+        for k in 0..5000u32 {
+            let waver = 0.02 * math::sin(k as f32 * 0.05);
+            f.step(sample(0.5 + waver), AngleDelta::default(), 1, true);
+        }
+        assert_eq!(f.report().bias_radps, learned);
+        // A steady reading just outside the band of the last ones restarts the count.
+        let mut g = fusion(HeadingSource::Fused);
+        for k in 0..1000 {
+            g.step(live(0.01, k), AngleDelta::default(), 1, true);
+        }
+        let before = g.report().bias_radps;
+        for k in 0..2 * u32::from(BIAS_RELEARN_AFTER_STEADY) {
+            let jump = if k % 600 == 599 { 0.011 } else { 0.0 };
+            g.step(sample(0.3 + jump), AngleDelta::default(), 1, true);
+        }
+        assert_eq!(g.report().bias_radps, before);
+    }
+
+    #[test]
+    fn a_step_that_is_not_still_ends_a_steady_spell() {
+        let mut f = fusion(HeadingSource::Fused);
         for k in 0..1000 {
             f.step(live(0.01, k), AngleDelta::default(), 1, true);
         }
-        assert!(
-            (f.report().bias_radps - 0.01).abs() < 1e-4,
-            "{}",
-            f.report().bias_radps
-        );
+        let before = f.report().bias_radps;
+        let half = u32::from(BIAS_RELEARN_AFTER_STEADY) / 2 + 1;
+        for still in [true, false, true] {
+            for _ in 0..half {
+                f.step(sample(0.3), AngleDelta::default(), 1, still);
+            }
+        }
+        assert_eq!(f.report().bias_radps, before);
+    }
+
+    #[test]
+    fn the_gate_applies_from_the_time_constants_count_when_that_is_shorter() {
+        // A time constant of 0.1 s: the gate applies after 100 readings, not 200.
+        let mut config = GyroConfig::ICM42688P.with_heading(HeadingSource::Fused);
+        config.bias_time_constant_s = 0.1;
+        let mut f = HeadingFusion::new(config, PERIOD_S, BinaryAngle::default());
+        for k in 0..100 {
+            f.step(live(0.01, k), AngleDelta::default(), 1, true);
+        }
+        let learned = f.report().bias_radps;
+        f.step(sample(0.5), AngleDelta::default(), 1, true);
+        assert_eq!(f.report().bias_radps, learned);
     }
 
     #[test]

@@ -15,7 +15,7 @@ use crate::law::{KanayamaGains, LawGains, PaperGains, TrackingGains};
 use crate::limits::Limits;
 use crate::pid::PidGains;
 use crate::velocity::VelocityModeConfig;
-use crate::wiring::{WiringConfig, MAX_SUPPLY_SCALE, MIN_SUPPLY_SCALE};
+use crate::wiring::WiringConfig;
 
 /// Upper bound of [`Params::max_ticks_per_step`]: 2²⁴, exact in `f32`, and 64 of them fit
 /// an `i32` sum.
@@ -267,9 +267,14 @@ pub enum ParamError {
         /// `drive.max_supply_v`, V.
         max_v: f32,
     },
-    /// `wiring.supply_scale` was not finite or outside [`MIN_SUPPLY_SCALE`] …
-    /// [`MAX_SUPPLY_SCALE`].
-    SupplyScaleOutOfRange(f32),
+    /// A calibration's scale factor (`wiring.supply_scale`, `gyro.scale`) was not finite
+    /// or outside [`MIN_CALIBRATION_SCALE`] … [`MAX_CALIBRATION_SCALE`].
+    ScaleOutOfRange {
+        /// The field's path in [`RobotConfig`].
+        field: &'static str,
+        /// The value given.
+        value: f32,
+    },
 }
 
 impl ParamError {
@@ -283,8 +288,8 @@ impl ParamError {
                 "speed_window_steps"
             }
             ParamError::SupplyRangeEmpty { .. } => "drive.max_supply_v",
-            ParamError::SupplyScaleOutOfRange(_) => "wiring.supply_scale",
             ParamError::NonPositive { field, .. }
+            | ParamError::ScaleOutOfRange { field, .. }
             | ParamError::Negative { field, .. }
             | ParamError::NonFinite { field, .. } => field,
         }
@@ -307,7 +312,7 @@ impl ParamError {
             ParamError::Negative { .. } => "must be ≥ 0",
             ParamError::NonFinite { .. } => "must be finite",
             ParamError::SupplyRangeEmpty { .. } => "must be > drive.min_supply_v",
-            ParamError::SupplyScaleOutOfRange(_) => "must be in 0.5..=2",
+            ParamError::ScaleOutOfRange { .. } => "must be in 0.5..=2",
         }
     }
 }
@@ -340,9 +345,9 @@ impl fmt::Display for ParamError {
                 f,
                 "{field} must be > drive.min_supply_v ({min_v} V), got {max_v}"
             ),
-            ParamError::SupplyScaleOutOfRange(v) => write!(
+            ParamError::ScaleOutOfRange { value, .. } => write!(
                 f,
-                "{field} must be in {MIN_SUPPLY_SCALE}..={MAX_SUPPLY_SCALE}, got {v}"
+                "{field} must be in {MIN_CALIBRATION_SCALE}..={MAX_CALIBRATION_SCALE}, got {value}"
             ),
         }
     }
@@ -362,6 +367,23 @@ pub struct Params {
     steering_divider: NonZeroU32,
     wheel_pid: [PidGains; 2],
     max_ticks_per_step: i32,
+}
+
+/// Smallest scale factor a calibration may set (`wiring.supply_scale`, `gyro.scale`):
+/// a sensor read by half or less of its true value is miswired or misconfigured, not
+/// uncalibrated.
+pub const MIN_CALIBRATION_SCALE: f32 = 0.5;
+/// Largest scale factor a calibration may set (see [`MIN_CALIBRATION_SCALE`]).
+pub const MAX_CALIBRATION_SCALE: f32 = 2.0;
+
+/// `Ok` if `value` is a usable calibration scale factor for `field`: finite and in
+/// [`MIN_CALIBRATION_SCALE`] … [`MAX_CALIBRATION_SCALE`].
+pub(crate) fn calibration_scale(value: f32, field: &'static str) -> Result<(), ParamError> {
+    if (MIN_CALIBRATION_SCALE..=MAX_CALIBRATION_SCALE).contains(&value) {
+        Ok(())
+    } else {
+        Err(ParamError::ScaleOutOfRange { field, value })
+    }
 }
 
 /// `value` > 0 and finite, or the error naming `field`.
@@ -513,11 +535,7 @@ impl Params {
         config.law.validate()?;
         config.velocity.validate()?;
         config.gyro.validate()?;
-        if !config.wiring.supply_scale_ok() {
-            return Err(ParamError::SupplyScaleOutOfRange(
-                config.wiring.supply_scale,
-            ));
-        }
+        calibration_scale(config.wiring.supply_scale, "wiring.supply_scale")?;
 
         let ticks_per_rev = config.encoder_lines_per_motor_rev as f32 * 4.0 * config.gear_ratio;
         let rad_per_tick = TAU / ticks_per_rev;

@@ -20,11 +20,6 @@
 
 use crate::controller::{MotorCommand, TickDeltas};
 
-/// Smallest [`WiringConfig::supply_scale`] accepted.
-pub const MIN_SUPPLY_SCALE: f32 = 0.5;
-/// Largest [`WiringConfig::supply_scale`] accepted.
-pub const MAX_SUPPLY_SCALE: f32 = 2.0;
-
 /// The robot's wiring corrections (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -46,7 +41,8 @@ pub struct WiringConfig {
     /// The left wheel's encoder is on the board's right input, and the right's on the left.
     pub encoders_swapped: bool,
     /// The true supply over the board's reading of it (its divider's error),
-    /// dimensionless, in [[`MIN_SUPPLY_SCALE`], [`MAX_SUPPLY_SCALE`]]: a multimeter
+    /// dimensionless, in [[`MIN_CALIBRATION_SCALE`](crate::params::MIN_CALIBRATION_SCALE),
+    /// [`MAX_CALIBRATION_SCALE`](crate::params::MAX_CALIBRATION_SCALE)]: a multimeter
     /// reading of 7.40 V against a board reading of 7.29 V gives 1.015.
     pub supply_scale: f32,
 }
@@ -113,12 +109,6 @@ impl WiringConfig {
     pub fn supply_from_board(&self, board_v: f32) -> f32 {
         board_v * self.supply_scale
     }
-
-    /// True when [`WiringConfig::supply_scale`] is finite and within its range.
-    pub fn supply_scale_ok(&self) -> bool {
-        self.supply_scale.is_finite()
-            && (MIN_SUPPLY_SCALE..=MAX_SUPPLY_SCALE).contains(&self.supply_scale)
-    }
 }
 
 impl Default for WiringConfig {
@@ -130,6 +120,7 @@ impl Default for WiringConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::params::calibration_scale;
 
     const TICKS: TickDeltas = TickDeltas { left: 3, right: -7 };
     const DUTY: MotorCommand = MotorCommand {
@@ -143,7 +134,7 @@ mod tests {
         assert_eq!(w.ticks_from_board(TICKS), TICKS);
         assert_eq!(w.duties_to_board(DUTY), DUTY);
         assert_eq!(w.supply_from_board(7.4), 7.4);
-        assert!(w.supply_scale_ok());
+        assert!(calibration_scale(w.supply_scale, "wiring.supply_scale").is_ok());
     }
 
     #[test]
@@ -192,11 +183,10 @@ mod tests {
         };
         assert!((w.supply_from_board(10.0) - 11.0).abs() < 1e-5);
         for bad in [0.0, 0.49, 2.01, f32::NAN, f32::INFINITY] {
-            let w = WiringConfig {
-                supply_scale: bad,
-                ..WiringConfig::AS_BUILT
-            };
-            assert!(!w.supply_scale_ok(), "{bad}");
+            assert!(
+                calibration_scale(bad, "wiring.supply_scale").is_err(),
+                "{bad}"
+            );
         }
     }
 }

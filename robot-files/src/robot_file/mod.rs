@@ -290,7 +290,7 @@ mod tests {
         );
 
         for (toml, key) in [
-            ("scale = nan", "robot.gyro.scale must be > 0"),
+            ("scale = 2.5", "robot.gyro.scale must be in 0.5..=2"),
             (
                 "stuck_limit_steps = 0",
                 "robot.gyro.stuck_limit_steps must be > 0",

@@ -11,7 +11,9 @@
 //! wrong way or encoders whose wiring is not corrected yet, and the axis sign learned
 //! from either would be wrong. The rate is integrated between frames (the trapezoid rule
 //! on the instantaneous rates of the 50 frames a second the bring-up asks for), which
-//! holds to the turn's precision for a turn of a second or more.
+//! holds to the turn's precision for a turn of a second or more, with the bias the robot
+//! had when the turn began: a slow end of the turn that the robot counts as still may
+//! move its bias estimate, and must not move the measurement.
 
 use std::f64::consts::TAU;
 use std::time::{Duration, Instant};
@@ -19,26 +21,28 @@ use std::time::{Duration, Instant};
 use controller_core::gyro::{GyroConfig, GyroHealth};
 use link::TelemetryFrame;
 
-use super::signals::{catch_up, counted, next_frame, wait_still, Heard};
+use super::signals::{catch_up, moved, next_frame, wait_still, Heard};
 use super::{BringupError, Finding, Session};
 use crate::ops;
 use crate::transport::Transport;
 
 /// Control steps the robot stands still before the turn, for the gyro's bias.
 pub const BIAS_STEPS: u32 = 2000;
-/// Control steps without an encoder moving after which the turn is over.
-pub const TURN_OVER_STEPS: u32 = 1000;
-/// An encoder that changed by at most this many counts has not moved: a still encoder
-/// sitting on an edge may flicker by a count.
-const JITTER_COUNTS: i64 = 2;
+/// Control steps without an encoder moving after which the turn is over: long enough for
+/// a hand to change its grip.
+pub const TURN_OVER_STEPS: u32 = 2000;
+/// A "turn" the gyro saw as less than this, rad, is a nudge (a hand taking hold of the
+/// robot), not the turn asked for: the watch waits on for the turn.
+const NUDGE_RAD: f64 = std::f64::consts::FRAC_PI_4;
 /// How long the station waits for the turn to start and end, host time.
 const TURN_LIMIT: Duration = Duration::from_secs(60);
 /// Odometry's turn must be one turn within this fraction (a hand's turn slips, and the
 /// track width may not be calibrated yet).
 const ODOMETRY_TOLERANCE: f64 = 0.25;
-/// The gyro's turn over the robot's must be within this factor of 1, either way: further
-/// off is no sensor's scale error but a wrong full-scale setting or another axis.
-const SCALE_LIMIT: f64 = 2.0;
+/// The gyro's turn over the robot's must be within this factor of 1, either way: a
+/// sensor's own scale error is ±0.5 % and a tilted mounting's 1/cos(tilt) (1.2 at 33°);
+/// further off is a wrong full-scale setting, another axis or a loose mounting.
+const SCALE_LIMIT: f64 = 1.2;
 
 /// A turn by hand as the robot saw it.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -50,10 +54,11 @@ pub struct MeasuredTurn {
     pub odometry_rad: f64,
 }
 
-/// Integrates a turn frame by frame.
+/// Integrates a turn frame by frame, with the bias of its first frame.
 #[derive(Clone, Copy, Debug)]
 struct TurnWatch {
     last: TelemetryFrame,
+    bias_radps: f32,
     period_s: f64,
     turn: MeasuredTurn,
 }
@@ -62,15 +67,21 @@ impl TurnWatch {
     fn new(first: TelemetryFrame, period_s: f64) -> Self {
         Self {
             last: first,
+            bias_radps: first.gyro_bias_radps,
             period_s,
             turn: MeasuredTurn::default(),
         }
     }
 
+    /// `frame`'s gyro rate with the turn's first bias instead of the frame's own, rad/s.
+    fn rate_radps(&self, frame: &TelemetryFrame) -> f64 {
+        f64::from(frame.gyro_yaw_rate_radps + frame.gyro_bias_radps - self.bias_radps)
+    }
+
     /// Adds the stretch from the last frame to `frame`.
     fn add(&mut self, frame: TelemetryFrame) {
         let dt_s = f64::from(frame.step.wrapping_sub(self.last.step)) * self.period_s;
-        let mean_rate = 0.5 * f64::from(self.last.gyro_yaw_rate_radps + frame.gyro_yaw_rate_radps);
+        let mean_rate = 0.5 * (self.rate_radps(&self.last) + self.rate_radps(&frame));
         self.turn.gyro_rad += mean_rate * dt_s;
         let turned = f64::from(frame.odometry_heading_rad - self.last.odometry_heading_rad);
         // Frames come every 20 ms: a turn by hand is far below half a turn between two.
@@ -94,7 +105,9 @@ pub fn learn(config: &GyroConfig, turn: &MeasuredTurn) -> Result<GyroConfig, Bri
     if (odometry - TAU).abs() > ODOMETRY_TOLERANCE * TAU {
         return Err(BringupError::Found(format!(
             "odometry says the robot turned {:.0}°, not one turn: turn it one full turn on \
-             the spot, back to its mark, with both wheels on the floor",
+             the spot, back to its mark, with both wheels on the floor; if you did and \
+             odometry saw next to nothing, one encoder counts backwards: correct the \
+             encoders' wiring first (`station bringup encoders`)",
             odometry.to_degrees()
         )));
     }
@@ -105,7 +118,8 @@ pub fn learn(config: &GyroConfig, turn: &MeasuredTurn) -> Result<GyroConfig, Bri
     );
     if !factor.is_finite() || factor.abs() > SCALE_LIMIT {
         return Err(BringupError::Found(format!(
-            "{seen}: its z axis is not vertical, or it is not read"
+            "{seen}: its z axis is not vertical (tilted by more than 33°, or another \
+             axis), or it is not read"
         )));
     }
     if factor.abs() < 1.0 / SCALE_LIMIT {
@@ -133,8 +147,8 @@ fn gyro_state<T: Transport>(s: &mut Session<'_, T>) -> Result<Option<GyroHealth>
 }
 
 /// Prints `instruction` and watches the turn it asks for: from the last frame before the
-/// encoders move (beyond [`JITTER_COUNTS`]) to the first after they have stood still for
-/// [`TURN_OVER_STEPS`]. The watch starts before the instruction is printed, so that no
+/// encoders move (beyond [`JITTER_COUNTS`](super::signals::JITTER_COUNTS)) to the first
+/// after they have stood still for [`TURN_OVER_STEPS`], a nudge ([`NUDGE_RAD`]) left out. The watch starts before the instruction is printed, so that no
 /// turn can begin unseen.
 fn watch_turn<T: Transport>(
     s: &mut Session<'_, T>,
@@ -154,20 +168,23 @@ fn watch_turn<T: Transport>(
         if let GyroHealth::Failed(why) = frame.gyro_health {
             return Err(failed(why));
         }
-        let moved = counted(counts, frame.raw_counts)
-            .iter()
-            .any(|c| c.abs() > JITTER_COUNTS);
-        if !moving && !moved && frame.raw_counts == last_counts {
+        let turning = moved(counts, frame.raw_counts);
+        if !moving && !turning && frame.raw_counts == last_counts {
             // Still since the last frame: the turn, if any, starts after this one.
             watch = TurnWatch::new(frame, period_s);
         } else {
             watch.add(frame);
         }
         last_counts = frame.raw_counts;
-        if moved {
+        if turning {
             (moving, since, counts) = (true, frame.step, frame.raw_counts);
         } else if moving && frame.step.wrapping_sub(since) >= TURN_OVER_STEPS {
-            return Ok(watch.turn);
+            if watch.turn.gyro_rad.abs() >= NUDGE_RAD {
+                return Ok(watch.turn);
+            }
+            // A nudge: wait on for the turn, from here.
+            moving = false;
+            watch = TurnWatch::new(frame, period_s);
         }
     }
     Err(BringupError::Silent(if moving {
@@ -216,7 +233,7 @@ pub fn run<T: Transport>(s: &mut Session<'_, T>) -> Result<Finding, BringupError
         s,
         "now turn the robot by hand one full turn on the spot, counter-clockwise seen \
          from above, wheels on the floor, back to its mark, and let go (the station \
-         watches until it stands still)",
+         watches until it has stood still for 2 s, so change your grip quicker than that)",
         period_s,
     )?;
     writeln!(
@@ -280,13 +297,14 @@ mod tests {
     fn an_upside_down_gyro_is_inverted_and_a_correction_composes() {
         let learned = learn(&GYRO, &turn(-360.0, 365.0)).expect("one turn");
         assert!(learned.axis_inverted && learned.scale == 1.0);
-        // Already inverted and scaled 0.5, the gyro now sees half the turn the wrong way.
+        // Already inverted and scaled 0.9, the gyro now sees 0.9 of the turn the wrong
+        // way.
         let configured = GyroConfig {
             axis_inverted: true,
-            scale: 0.5,
+            scale: 0.9,
             ..GYRO
         };
-        let learned = learn(&configured, &turn(-180.0, 340.0)).expect("one turn");
+        let learned = learn(&configured, &turn(-324.0, 340.0)).expect("one turn");
         assert!(!learned.axis_inverted);
         assert!((learned.scale - 1.0).abs() < 1e-6, "{}", learned.scale);
     }
@@ -298,7 +316,11 @@ mod tests {
             (360.0, 460.0, "not one turn"),
             (-360.0, -360.0, "clockwise"),
             (10.0, 360.0, "not vertical"),
+            // Mounted 45° off vertical: no scale error a calibration should take.
+            (254.6, 360.0, "not vertical"),
             (900.0, 360.0, "full-scale"),
+            (720.0, 360.0, "full-scale"),
+            (30.0, 5.0, "one encoder counts backwards"),
             (0.0, 360.0, "not vertical"),
         ] {
             match learn(&GYRO, &turn(gyro, odometry)) {
@@ -306,6 +328,27 @@ mod tests {
                 other => panic!("{gyro}° {odometry}°: {other:?}"),
             }
         }
+    }
+
+    #[test]
+    fn the_watch_keeps_the_bias_the_turn_began_with() {
+        // The robot's bias estimate moves during the turn (a slow end the robot counts as
+        // still): the rate it reports moves the other way, and the turn must not.
+        // The sensor's offset is 0.01 rad/s, which the first estimate has right.
+        let frame = |step: u32, rate: f32, bias: f32| TelemetryFrame {
+            gyro_yaw_rate_radps: rate + 0.01 - bias,
+            gyro_bias_radps: bias,
+            ..crate::test_frames::still(step)
+        };
+        let mut watch = TurnWatch::new(frame(0, 0.0, 0.01), 0.001);
+        watch.add(frame(20, 1.0, 0.01));
+        watch.add(frame(40, 1.0, 0.05));
+        watch.add(frame(60, 0.0, 0.09));
+        assert!(
+            (watch.turn.gyro_rad - 0.04).abs() < 1e-7,
+            "{:?}",
+            watch.turn
+        );
     }
 
     #[test]

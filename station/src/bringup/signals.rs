@@ -59,9 +59,14 @@ pub fn catch_up<T: Transport>(
     next_frame(client, heard)
 }
 
+/// An encoder that changed by at most this many counts has not moved: a still encoder
+/// sitting on an edge may flicker by a count.
+pub const JITTER_COUNTS: i64 = 2;
+
 /// Reads frames from now on (what was sent while the station was not listening is only
-/// caught up with) until the board's encoder counts have not changed for `still_steps`
-/// control steps; returns the last frame. Gives up after [`SIGNAL_LIMIT`].
+/// caught up with) until neither of the board's encoder counts has moved (beyond
+/// [`JITTER_COUNTS`]) for `still_steps` control steps; returns the last frame. Gives up
+/// after [`SIGNAL_LIMIT`].
 pub fn wait_still<T: Transport>(
     client: &mut Client<T>,
     still_steps: u32,
@@ -73,7 +78,7 @@ pub fn wait_still<T: Transport>(
     let mut counts = frame.raw_counts;
     while start.elapsed() < SIGNAL_LIMIT {
         frame = next_frame(client, heard)?;
-        if frame.raw_counts != counts {
+        if moved(counts, frame.raw_counts) {
             counts = frame.raw_counts;
             since = frame.step;
         } else if frame.step.wrapping_sub(since) >= still_steps {
@@ -83,6 +88,11 @@ pub fn wait_still<T: Transport>(
     Err(BringupError::Silent(
         "the wheels never stood still: the encoder counts kept changing".into(),
     ))
+}
+
+/// True when either count moved from `from` to `to` by more than [`JITTER_COUNTS`].
+pub fn moved(from: RawCounts, to: RawCounts) -> bool {
+    counted(from, to).iter().any(|c| c.abs() > JITTER_COUNTS)
 }
 
 /// Reads frames until `wanted` says one of the events heard (those sent while the

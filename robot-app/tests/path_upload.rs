@@ -246,31 +246,29 @@ fn a_commit_moves_an_enabled_geofence_to_the_new_path() {
     assert_eq!(rig.last.map(|a| a.state), Some(State::Armed), "no fault");
 }
 
-/// Uploads `segments` under `upload_id` and commits them; the commit's reply.
-/// Begins upload `upload_id` of [`segments`] and sends all its chunks, not the commit.
-fn begin_and_send_chunks(rig: &mut Rig<'_>, upload_id: u16) {
-    assert_eq!(
-        rig.ask(Request::PathBegin(begin(upload_id))),
-        Ok(Reply::Ack)
-    );
-    for chunk in chunks(upload_id, &segments()) {
-        assert!(rig.ask(Request::PathChunk(chunk)).is_ok());
-    }
-}
-
-fn upload(rig: &mut Rig<'_>, upload_id: u16, segments: &[Segment]) -> Result<Reply, Refusal> {
-    let count = segments.len() as u8;
+/// Begins upload `upload_id` of `segments` and sends all its chunks, not the commit.
+fn begin_and_send(rig: &mut Rig<'_>, upload_id: u16, segments: &[Segment]) {
     let begin = PathBegin {
-        segment_count: count,
+        segment_count: segments.len() as u8,
         ..begin(upload_id)
     };
     assert_eq!(rig.ask(Request::PathBegin(begin)), Ok(Reply::Ack));
     for chunk in chunks(upload_id, segments) {
         assert!(rig.ask(Request::PathChunk(chunk)).is_ok());
     }
+}
+
+/// Begins upload `upload_id` of [`segments`] and sends all its chunks, not the commit.
+fn begin_and_send_chunks(rig: &mut Rig<'_>, upload_id: u16) {
+    begin_and_send(rig, upload_id, &segments());
+}
+
+/// Uploads `segments` under `upload_id` and commits them; the commit's reply.
+fn upload(rig: &mut Rig<'_>, upload_id: u16, segments: &[Segment]) -> Result<Reply, Refusal> {
+    begin_and_send(rig, upload_id, segments);
     rig.ask(Request::PathCommit(PathCommit {
         upload_id,
-        segment_count: count,
+        segment_count: segments.len() as u8,
         checksum: path_checksum(segments),
     }))
 }

@@ -898,7 +898,7 @@ mod tests {
             u32::MAX,
         ]
         .into_iter()
-        // And every rate below the cap, where each digit of the arithmetic counts.
+        // And every seventh baud below the cap, where each digit of the arithmetic counts.
         .chain((0..200_000).step_by(7))
         {
             assert_eq!(

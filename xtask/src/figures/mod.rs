@@ -50,7 +50,7 @@ const SCENARIOS: [&str; 5] = [
 
 /// The headings the gyro sweep runs with, in the order the page shows them.
 const HEADINGS: [&str; 3] = ["fused", "odometry", "oracle"];
-/// Runs of each gyro sweep (the 1 000: about 4 s of CPU each).
+/// Runs of each gyro sweep.
 const GYRO_SWEEP_RUNS: &str = "1000";
 
 /// What the commands printed, for the page's verbatim sections.

@@ -230,10 +230,12 @@ pub struct GyroReport {
 pub const DISAGREEMENT_CLEAR_FRACTION: f32 = 0.8;
 
 /// A still reading further than this from the bias estimate, rad/s, is a turn the
-/// encoders do not see (a robot lifted and turned, or the first moments of a turn by hand
-/// before its wheels count) and is not learned: 2.9 °/s, six times the ICM-42688-P's
-/// typical zero-rate offset and 45 times its noise at 1 kHz.
-pub const BIAS_GATE_RADPS: f32 = 0.05;
+/// encoders do not see (a robot lifted and turned, turned slower than its encoders' rest
+/// threshold, or the first moments of a turn by hand before its wheels count) and is not
+/// learned: 0.57 °/s, about nine times the ICM-42688-P's noise at 1 kHz. The turn-on
+/// offset, which may be larger, is learned before the gate applies, and an offset that
+/// moved by more is learned again ([`BIAS_RELEARN_AFTER_STEADY`]).
+pub const BIAS_GATE_RADPS: f32 = 0.01;
 
 /// The gate applies once this many still readings are averaged (0.2 s at 1 kHz), or the
 /// bias time constant's count if that is fewer, so that any turn-on offset is learned
@@ -247,9 +249,9 @@ pub const BIAS_GATE_AFTER_SAMPLES: u32 = 200;
 /// still does not hold its rate that steady for that long, so its turn is never learned.
 pub const BIAS_RELEARN_AFTER_STEADY: u16 = 1000;
 
-/// See [`BIAS_RELEARN_AFTER_STEADY`], rad/s: 0.57 °/s, about nine times the
+/// See [`BIAS_RELEARN_AFTER_STEADY`], rad/s: 0.29 °/s, about four and a half times the
 /// ICM-42688-P's noise at 1 kHz.
-pub const BIAS_STEADY_BAND_RADPS: f32 = 0.01;
+pub const BIAS_STEADY_BAND_RADPS: f32 = 0.005;
 
 /// The heading fusion: the gyro's bias learned at rest, the gyro's rate integrated into a
 /// fixed-point heading, the gyro judged, its disagreement with odometry measured.
@@ -717,7 +719,7 @@ mod tests {
         }
         assert_eq!(f.report().bias_radps, learned);
         // A reading just inside the gate is learned.
-        f.step(sample(0.08 + 0.049), AngleDelta::default(), 1, true);
+        f.step(sample(0.08 + 0.009), AngleDelta::default(), 1, true);
         assert!(f.report().bias_radps > learned);
     }
 
@@ -764,7 +766,7 @@ mod tests {
         }
         let before = g.report().bias_radps;
         for k in 0..2 * u32::from(BIAS_RELEARN_AFTER_STEADY) {
-            let jump = if k % 600 == 599 { 0.011 } else { 0.0 };
+            let jump = if k % 600 == 599 { 0.006 } else { 0.0 };
             g.step(sample(0.3 + jump), AngleDelta::default(), 1, true);
         }
         assert_eq!(g.report().bias_radps, before);
@@ -811,9 +813,9 @@ mod tests {
             f.step(sample(rate), AngleDelta::default(), 1, true);
         }
         assert!((f.report().bias_radps - 0.001).abs() < 1e-9);
-        f.step(sample(0.031), AngleDelta::default(), 1, true);
+        f.step(sample(0.010), AngleDelta::default(), 1, true);
         assert!(
-            (f.report().bias_radps - 0.011).abs() < 1e-7,
+            (f.report().bias_radps - 0.004).abs() < 1e-7,
             "{}",
             f.report().bias_radps
         );
@@ -996,7 +998,7 @@ mod tests {
     fn the_bias_is_the_mean_of_the_still_readings() {
         let mut f = fusion(HeadingSource::Fused);
         for k in 0..1000 {
-            let rate = if k % 2 == 0 { 0.01 } else { 0.03 };
+            let rate = if k % 2 == 0 { 0.015 } else { 0.025 };
             f.step(sample(rate), AngleDelta::default(), 1, true);
         }
         let bias = f.report().bias_radps;

@@ -404,6 +404,8 @@ impl<'a> VirtualRobot<'a> {
         if by_hand.yaw_rad != 0.0 {
             self.hardware.rotate_by_hand(by_hand.yaw_rad);
         }
+        // The truth the step reports is the robot's as its sensors read it: turned.
+        let pose = self.hardware.plant().pose();
         let mut probe = None;
         let sensed = if self.frozen {
             let mut copy = self.hardware.clone();

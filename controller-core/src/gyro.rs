@@ -501,9 +501,8 @@ impl HeadingFusion {
         if self.bias_samples >= BIAS_GATE_AFTER_SAMPLES.min(cap)
             && math::abs(rate_radps - self.report.bias_radps) > BIAS_GATE_RADPS
         {
-            if self.steady_gated > 0
-                && math::abs(rate_radps - self.steady_mean_radps) <= BIAS_STEADY_BAND_RADPS
-            {
+            // A spell's first reading is its own mean whichever branch takes it.
+            if math::abs(rate_radps - self.steady_mean_radps) <= BIAS_STEADY_BAND_RADPS {
                 self.steady_gated += 1;
                 self.steady_mean_radps +=
                     (rate_radps - self.steady_mean_radps) / f32::from(self.steady_gated);

@@ -19,7 +19,7 @@
 //! [`Encoder::read_delta`] returns the signed ticks since the previous reading, which is
 //! exactly what the firmware hands to the controller each step.
 
-pub use robot_files::scenario::MAX_EDGE_JITTER_TICKS_RMS;
+use robot_files::scenario::MAX_EDGE_JITTER_TICKS_RMS;
 
 /// ⌊x⌋ as an integer. `f64::floor` is a library call on the baseline x86-64 target (no
 /// SSE4.1), and this runs twice per control step; the cast truncates toward zero and
@@ -168,7 +168,7 @@ mod tests {
             for _ in 0..1000 {
                 assert_eq!(e.read_delta(angle_ticks * RAD_PER_TICK), 0, "{angle_ticks}");
             }
-            // Each count is within a tick of the true angle's.
+            // A difference of two counts, each within a tick of its angle's.
             assert!((i64::from(first) - angle_ticks.floor() as i64).abs() <= 2);
         }
     }

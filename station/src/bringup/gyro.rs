@@ -148,8 +148,9 @@ fn gyro_state<T: Transport>(s: &mut Session<'_, T>) -> Result<Option<GyroHealth>
 
 /// Prints `instruction` and watches the turn it asks for: from the last frame before the
 /// encoders move (beyond [`JITTER_COUNTS`](super::signals::JITTER_COUNTS)) to the first
-/// after they have stood still for [`TURN_OVER_STEPS`], a nudge ([`NUDGE_RAD`]) left out. The watch starts before the instruction is printed, so that no
-/// turn can begin unseen.
+/// after they have stood still for [`TURN_OVER_STEPS`], a nudge ([`NUDGE_RAD`]) left
+/// out. The watch starts before the instruction is printed, so that no turn can begin
+/// unseen.
 fn watch_turn<T: Transport>(
     s: &mut Session<'_, T>,
     instruction: &str,

@@ -123,3 +123,23 @@ pub fn counted(before: RawCounts, after: RawCounts) -> [i64; 2] {
         i64::from(after.right.wrapping_sub(before.right)),
     ]
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_flicker_of_two_counts_either_way_has_not_moved() {
+        let at = |left: i32, right: i32| RawCounts { left, right };
+        assert!(!moved(at(10, 0), at(12, -2)), "+2 and −2");
+        assert!(
+            !moved(at(i32::MAX, 0), at(i32::MIN + 1, 0)),
+            "+2 across the wrap"
+        );
+        assert!(moved(at(10, 0), at(13, 0)));
+        assert!(
+            moved(at(10, i32::MIN), at(10, i32::MAX - 2)),
+            "−3 across the wrap"
+        );
+    }
+}

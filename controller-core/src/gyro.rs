@@ -242,11 +242,12 @@ pub const BIAS_GATE_RADPS: f32 = 0.01;
 /// from the first readings.
 pub const BIAS_GATE_AFTER_SAMPLES: u32 = 200;
 
-/// Still readings left out by the gate that stay within [`BIAS_STEADY_BAND_RADPS`] of
-/// their own mean this many in a row (1 s at 1 kHz) are a still sensor whose offset the
-/// estimate has wrong (learned while the robot was turned unseen, or the offset jumped):
-/// their mean becomes the estimate. A robot turned by hand or carried with its wheels
-/// still does not hold its rate that steady for that long, so its turn is never learned.
+/// Still readings that have stayed within [`BIAS_STEADY_BAND_RADPS`] of their own mean
+/// this many in a row (1 s at 1 kHz) are a still sensor: a reading the gate leaves out
+/// after them says the estimate has the offset wrong (learned while the robot was turned
+/// unseen, or the offset moved), and the estimate takes their mean. A robot turned by hand
+/// or carried with its wheels still does not hold its rate that steady for that long, so
+/// its turn is never learned.
 pub const BIAS_RELEARN_AFTER_STEADY: u16 = 1000;
 
 /// See [`BIAS_RELEARN_AFTER_STEADY`], rad/s: 0.29 °/s, about four and a half times the
@@ -278,9 +279,9 @@ pub struct HeadingFusion {
     held_rate_radps: f32,
     /// Still readings averaged into the bias (saturates at the time constant's count).
     bias_samples: u32,
-    /// Still readings in a row the bias gate left out within
-    /// [`BIAS_STEADY_BAND_RADPS`] of their mean, and that mean, rad/s (robot frame).
-    steady_gated: u16,
+    /// Still readings in a row within [`BIAS_STEADY_BAND_RADPS`] of their mean
+    /// (saturating), and that mean, rad/s (robot frame).
+    steady_count: u16,
     steady_mean_radps: f32,
     /// Control period, s.
     period_s: f32,
@@ -300,7 +301,7 @@ impl HeadingFusion {
             absent_steps: 0,
             held_rate_radps: 0.0,
             bias_samples: 0,
-            steady_gated: 0,
+            steady_count: 0,
             steady_mean_radps: 0.0,
             period_s,
         }
@@ -319,6 +320,8 @@ impl HeadingFusion {
     /// non-finite.
     pub fn set_config(&mut self, config: GyroConfig) {
         self.report.bias_radps *= config.robot_per_sensor() / self.config.robot_per_sensor();
+        // A steady spell's readings were in the old frame.
+        self.steady_count = 0;
         self.config = config;
     }
 
@@ -484,7 +487,7 @@ impl HeadingFusion {
         if still {
             self.learn_bias(rate);
         } else {
-            self.steady_gated = 0;
+            self.steady_count = 0;
         }
         let corrected = rate - self.report.bias_radps;
         self.report.yaw_rate_radps = corrected;
@@ -494,30 +497,29 @@ impl HeadingFusion {
     /// One still reading `rate` (robot frame, rad/s) into the bias: the mean of all still
     /// readings so far, then a low-pass of the bias time constant. Once the gate applies
     /// (after [`BIAS_GATE_AFTER_SAMPLES`], or the time constant's count if fewer), a
-    /// reading beyond [`BIAS_GATE_RADPS`] of the estimate is left out, unless it ends
-    /// [`BIAS_RELEARN_AFTER_STEADY`] steady ones, whose mean then becomes the estimate.
+    /// reading beyond [`BIAS_GATE_RADPS`] of the estimate is left out; one that comes
+    /// after [`BIAS_RELEARN_AFTER_STEADY`] steady readings makes their mean the estimate.
     fn learn_bias(&mut self, rate_radps: f32) {
+        // The steady spell counts every still reading, inside the gate or not: an offset
+        // that moved just past the gate has readings on both sides of it.
+        if math::abs(rate_radps - self.steady_mean_radps) <= BIAS_STEADY_BAND_RADPS {
+            self.steady_count = self.steady_count.saturating_add(1);
+            self.steady_mean_radps +=
+                (rate_radps - self.steady_mean_radps) / f32::from(self.steady_count);
+        } else {
+            self.steady_count = 1;
+            self.steady_mean_radps = rate_radps;
+        }
         let cap = ((self.config.bias_time_constant_s / self.period_s) as u32).max(1);
         if self.bias_samples >= BIAS_GATE_AFTER_SAMPLES.min(cap)
             && math::abs(rate_radps - self.report.bias_radps) > BIAS_GATE_RADPS
         {
-            // A spell's first reading is its own mean whichever branch takes it.
-            if math::abs(rate_radps - self.steady_mean_radps) <= BIAS_STEADY_BAND_RADPS {
-                self.steady_gated += 1;
-                self.steady_mean_radps +=
-                    (rate_radps - self.steady_mean_radps) / f32::from(self.steady_gated);
-            } else {
-                self.steady_gated = 1;
-                self.steady_mean_radps = rate_radps;
-            }
-            if self.steady_gated >= BIAS_RELEARN_AFTER_STEADY {
+            if self.steady_count >= BIAS_RELEARN_AFTER_STEADY {
                 self.report.bias_radps = self.steady_mean_radps;
-                self.bias_samples = u32::from(self.steady_gated).min(cap);
-                self.steady_gated = 0;
+                self.bias_samples = u32::from(self.steady_count).min(cap);
             }
             return;
         }
-        self.steady_gated = 0;
         if self.bias_samples < cap {
             self.bias_samples += 1;
         }
@@ -769,6 +771,42 @@ mod tests {
             g.step(sample(0.3 + jump), AngleDelta::default(), 1, true);
         }
         assert_eq!(g.report().bias_radps, before);
+    }
+
+    #[test]
+    fn an_offset_that_moved_just_past_the_gate_is_learned_within_a_second() {
+        let mut f = fusion(HeadingSource::Fused);
+        for k in 0..5000 {
+            f.step(live(0.001, k), AngleDelta::default(), 1, true);
+        }
+        // The offset moves by just over the gate; the sensor's noise (±0.0011 rad/s)
+        // puts every other reading inside the gate.
+        let moved = 0.001 + BIAS_GATE_RADPS + 0.0005;
+        for k in 0..1100u32 {
+            let noise = if k % 2 == 0 { 0.0011 } else { -0.0011 };
+            f.step(sample(moved + noise), AngleDelta::default(), 1, true);
+        }
+        let bias = f.report().bias_radps;
+        assert!((bias - moved).abs() < 2e-4, "{bias}");
+    }
+
+    #[test]
+    fn a_new_calibration_ends_a_steady_spell() {
+        let mut f = fusion(HeadingSource::Fused);
+        for k in 0..1000 {
+            f.step(live(0.3, k), AngleDelta::default(), 1, true);
+        }
+        let half = u32::from(BIAS_RELEARN_AFTER_STEADY) / 2 + 1;
+        for _ in 0..half {
+            f.step(sample(0.01), AngleDelta::default(), 1, true);
+        }
+        let mut config = *f.config();
+        config.scale = 1.0 + 1e-6;
+        f.set_config(config);
+        for _ in 0..half {
+            f.step(sample(0.01), AngleDelta::default(), 1, true);
+        }
+        assert!((f.report().bias_radps - 0.3).abs() < 1e-3);
     }
 
     #[test]

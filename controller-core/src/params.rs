@@ -828,6 +828,14 @@ mod tests {
                 },
                 "must be > drive.min_supply_v",
             ),
+            // The message formats the range's constants: the static text must match.
+            (
+                ScaleOutOfRange {
+                    field: "gyro.scale",
+                    value: 3.0,
+                },
+                "must be in 0.5..=2",
+            ),
         ];
         for (e, requirement) in cases {
             assert_eq!(e.requirement(), requirement, "{e:?}");

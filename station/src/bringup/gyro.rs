@@ -26,22 +26,25 @@ use super::{BringupError, Finding, Session};
 use crate::ops;
 use crate::transport::Transport;
 
-/// Control steps the robot stands still before the turn, for the gyro's bias.
-pub const BIAS_STEPS: u32 = 2000;
-/// Control steps without an encoder moving after which the turn is over: long enough for
-/// a hand to change its grip.
-pub const TURN_OVER_STEPS: u32 = 2000;
-/// A "turn" the gyro saw as less than this, rad, is a nudge (a hand taking hold of the
-/// robot), not the turn asked for: the watch waits on for the turn.
+/// How long the robot stands still before the turn, for the gyro's bias, s.
+pub const BIAS_S: f64 = 2.0;
+/// How long the encoders stand still after which the turn is over, s: long enough for a
+/// hand to change its grip.
+pub const TURN_OVER_S: f64 = 2.0;
+/// A "turn" that both the gyro and odometry saw as less than this, rad, is a nudge (a
+/// hand taking hold of the robot), not the turn asked for: the watch waits on for the
+/// turn. Either sensor may be the one at fault, so one seeing a turn is enough.
 const NUDGE_RAD: f64 = std::f64::consts::FRAC_PI_4;
 /// How long the station waits for the turn to start and end, host time.
 const TURN_LIMIT: Duration = Duration::from_secs(60);
 /// Odometry's turn must be one turn within this fraction (a hand's turn slips, and the
 /// track width may not be calibrated yet).
 const ODOMETRY_TOLERANCE: f64 = 0.25;
-/// The gyro's turn over the robot's must be within this factor of 1, either way: a
-/// sensor's own scale error is ±0.5 % and a tilted mounting's 1/cos(tilt) (1.2 at 33°);
-/// further off is a wrong full-scale setting, another axis or a loose mounting.
+/// The scale the step finds (robot turn per sensor turn) must be within this factor of
+/// 1, either way: a sensor's own scale error is ±0.5 % and a tilted mounting's
+/// 1/cos(tilt) (1.2 at 33°); further off is a wrong full-scale setting, another axis or
+/// a loose mounting. Checked on the scale found, not on the correction to the configured
+/// one, so that a robot configured with a wrong scale is put right.
 const SCALE_LIMIT: f64 = 1.2;
 
 /// A turn by hand as the robot saw it.
@@ -112,17 +115,18 @@ pub fn learn(config: &GyroConfig, turn: &MeasuredTurn) -> Result<GyroConfig, Bri
         )));
     }
     let factor = TAU / turn.gyro_rad;
+    let scale = f64::from(config.scale) * factor.abs();
     let seen = format!(
         "the gyro saw {:.0}° of a 360° turn",
         turn.gyro_rad.to_degrees()
     );
-    if !factor.is_finite() || factor.abs() > SCALE_LIMIT {
+    if !scale.is_finite() || scale > SCALE_LIMIT {
         return Err(BringupError::Found(format!(
             "{seen}: its z axis is not vertical (tilted by more than 33°, or another \
              axis), or it is not read"
         )));
     }
-    if factor.abs() < 1.0 / SCALE_LIMIT {
+    if scale < 1.0 / SCALE_LIMIT {
         return Err(BringupError::Found(format!(
             "{seen}: its full-scale setting is not the configured {:.0}°/s",
             f64::from(config.full_scale_radps).to_degrees()
@@ -130,7 +134,7 @@ pub fn learn(config: &GyroConfig, turn: &MeasuredTurn) -> Result<GyroConfig, Bri
     }
     Ok(GyroConfig {
         axis_inverted: config.axis_inverted != (factor < 0.0),
-        scale: (f64::from(config.scale) * factor.abs()) as f32,
+        scale: scale as f32,
         ..*config
     })
 }
@@ -148,8 +152,7 @@ fn gyro_state<T: Transport>(s: &mut Session<'_, T>) -> Result<Option<GyroHealth>
 
 /// Prints `instruction` and watches the turn it asks for: from the last frame before the
 /// encoders move (beyond [`JITTER_COUNTS`](super::signals::JITTER_COUNTS)) to the first
-/// after they have stood still for [`TURN_OVER_STEPS`], a nudge ([`NUDGE_RAD`]) left
-/// out. The watch starts before the instruction is printed, so that no turn can begin
+/// after they have stood still for [`TURN_OVER_S`], a nudge ([`NUDGE_RAD`]) left out. The watch starts before the instruction is printed, so that no turn can begin
 /// unseen.
 fn watch_turn<T: Transport>(
     s: &mut Session<'_, T>,
@@ -161,8 +164,10 @@ fn watch_turn<T: Transport>(
     let mut frame = catch_up(s.client, &mut heard)?;
     writeln!(s.out, "  {instruction}")?;
     s.out.flush()?;
+    let turn_over_steps = (TURN_OVER_S / period_s).round() as u32;
     let mut watch = TurnWatch::new(frame, period_s);
     let (mut moving, mut since, mut counts) = (false, frame.step, frame.raw_counts);
+    let mut nudged = false;
     let mut last_counts = frame.raw_counts;
     while start.elapsed() < TURN_LIMIT {
         frame = next_frame(s.client, &mut heard)?;
@@ -179,17 +184,22 @@ fn watch_turn<T: Transport>(
         last_counts = frame.raw_counts;
         if turning {
             (moving, since, counts) = (true, frame.step, frame.raw_counts);
-        } else if moving && frame.step.wrapping_sub(since) >= TURN_OVER_STEPS {
-            if watch.turn.gyro_rad.abs() >= NUDGE_RAD {
-                return Ok(watch.turn);
+        } else if moving && frame.step.wrapping_sub(since) >= turn_over_steps {
+            let t = watch.turn;
+            if t.gyro_rad.abs() >= NUDGE_RAD || t.odometry_rad.abs() >= NUDGE_RAD {
+                return Ok(t);
             }
             // A nudge: wait on for the turn, from here.
-            moving = false;
+            (moving, nudged) = (false, true);
             watch = TurnWatch::new(frame, period_s);
         }
     }
     Err(BringupError::Silent(if moving {
         "the robot never stood still again after its turn".into()
+    } else if nudged {
+        "the robot was only nudged (under 45° by the gyro and by odometry): turn it one \
+         full turn"
+            .into()
     } else {
         "the robot was not turned: its encoders did not count (turn it with its wheels on \
          the floor)"
@@ -223,7 +233,8 @@ pub fn run<T: Transport>(s: &mut Session<'_, T>) -> Result<Finding, BringupError
     )?;
     writeln!(s.out, "  hold still: the robot learns its gyro's bias")?;
     let mut heard = Heard::default();
-    let still = wait_still(s.client, BIAS_STEPS, &mut heard)?;
+    let bias_steps = (BIAS_S * f64::from(current.robot.control_rate_hz)).round() as u32;
+    let still = wait_still(s.client, bias_steps, &mut heard)?;
     writeln!(
         s.out,
         "  the gyro's bias: {:+.3}°/s",
@@ -232,9 +243,12 @@ pub fn run<T: Transport>(s: &mut Session<'_, T>) -> Result<Finding, BringupError
     let period_s = 1.0 / f64::from(current.robot.control_rate_hz);
     let turn = watch_turn(
         s,
-        "now turn the robot by hand one full turn on the spot, counter-clockwise seen \
-         from above, wheels on the floor, back to its mark, and let go (the station \
-         watches until it has stood still for 2 s, so change your grip quicker than that)",
+        &format!(
+            "now turn the robot by hand one full turn on the spot, counter-clockwise seen \
+             from above, wheels on the floor, back to its mark, and let go (the station \
+             watches until it has stood still for {TURN_OVER_S:.0} s, so change your grip \
+             quicker than that)"
+        ),
         period_s,
     )?;
     writeln!(
@@ -298,14 +312,14 @@ mod tests {
     fn an_upside_down_gyro_is_inverted_and_a_correction_composes() {
         let learned = learn(&GYRO, &turn(-360.0, 365.0)).expect("one turn");
         assert!(learned.axis_inverted && learned.scale == 1.0);
-        // Already inverted and scaled 0.9, the gyro now sees 0.9 of the turn the wrong
-        // way.
+        // Already inverted and scaled 0.5 (wrongly), the gyro now sees half the turn the
+        // wrong way: the scale found is 1, and it is taken.
         let configured = GyroConfig {
             axis_inverted: true,
-            scale: 0.9,
+            scale: 0.5,
             ..GYRO
         };
-        let learned = learn(&configured, &turn(-324.0, 340.0)).expect("one turn");
+        let learned = learn(&configured, &turn(-180.0, 340.0)).expect("one turn");
         assert!(!learned.axis_inverted);
         assert!((learned.scale - 1.0).abs() < 1e-6, "{}", learned.scale);
     }

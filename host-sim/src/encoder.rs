@@ -9,12 +9,13 @@
 //!
 //! **Edge jitter** (the optional noise, in ticks RMS) models code-wheel eccentricity and
 //! quadrature phase error: each edge sits off its true place by a fixed offset of its own,
-//! uniform in ±√3·σ ticks (RMS σ), the same every time the wheel passes it. A turning
-//! wheel therefore reads unevenly spaced ticks; a still wheel reads a constant count, and
-//! a wheel resting on an edge flickers by one tick at most, as a real encoder does. The
-//! count never drifts from the true angle by more than the offsets — lost counts would be
-//! a fault (`ticks-lost`), not noise. σ is at most [`MAX_EDGE_JITTER_TICKS_RMS`], so that
-//! an edge moves by less than a tick and the edges keep their order.
+//! uniform in ±√3·σ ticks (RMS σ), the same every time the wheel passes it. The count is
+//! a function of the angle alone: a turning wheel reads unevenly spaced ticks, a still
+//! wheel a constant count, and a wheel dithering about an edge flickers by one, as a real
+//! encoder does. The count never drifts from the true angle by more than a tick — lost
+//! counts would be a fault (`ticks-lost`), not noise. σ is at most
+//! [`MAX_EDGE_JITTER_TICKS_RMS`], so that every edge stays within a tick of its place
+//! (neighbours may swap places; the count, which only counts them, does not notice).
 //!
 //! [`Encoder::read_delta`] returns the signed ticks since the previous reading, which is
 //! exactly what the firmware hands to the controller each step.
@@ -23,12 +24,13 @@ use robot_files::scenario::MAX_EDGE_JITTER_TICKS_RMS;
 
 /// ⌊x⌋ as an integer. `f64::floor` is a library call on the baseline x86-64 target (no
 /// SSE4.1), and this runs twice per control step; the cast truncates toward zero and
-/// saturates (NaN gives 0), so one correction for negative non-integers is enough.
+/// saturates (NaN gives 0), so one correction for negative non-integers is enough (itself
+/// saturating, for −∞).
 #[inline]
 fn floor_i64(x: f64) -> i64 {
     let t = x as i64;
     if (t as f64) > x {
-        t - 1
+        t.saturating_sub(1)
     } else {
         t
     }
@@ -82,10 +84,11 @@ impl Encoder {
         let k = floor_i64(x);
         let fraction = x - k as f64;
         // Every edge moves by less than a tick, so the edges up to k − 1 lie below x and
-        // those from k + 2 on above it: only edges k and k + 1 are in doubt.
+        // those from k + 2 on above it: only edges k and k + 1 are in doubt. (Saturating
+        // and wrapping at the i64 range, which only an absurd angle reaches.)
         let edge_k = self.edge_offset(k) <= fraction;
-        let edge_next = 1.0 + self.edge_offset(k + 1) <= fraction;
-        k - 1 + i64::from(edge_k) + i64::from(edge_next)
+        let edge_next = 1.0 + self.edge_offset(k.wrapping_add(1)) <= fraction;
+        k.saturating_add(i64::from(edge_k) + i64::from(edge_next) - 1)
     }
 
     /// Signed ticks since the previous reading, at wheel angle `angle_rad` (rad).
@@ -161,20 +164,28 @@ mod tests {
     }
 
     #[test]
-    fn a_still_wheel_reads_a_constant_count_whatever_the_jitter() {
-        for angle_ticks in [0.0, 0.5, 17.999, 18.0, -3.2] {
-            let mut e = Encoder::new(TICKS_PER_REV, MAX_EDGE_JITTER_TICKS_RMS, 0.0, 3);
-            let first = e.read_delta(angle_ticks * RAD_PER_TICK);
-            for _ in 0..1000 {
-                assert_eq!(e.read_delta(angle_ticks * RAD_PER_TICK), 0, "{angle_ticks}");
-            }
-            // A difference of two counts, each within a tick of its angle's.
-            assert!((i64::from(first) - angle_ticks.floor() as i64).abs() <= 2);
+    fn a_wheel_dithering_about_an_edge_flickers_by_one() {
+        let e = Encoder::new(TICKS_PER_REV, MAX_EDGE_JITTER_TICKS_RMS, 0.0, 3);
+        for k in -50..50 {
+            // Edge k's place, found by its offset; a wheel 0.01 tick either side of it.
+            let place = k as f64 + e.edge_offset(k);
+            let below = e.count((place - 0.01) * RAD_PER_TICK);
+            let above = e.count((place + 0.01) * RAD_PER_TICK);
+            assert_eq!(above - below, 1, "edge {k} at {place}");
         }
     }
 
     #[test]
-    fn the_count_keeps_the_edges_order_and_the_true_angle_within_a_tick() {
+    fn an_absurd_angle_saturates_instead_of_overflowing() {
+        let e = Encoder::new(TICKS_PER_REV, MAX_EDGE_JITTER_TICKS_RMS, 0.0, 3);
+        for angle in [f64::INFINITY, f64::NEG_INFINITY, 1e300, -1e300, f64::NAN] {
+            let _ = e.count(angle);
+        }
+        assert!(e.count(f64::INFINITY) >= i64::MAX - 1);
+    }
+
+    #[test]
+    fn the_count_never_goes_back_as_the_wheel_turns_and_stays_within_a_tick() {
         let e = Encoder::new(TICKS_PER_REV, MAX_EDGE_JITTER_TICKS_RMS, 0.0, 11);
         let mut last = e.count(-50.0 * RAD_PER_TICK);
         for i in -5000..5000 {

@@ -190,9 +190,12 @@ pub fn perturb(base: &Scenario, rng: &mut Rng) -> (Scenario, Draws) {
     // Slip stays below 1 whatever the base scenario had.
     p.slip[0] = (p.slip[0] + d.slip_left).min(0.95);
     p.slip[1] = (p.slip[1] + d.slip_right).min(0.95);
-    // The jitter stays within the model's range whatever the base scenario had.
-    p.encoder_noise_ticks_rms =
+    // The jitter stays within the model's range whatever the base scenario had; the draw
+    // recorded is the one applied.
+    let jitter =
         (p.encoder_noise_ticks_rms + d.encoder_noise_ticks_rms).min(MAX_EDGE_JITTER_TICKS_RMS);
+    d.encoder_noise_ticks_rms = jitter - p.encoder_noise_ticks_rms;
+    p.encoder_noise_ticks_rms = jitter;
     out.start.x_m += d.start_dx_m;
     out.start.y_m += d.start_dy_m;
     out.start.theta_rad += d.start_dtheta_rad;
@@ -425,7 +428,14 @@ mod tests {
         let mut base = Scenario::builtin("paper-circle").unwrap().unwrap();
         base.plant.encoder_noise_ticks_rms = MAX_EDGE_JITTER_TICKS_RMS;
         let (a, da) = perturb(&base, &mut Rng::new(9));
-        assert!(da.encoder_noise_ticks_rms > 0.0);
         assert_eq!(a.plant.encoder_noise_ticks_rms, MAX_EDGE_JITTER_TICKS_RMS);
+        assert_eq!(da.encoder_noise_ticks_rms, 0.0, "what was applied");
+        base.plant.encoder_noise_ticks_rms = 0.1;
+        let (a, da) = perturb(&base, &mut Rng::new(9));
+        assert!(da.encoder_noise_ticks_rms > 0.0);
+        assert_eq!(
+            a.plant.encoder_noise_ticks_rms,
+            0.1 + da.encoder_noise_ticks_rms
+        );
     }
 }

@@ -258,8 +258,7 @@ impl Default for PlantSpec {
 }
 
 /// Largest encoder edge jitter the simulator models, ticks RMS: an edge's offset is
-/// uniform in ±√3 · the jitter, so every edge stays within a tick of its true place and
-/// the edges keep their order.
+/// uniform in ±√3 · the jitter, so every edge stays within a tick of its true place.
 pub const MAX_EDGE_JITTER_TICKS_RMS: f64 = 0.5;
 
 /// Monte-Carlo spreads for `host-sim sweep`: each run draws every quantity uniformly in

@@ -600,6 +600,16 @@ mod tests {
         sample(rate * (1.0 + 1e-3 * (k % 2) as f32))
     }
 
+    /// A fusion that has read `rate` (rad/s, with a live sensor's noise) `readings` times
+    /// while still.
+    fn still_at(rate: f32, readings: u32) -> HeadingFusion {
+        let mut f = fusion(HeadingSource::Fused);
+        for k in 0..readings {
+            f.step(live(rate, k), AngleDelta::default(), 1, true);
+        }
+        f
+    }
+
     #[test]
     fn without_a_gyro_the_heading_is_odometrys() {
         let mut f = fusion(HeadingSource::Fused);
@@ -748,10 +758,7 @@ mod tests {
 
     #[test]
     fn a_robot_carried_and_turned_with_its_wheels_still_never_becomes_the_bias() {
-        let mut f = fusion(HeadingSource::Fused);
-        for k in 0..5000 {
-            f.step(live(0.01, k), AngleDelta::default(), 1, true);
-        }
+        let mut f = still_at(0.01, 5000);
         let learned = f.report().bias_radps;
         // Five seconds turned by hand at about 0.5 rad/s, wavering by ±0.02 rad/s (a hand
         // holds no rate steadier): each reading is left out.
@@ -761,10 +768,7 @@ mod tests {
         }
         assert_eq!(f.report().bias_radps, learned);
         // A steady reading just outside the band of the last ones restarts the count.
-        let mut g = fusion(HeadingSource::Fused);
-        for k in 0..1000 {
-            g.step(live(0.01, k), AngleDelta::default(), 1, true);
-        }
+        let mut g = still_at(0.01, 1000);
         let before = g.report().bias_radps;
         for k in 0..2 * u32::from(BIAS_RELEARN_AFTER_STEADY) {
             let jump = if k % 600 == 599 { 0.006 } else { 0.0 };
@@ -775,10 +779,7 @@ mod tests {
 
     #[test]
     fn an_offset_that_moved_just_past_the_gate_is_learned_within_a_second() {
-        let mut f = fusion(HeadingSource::Fused);
-        for k in 0..5000 {
-            f.step(live(0.001, k), AngleDelta::default(), 1, true);
-        }
+        let mut f = still_at(0.001, 5000);
         // The offset moves by just over the gate; the sensor's noise (±0.0011 rad/s)
         // puts every other reading inside the gate.
         let moved = 0.001 + BIAS_GATE_RADPS + 0.0005;
@@ -792,10 +793,7 @@ mod tests {
 
     #[test]
     fn a_new_calibration_ends_a_steady_spell() {
-        let mut f = fusion(HeadingSource::Fused);
-        for k in 0..1000 {
-            f.step(live(0.3, k), AngleDelta::default(), 1, true);
-        }
+        let mut f = still_at(0.3, 1000);
         let half = u32::from(BIAS_RELEARN_AFTER_STEADY) / 2 + 1;
         for _ in 0..half {
             f.step(sample(0.01), AngleDelta::default(), 1, true);
@@ -811,10 +809,7 @@ mod tests {
 
     #[test]
     fn a_step_that_is_not_still_ends_a_steady_spell() {
-        let mut f = fusion(HeadingSource::Fused);
-        for k in 0..1000 {
-            f.step(live(0.01, k), AngleDelta::default(), 1, true);
-        }
+        let mut f = still_at(0.01, 1000);
         let before = f.report().bias_radps;
         let half = u32::from(BIAS_RELEARN_AFTER_STEADY) / 2 + 1;
         for still in [true, false, true] {

@@ -736,11 +736,8 @@ mod tests {
 
     #[test]
     fn an_estimate_the_gate_keeps_refusing_is_learned_again_from_steady_readings() {
-        let mut f = fusion(HeadingSource::Fused);
         // Learned while the robot was turned unseen at 0.3 rad/s.
-        for k in 0..1000 {
-            f.step(live(0.3, k), AngleDelta::default(), 1, true);
-        }
+        let mut f = still_at(0.3, 1000);
         // Still now, the sensor steady at 0.01 rad/s: left out for just under a second,
         // then their mean is the estimate.
         let steady = u32::from(BIAS_RELEARN_AFTER_STEADY) - 1;

@@ -159,6 +159,21 @@ mod tests {
     }
 
     #[test]
+    fn an_inverted_left_motor_negates_the_left_duty_alone() {
+        let w = WiringConfig {
+            left_motor_inverted: true,
+            ..WiringConfig::AS_BUILT
+        };
+        assert_eq!(
+            w.duties_to_board(DUTY),
+            MotorCommand {
+                left: -DUTY.left,
+                right: DUTY.right
+            }
+        );
+    }
+
+    #[test]
     fn an_inverted_motor_is_negated_before_the_swap() {
         let w = WiringConfig {
             motors_swapped: true,

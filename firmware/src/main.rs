@@ -315,10 +315,12 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     board::halt_after_failure()
 }
 
-/// Hard fault: motors off, the record (unless a panic already wrote one: its `udf` ends
-/// here), log where, then stop. A stack overflow under flip-link locks the core up
-/// before this handler can run (the exception entry itself cannot push its frame); then
-/// only the watchdog stops the motors.
+/// Hard fault: motors off, then, unless a panic is in progress (its `udf` ends here,
+/// and its record and log are already written), the record and the log of where; then
+/// stop. A stack overflow under flip-link locks the core up before this handler can run
+/// (the exception entry itself cannot push its frame); then only the watchdog stops the
+/// motors. A debugger's hard-fault vector catch halts the core before this handler too
+/// (`docs/first-flash.md`, "Debugging").
 #[cortex_m_rt::exception]
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     // SAFETY: nothing else runs once the core is in the hard-fault handler.
@@ -327,8 +329,8 @@ unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
         panic_record::store(&robot_app::panic_record::PanicRecord::hard_fault(
             frame.pc(),
         ));
+        defmt::error!("hard fault at pc {=u32:#010x}; motors off", frame.pc());
     }
-    defmt::error!("hard fault at pc {=u32:#010x}; motors off", frame.pc());
     #[cfg(feature = "qemu")]
     board::halt_after_failure();
     #[cfg(not(feature = "qemu"))]

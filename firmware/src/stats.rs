@@ -152,34 +152,35 @@ pub fn start_stack_bytes() -> u32 {
     START_STACK_BYTES.load(Ordering::Relaxed)
 }
 
-/// Bytes kept unpainted below the stack pointer while repainting: this function's own
-/// frame lies above it, and nothing is pushed below it while interrupts are off.
+/// Bytes kept unpainted below the stack pointer while repainting: room for this
+/// function's own calls below its frame.
 const REPAINT_MARGIN_BYTES: usize = 256;
 
 /// Records the stack start-up used, then paints again the part of it below the idle
 /// loop's stack pointer, so that [`stack_high_water_bytes`] measures the running tasks
 /// (idle and the interrupts), which is what the stack must hold in operation. Call it
-/// once, first thing in `idle`. The scan runs with interrupts on; the repaint, of only
-/// what start-up used (a few KiB: a few thousand cycles), with them off, so that no
-/// interrupt frame is painted over.
+/// once, first thing in `idle`.
+///
+/// Interrupts stay on (the link's receive interrupt must never wait a character time for
+/// it): `idle` is the lowest priority, so whenever one of its stores executes every
+/// interrupt that preempted it has returned, and nothing below its stack pointer is live.
+/// An interrupt taken between two stores pushes its frame there and pops it before the
+/// next; a word it leaves written counts towards the high-water mark, as it should.
 pub fn repaint_after_start() {
     let used = stack_high_water_bytes();
     START_STACK_BYTES.store(used, Ordering::Relaxed);
     let (bottom, words) = stack_region();
     let first = words.saturating_sub(used as usize / 4);
-    cortex_m::interrupt::free(|_| {
-        let sp = cortex_m::register::msp::read() as usize;
-        let limit = sp.saturating_sub(REPAINT_MARGIN_BYTES);
-        for i in first..words {
-            // SAFETY: `bottom + i` lies inside the stack region (as above), and below
-            // `limit`, under every live frame: interrupts are off, so nothing else uses
-            // the stack below this function's frame.
-            let word = unsafe { bottom.add(i) } as *mut u32;
-            if word as usize >= limit {
-                break;
-            }
-            // SAFETY: see above; a plain word store.
-            unsafe { word.write_volatile(PAINT) };
+    let sp = cortex_m::register::msp::read() as usize;
+    let limit = sp.saturating_sub(REPAINT_MARGIN_BYTES);
+    for i in first..words {
+        // SAFETY: `bottom + i` lies inside the stack region (as above), and below
+        // `limit`, under every live frame (see the doc comment).
+        let word = unsafe { bottom.add(i) } as *mut u32;
+        if word as usize >= limit {
+            break;
         }
-    });
+        // SAFETY: see above; a plain word store.
+        unsafe { word.write_volatile(PAINT) };
+    }
 }

@@ -18,15 +18,15 @@ pub const RESET_WAIT_US: u32 = 1_000;
 /// during which no register may be written after PWR_MGMT0 (section 12.9).
 pub const GYRO_START_UP_US: u32 = 45_000;
 
-/// An ICM-42688-P that answered its identity and took its configuration: gyro in
-/// low-noise mode at ±2000 °/s and 1 kHz, accelerometer off.
+/// An ICM-42688-P that answered its identity and took its configuration: adaptive
+/// full-scale range off, gyro in low-noise mode at ±2000 °/s and 1 kHz, accelerometer off.
 #[derive(Debug)]
 pub struct Icm42688<SPI> {
     spi: SPI,
 }
 
-/// The configuration writes [`Icm42688::probe`] makes after the reset, in order, each
-/// read back: the gyro's range and rate, the interrupt logic, the data-ready event, and
+/// The configuration writes [`Icm42688::probe`] makes after the reset and INTF_CONFIG1's
+/// read-modify-write, in order, each read back: the gyro's range and rate, the interrupt logic, the data-ready event, and
 /// last the power mode (which starts the gyro).
 const CONFIGURATION: [(u8, u8); 4] = [
     (reg::GYRO_CONFIG0, reg::GYRO_2000DPS_1KHZ),
@@ -37,7 +37,9 @@ const CONFIGURATION: [(u8, u8); 4] = [
 
 impl<SPI: SpiDevice> Icm42688<SPI> {
     /// Looks for the part on `spi` and starts its gyro: bank 0, soft reset, wait
-    /// [`RESET_WAIT_US`], WHO_AM_I, the configuration (each register read back), then wait
+    /// [`RESET_WAIT_US`], WHO_AM_I, the adaptive full-scale range disabled (INTF_CONFIG1
+    /// read, its AFSR field written, [`reg::afsr_disabled`]), the configuration (each
+    /// register read back), then wait
     /// [`GYRO_START_UP_US`] for valid data. About 47 ms, nearly all of it in `delay`.
     ///
     /// # Errors
@@ -54,16 +56,10 @@ impl<SPI: SpiDevice> Icm42688<SPI> {
         if who_am_i != reg::ICM42688P_ID {
             return Err(ProbeError::Absent { who_am_i });
         }
+        let interface = read(&mut spi, reg::INTF_CONFIG1)?;
+        configure(&mut spi, reg::INTF_CONFIG1, reg::afsr_disabled(interface))?;
         for (register, value) in CONFIGURATION {
-            write(&mut spi, register, value)?;
-            let back = read(&mut spi, register)?;
-            if back != value {
-                return Err(ProbeError::Configuration {
-                    register,
-                    wrote: value,
-                    read: back,
-                });
-            }
+            configure(&mut spi, register, value)?;
         }
         delay.delay_us(GYRO_START_UP_US);
         Ok(Self { spi })
@@ -93,6 +89,25 @@ impl<SPI: SpiDevice> Icm42688<SPI> {
 /// One register write: address, value.
 fn write<SPI: SpiDevice>(spi: &mut SPI, register: u8, value: u8) -> Result<(), SPI::Error> {
     spi.write(&[register, value])
+}
+
+/// One register write read back: [`ProbeError::Configuration`] when the part does not
+/// keep the value.
+fn configure<SPI: SpiDevice>(
+    spi: &mut SPI,
+    register: u8,
+    value: u8,
+) -> Result<(), ProbeError<SPI::Error>> {
+    write(spi, register, value)?;
+    let back = read(spi, register)?;
+    if back != value {
+        return Err(ProbeError::Configuration {
+            register,
+            wrote: value,
+            read: back,
+        });
+    }
+    Ok(())
 }
 
 /// One register read: the address with the read flag, then its value.

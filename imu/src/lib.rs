@@ -7,7 +7,7 @@
 //!
 //! | call | when | SPI traffic |
 //! |---|---|---|
-//! | [`Icm42688::probe`] | once, at start-up | soft reset, WHO_AM_I, four configuration writes read back |
+//! | [`Icm42688::probe`] | once, at start-up | soft reset, WHO_AM_I, the adaptive full-scale range off (a read-modify-write), four configuration writes, each read back |
 //! | [`Icm42688::read_gyro_z`] | every control step | one 6-byte burst (≈ 4 µs at 12.5 MHz) |
 //!
 //! A board with no IMU answers WHO_AM_I with something else (a floating or pulled-down

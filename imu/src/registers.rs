@@ -26,6 +26,24 @@ pub const INT_STATUS: u8 = 0x2D;
 /// INT_STATUS's DATA_RDY_INT bit.
 pub const DATA_RDY_INT: u8 = 1 << 3;
 
+/// INTF_CONFIG1: bits 3:0 are the datasheet's (ACCEL_LP_CLK_SEL, RTC_MODE, CLKSEL; reset
+/// value 0x91), bits 7:6 the adaptive full-scale range (AFSR), which the datasheet does
+/// not describe: left at its reset value (10, enabled) the part switches the gyro's range
+/// by itself and its output stalls for a moment while it does. ArduPilot and Betaflight
+/// write 01 here to disable it; a stall would look to the control core's stuck check like
+/// a failed gyro. The driver changes only these two bits ([`afsr_disabled`]).
+pub const INTF_CONFIG1: u8 = 0x4D;
+/// INTF_CONFIG1's AFSR field, bits 7:6.
+pub const AFSR_MASK: u8 = 0b1100_0000;
+/// INTF_CONFIG1's AFSR field value that disables the adaptive full-scale range.
+pub const AFSR_DISABLE: u8 = 0b0100_0000;
+
+/// `intf_config1` (an INTF_CONFIG1 value read from the part) with the adaptive
+/// full-scale range disabled and every other bit kept.
+pub const fn afsr_disabled(intf_config1: u8) -> u8 {
+    (intf_config1 & !AFSR_MASK) | AFSR_DISABLE
+}
+
 /// PWR_MGMT0: bits 3:2 GYRO_MODE, bits 1:0 ACCEL_MODE (00 = off, 11 = low noise).
 pub const PWR_MGMT0: u8 = 0x4E;
 /// PWR_MGMT0 value: gyro in low-noise mode, accelerometer off, temperature sensor on.

@@ -38,10 +38,17 @@ fn reset_and_identity(who_am_i: u8) -> Vec<Transaction<u8>> {
     [write(0x76, 0x00), write(0x11, 0x01), read(0x75, who_am_i)].concat()
 }
 
+/// INTF_CONFIG1 read at its reset value (0x91: AFSR field 10, enabled), written with the
+/// AFSR field 01 (disabled) and its other bits kept, and read back.
+fn afsr_off() -> Vec<Transaction<u8>> {
+    [read(0x4D, 0x91), write(0x4D, 0x51), read(0x4D, 0x51)].concat()
+}
+
 /// The whole start-up sequence of a present part that keeps every value.
 fn start_up() -> Vec<Transaction<u8>> {
     [
         reset_and_identity(0x47),
+        afsr_off(),
         write(0x4F, 0x06),
         read(0x4F, 0x06),
         write(0x64, 0x00),
@@ -100,10 +107,67 @@ fn the_configuration_is_a_1_khz_2000_dps_low_noise_gyro_with_the_accelerometer_o
 }
 
 #[test]
+fn the_adaptive_full_scale_range_is_disabled_and_the_other_interface_bits_kept() {
+    // Bits 7:6 become 01 whatever they were; bits 5:0 are the part's.
+    for (read_value, written) in [(0x91, 0x51), (0xFF, 0x7F), (0x00, 0x40), (0x40, 0x40)] {
+        assert_eq!(afsr_disabled(read_value), written, "{read_value:#04x}");
+    }
+    assert_eq!(INTF_CONFIG1, 0x4D);
+    // On the bus: read, then the field written, then read back, before any other
+    // configuration register; a part whose value differs from the reset value keeps its
+    // other bits.
+    let mut spi = Mock::new(
+        &[
+            reset_and_identity(0x47),
+            read(0x4D, 0x93),
+            write(0x4D, 0x53),
+            read(0x4D, 0x53),
+            write(0x4F, 0x06),
+            read(0x4F, 0x00),
+        ]
+        .concat(),
+    );
+    let result = Icm42688::probe(spi.clone(), &mut Waits::default());
+    assert_eq!(
+        result.unwrap_err(),
+        ProbeError::Configuration {
+            register: 0x4F,
+            wrote: 0x06,
+            read: 0x00
+        }
+    );
+    spi.done();
+}
+
+#[test]
+fn an_interface_register_that_keeps_the_adaptive_range_refuses_the_part() {
+    let mut spi = Mock::new(
+        &[
+            reset_and_identity(0x47),
+            read(0x4D, 0x91),
+            write(0x4D, 0x51),
+            read(0x4D, 0x91),
+        ]
+        .concat(),
+    );
+    let result = Icm42688::probe(spi.clone(), &mut Waits::default());
+    assert_eq!(
+        result.unwrap_err(),
+        ProbeError::Configuration {
+            register: 0x4D,
+            wrote: 0x51,
+            read: 0x91
+        }
+    );
+    spi.done();
+}
+
+#[test]
 fn a_register_that_does_not_keep_its_value_refuses_the_part() {
     let mut spi = Mock::new(
         &[
             reset_and_identity(0x47),
+            afsr_off(),
             write(0x4F, 0x06),
             read(0x4F, 0x00),
         ]

@@ -88,6 +88,7 @@ fn main() {
         chip: bounded(&text(NAME_CAP)),
         robot_name: bounded(&text(NAME_CAP)),
         params_hash: u32::MAX,
+        bridge: link::BridgeChip::Tb6612fng,
         clock: ClockSource::InternalFallback {
             expected_hz: u32::MAX,
         },

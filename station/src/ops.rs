@@ -165,6 +165,7 @@ pub fn describe_robot(info: &RobotInfo, failure: Option<&PanicReport>, link: &st
         ("firmware", format!("{} ({git})", info.firmware_version)),
         ("protocol", info.protocol.to_string()),
         ("parameters", format!("hash 0x{:08x}", info.params_hash)),
+        ("bridge", info.bridge.to_string()),
         ("clock", info.clock.to_string()),
         ("brown-out", brown_out_text(info.brown_out_reset)),
         ("last reset", reset_text(info.reset_cause).to_string()),
@@ -500,6 +501,7 @@ mod tests {
             chip: bounded("STM32F411"),
             robot_name: bounded("diff-drive"),
             params_hash: 0x1234_5678,
+            bridge: link::BridgeChip::Drv8833,
             clock,
             brown_out_reset,
             reset_cause: ResetCause::Watchdog,
@@ -527,6 +529,10 @@ mod tests {
         );
         assert_eq!(line(&text, "last failure"), "none recorded");
         assert_eq!(line(&text, "parameters"), "hash 0x12345678");
+        assert_eq!(
+            line(&text, "bridge"),
+            "DRV8833: 2S Li-ion (8.4 V full) at most"
+        );
         assert!(
             line(&text, "last reset").starts_with("the watchdog"),
             "{text}"

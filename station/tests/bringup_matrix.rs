@@ -429,3 +429,42 @@ fn the_gyro_step_finds_an_upside_down_imu_and_its_scale() {
     assert!(scale_error.abs() < 0.001, "{printed}");
     assert!(printed.contains("scale 0.97"), "{printed}");
 }
+
+#[test]
+fn the_supply_step_tells_to_unplug_a_battery_above_a_drv8833s_rating() {
+    let _one = one_at_a_time();
+    // A DRV8833 robot on 11.2 V: above the bridge's 10.8 V rating, below its 11.8 V
+    // absolute maximum (so the simulated bridge survives it).
+    let mut scenario = Scenario::load("paper-circle").expect("built in");
+    scenario.plant.driver.kind = robot_files::plant::DriverKind::Drv8833;
+    scenario.plant.driver.supply_v = 11.2;
+    scenario.robot.drive.max_supply_v = 10.8;
+    let (address, _remote) = served(scenario, Miswiring::default(), 60.0);
+    let dir = std::env::temp_dir().join(format!("station-bringup-drv-{}", std::process::id()));
+    let mut child = Command::new(env!("CARGO_BIN_EXE_station"))
+        .args(["--connect", &address, "bringup", "supply"])
+        .args(["--answers", "/dev/stdin", "--yes", "--restart", "--out"])
+        .arg(&dir)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the station starts");
+    writeln!(child.stdin.take().expect("piped"), "11.2").expect("the station reads");
+    let output = child.wait_with_output().expect("the station ends");
+    let _ = std::fs::remove_dir_all(&dir);
+    let printed = format!(
+        "{}{}",
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert_eq!(output.status.code(), Some(3), "{printed}");
+    assert!(
+        printed.contains(
+            "above the DRV8833's 10.8 V rating (11.8 V absolute maximum): unplug the battery now"
+        ),
+        "{printed}"
+    );
+    // Nothing was learned: the scale stays as it was.
+    assert_eq!(robot_params(&address).robot.wiring.supply_scale, 1.0);
+}

@@ -60,6 +60,7 @@ impl TestRobot {
                 chip: bounded(CHIP),
                 robot_name: bounded(ROBOT_NAME),
                 params_hash: params_hash(&self.params),
+                bridge: link::BridgeChip::Tb6612fng,
                 clock: ClockSource::Simulated,
                 brown_out_reset: BrownOutReset::NotApplicable,
                 reset_cause: link::ResetCause::Unknown,

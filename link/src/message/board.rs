@@ -1,5 +1,5 @@
-//! What the board found when it started: the clock it runs from, its brown-out reset
-//! level (both in [`RobotInfo`](crate::RobotInfo)), and the record of the failure that
+//! What the board is and found when it started: its motor bridge, the clock it runs from,
+//! its brown-out reset level (all in [`RobotInfo`](crate::RobotInfo)), and the record of the failure that
 //! ended the previous run ([`Request::GetPanicRecord`](crate::Request::GetPanicRecord)).
 
 use core::fmt;
@@ -74,6 +74,75 @@ impl fmt::Display for Megahertz {
         } else {
             write!(f, "{whole}.{:06} MHz", rest)
         }
+    }
+}
+
+/// A Li-ion (or LiPo) cell's voltage at full charge, V: an `N`S pack reads N × this
+/// straight off the charger.
+pub const LI_ION_CELL_FULL_V: f32 = 4.2;
+
+/// The motor bridge on the robot's board. Its motor supply VM is the battery itself,
+/// whether or not the robot is armed: the firmware's refusal to arm above
+/// [`BridgeChip::max_supply_v`] keeps the motors still, not the bridge safe.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
+pub enum BridgeChip {
+    /// Toshiba TB6612FNG: VM 2.5–13.5 V operating, 15 V absolute maximum.
+    Tb6612fng,
+    /// TI DRV8833: VM 2.7–10.8 V operating, 11.8 V absolute maximum (SLVSAR1,
+    /// "Recommended Operating Conditions" and "Absolute Maximum Ratings").
+    Drv8833,
+}
+
+impl BridgeChip {
+    /// Every bridge the firmware drives.
+    pub const ALL: [BridgeChip; 2] = [BridgeChip::Tb6612fng, BridgeChip::Drv8833];
+
+    /// The highest motor supply the chip is rated to operate at, V: the highest a robot's
+    /// `drive.max_supply_v` may be, above which the supervisor faults.
+    pub const fn max_supply_v(self) -> f32 {
+        match self {
+            BridgeChip::Tb6612fng => 13.5,
+            BridgeChip::Drv8833 => 10.8,
+        }
+    }
+
+    /// The chip's absolute maximum motor supply, V: above it the bridge may be damaged,
+    /// driving or not.
+    pub const fn absolute_max_v(self) -> f32 {
+        match self {
+            BridgeChip::Tb6612fng => 15.0,
+            BridgeChip::Drv8833 => 11.8,
+        }
+    }
+
+    /// The most Li-ion cells in series whose full charge is within
+    /// [`BridgeChip::max_supply_v`]: 3 (12.6 V) on the TB6612FNG, 2 (8.4 V) on the DRV8833.
+    pub const fn max_li_ion_cells(self) -> u8 {
+        (self.max_supply_v() / LI_ION_CELL_FULL_V) as u8
+    }
+
+    /// The part's name: `TB6612FNG` or `DRV8833`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            BridgeChip::Tb6612fng => "TB6612FNG",
+            BridgeChip::Drv8833 => "DRV8833",
+        }
+    }
+}
+
+impl fmt::Display for BridgeChip {
+    /// The batteries the bridge takes, e.g. `DRV8833: 2S Li-ion (8.4 V full) at most`
+    /// (the sentence the docs use, checked against this).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let cells = self.max_li_ion_cells();
+        let full_dv = u32::from(cells) * 42;
+        write!(
+            f,
+            "{}: {cells}S Li-ion ({}.{} V full) at most",
+            self.name(),
+            full_dv / 10,
+            full_dv % 10
+        )
     }
 }
 
@@ -187,6 +256,30 @@ mod tests {
         assert!(fallback
             .to_string()
             .starts_with("internal RC oscillator: the 25 MHz external oscillator did not start"));
+    }
+
+    #[test]
+    fn each_bridge_takes_the_packs_whose_full_charge_is_within_its_operating_rating() {
+        assert_eq!(
+            BridgeChip::Tb6612fng.to_string(),
+            "TB6612FNG: 3S Li-ion (12.6 V full) at most"
+        );
+        assert_eq!(
+            BridgeChip::Drv8833.to_string(),
+            "DRV8833: 2S Li-ion (8.4 V full) at most"
+        );
+        for bridge in BridgeChip::ALL {
+            let cells = f32::from(bridge.max_li_ion_cells());
+            let full_v = cells * LI_ION_CELL_FULL_V;
+            assert!(full_v <= bridge.max_supply_v(), "{bridge}");
+            assert!(
+                full_v + LI_ION_CELL_FULL_V > bridge.max_supply_v(),
+                "{bridge}"
+            );
+            assert!(bridge.max_supply_v() < bridge.absolute_max_v(), "{bridge}");
+        }
+        // One more cell on the DRV8833 (a full 3S pack) is above even its absolute maximum.
+        assert!(3.0 * LI_ION_CELL_FULL_V > BridgeChip::Drv8833.absolute_max_v());
     }
 
     #[test]

@@ -50,7 +50,8 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
 pub use self::board::{
-    BrownOutReset, ClockSource, FailureKind, PanicReport, PANIC_FILE_CAP, PANIC_MESSAGE_CAP,
+    BridgeChip, BrownOutReset, ClockSource, FailureKind, PanicReport, LI_ION_CELL_FULL_V,
+    PANIC_FILE_CAP, PANIC_MESSAGE_CAP,
 };
 pub use self::path::{CommitSummary, PathBegin, PathChunk, PathCommit, SEGMENTS_PER_CHUNK};
 pub use self::refusal::{FieldProblem, NotPermitted, PathProblem, Refusal, FIELD_CAP, PROBLEM_CAP};
@@ -406,6 +407,9 @@ pub struct RobotInfo {
     pub robot_name: String<NAME_CAP>,
     /// [`params_hash`](crate::params_hash) of the active configuration.
     pub params_hash: u32,
+    /// The board's motor bridge (on the virtual robot, the simulated plant's), which
+    /// bounds the battery it may be connected to.
+    pub bridge: BridgeChip,
     /// What the robot's clock runs from (an internal fallback when the external
     /// oscillator did not start).
     pub clock: ClockSource,

@@ -480,6 +480,7 @@ impl<'a> LinkService<'a> {
             chip: bounded(id.chip),
             robot_name: bounded(id.robot_name),
             params_hash: self.active_hash,
+            bridge: self.bridge,
             clock: id.clock,
             brown_out_reset: id.brown_out_reset,
             reset_cause: self.reset_cause,

@@ -37,26 +37,9 @@
 //! - arms in two steps: inputs to brake with the driver still disabled, then the enable
 //!   line, so the driver wakes into a latched brake.
 
-/// The motor bridge on the board, for what its supply may be.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BridgeChip {
-    /// Toshiba TB6612FNG: motor supply VM 2.5–13.5 V operating, 15 V absolute maximum.
-    Tb6612fng,
-    /// TI DRV8833: motor supply VM 2.7–10.8 V operating, 11.8 V absolute maximum
-    /// (SLVSAR1, "Recommended Operating Conditions" and "Absolute Maximum Ratings").
-    Drv8833,
-}
-
-impl BridgeChip {
-    /// The highest motor supply the chip is rated to operate at, V: the highest a robot's
-    /// `drive.max_supply_v` may be, above which the supervisor faults.
-    pub const fn max_supply_v(self) -> f32 {
-        match self {
-            BridgeChip::Tb6612fng => 13.5,
-            BridgeChip::Drv8833 => 10.8,
-        }
-    }
-}
+/// The motor bridge on the board, for what its supply may be (the protocol's, since the
+/// robot reports it).
+pub use link::BridgeChip;
 
 /// Direction of a driven motor, seen from the bridge (after any wiring inversion).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

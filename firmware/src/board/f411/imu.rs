@@ -10,7 +10,11 @@
 //! bytes (command, GYRO_DATA_Z1, Z0, two timestamp bytes, INT_STATUS) at [`SPI_HZ`]:
 //! 3.8 µs of clocking, about 5 µs (500 cycles at 100 MHz, 0.5 % of the period) with the
 //! driver around it. A master cannot be held off by its slave, so the cost is the same
-//! whatever the part does or whether it is there. A separate task would save none of it
+//! whatever the part does or whether it is there; and each byte's wait is bounded
+//! ([`ImuSpi`]), so a disabled or misconfigured SPI2 ends the read with an error after
+//! 2.6 µs instead of spinning the step until the watchdog: that step has no reading, and
+//! the control core reports the gyro absent once readings have been missing for its
+//! limit. A separate task would save none of it
 //! (the control step needs the reading before it starts) and add a context and its
 //! hand-over; the link USART's interrupt, above the control task, still preempts the
 //! read, so the USART2 rule holds unchanged.
@@ -25,13 +29,14 @@
 
 use controller_core::gyro::GyroSample;
 use embedded_hal::delay::DelayNs;
-use embedded_hal::spi::{ErrorType, Operation, SpiBus, SpiDevice, MODE_3};
+use embedded_hal::spi::{ErrorKind, ErrorType, Operation, SpiDevice, MODE_3};
 use imu::{Icm42688, ProbeError};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::rcc::Rcc;
 use stm32f4xx_hal::spi::{self, Spi};
 
 use super::pins::{ImuPins, Out};
+use super::wait::within_cycles;
 use super::{CLOCK_PLAN, SYSCLK_HZ};
 
 /// The SPI clock asked of the HAL, Hz: PCLK1 ÷ 4 on the F411 (50 MHz → 12.5 MHz);
@@ -56,32 +61,117 @@ const _: () = assert!(
     "the IMU's SPI clock is above the part's maximum"
 );
 
+/// The longest wait for one byte's flag (TXE before it is sent, RXNE after), core
+/// cycles: four byte times at the SPI clock the HAL sets (64 cycles a byte at 100 MHz
+/// and 12.5 MHz, so 256 cycles, 2.6 µs). A running SPI2 raises each flag within one byte
+/// time, so only a disabled or misconfigured peripheral reaches it; the wait polls once
+/// more after the bound, so a step preempted meanwhile (the link USART's interrupt) does
+/// not time out on a byte that came.
+const BYTE_WAIT_CYCLES: u32 = 4 * 8 * (SYSCLK_HZ / spi_clock_hz(CLOCK_PLAN.tree.pclk1_hz, SPI_HZ));
+
+/// Why an SPI transaction with the IMU failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImuBusError {
+    /// The peripheral reported an error (overrun, mode fault, CRC).
+    Spi(spi::Error),
+    /// A byte's flag did not come within [`BYTE_WAIT_CYCLES`].
+    Timeout,
+}
+
+impl core::fmt::Display for ImuBusError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Spi(e) => write!(f, "SPI2 error: {e:?}"),
+            Self::Timeout => write!(f, "SPI2 gave no byte within {BYTE_WAIT_CYCLES} cycles"),
+        }
+    }
+}
+
+impl core::error::Error for ImuBusError {}
+
+impl embedded_hal::spi::Error for ImuBusError {
+    fn kind(&self) -> ErrorKind {
+        match self {
+            Self::Spi(e) => e.kind(),
+            Self::Timeout => ErrorKind::Other,
+        }
+    }
+}
+
 /// The SPI bus with the IMU's chip select (PB12, active low) around each transaction.
+/// Every byte is exchanged with a bounded wait ([`BYTE_WAIT_CYCLES`]), never the HAL's
+/// unbounded blocking calls: the control step reads through it.
 pub struct ImuSpi {
     bus: Spi<pac::SPI2>,
     chip_select: Out<'B', 12>,
 }
 
+impl ImuSpi {
+    /// Sends `out` and returns the byte clocked in meanwhile (full duplex: every byte
+    /// sent brings one back, which is read so that the next one finds RXNE clear).
+    fn exchange(&mut self, out: u8) -> Result<u8, ImuBusError> {
+        let bus = &mut self.bus;
+        within_bound(|| bus.write_nonblocking(out))?;
+        within_bound(|| bus.read_nonblocking())
+    }
+}
+
+/// Polls `poll` until it answers or [`BYTE_WAIT_CYCLES`] pass.
+fn within_bound<T>(mut poll: impl FnMut() -> nb::Result<T, spi::Error>) -> Result<T, ImuBusError> {
+    let mut answer = None;
+    within_cycles(BYTE_WAIT_CYCLES, || match poll() {
+        Err(nb::Error::WouldBlock) => false,
+        other => {
+            answer = Some(other);
+            true
+        }
+    });
+    match answer {
+        Some(Ok(value)) => Ok(value),
+        Some(Err(nb::Error::Other(e))) => Err(ImuBusError::Spi(e)),
+        Some(Err(nb::Error::WouldBlock)) | None => Err(ImuBusError::Timeout),
+    }
+}
+
 impl ErrorType for ImuSpi {
-    type Error = spi::Error;
+    type Error = ImuBusError;
 }
 
 impl SpiDevice for ImuSpi {
-    fn transaction(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), spi::Error> {
+    fn transaction(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), ImuBusError> {
         self.chip_select.set_low();
         let result = operations
             .iter_mut()
             .try_for_each(|operation| match operation {
-                Operation::Read(words) => self.bus.read(words),
-                Operation::Write(words) => SpiBus::write(&mut self.bus, words),
-                Operation::Transfer(read, write) => SpiBus::transfer(&mut self.bus, read, write),
-                Operation::TransferInPlace(words) => self.bus.transfer_in_place(words),
+                Operation::Read(words) => words.iter_mut().try_for_each(|word| {
+                    *word = self.exchange(0)?;
+                    Ok(())
+                }),
+                Operation::Write(words) => words.iter().try_for_each(|word| {
+                    self.exchange(*word)?;
+                    Ok(())
+                }),
+                Operation::Transfer(read, write) => {
+                    // As embedded-hal specifies: as many bytes as the longer of the two,
+                    // zeros sent past `write`'s end, the bytes past `read`'s dropped.
+                    for i in 0..read.len().max(write.len()) {
+                        let back = self.exchange(write.get(i).copied().unwrap_or(0))?;
+                        if let Some(word) = read.get_mut(i) {
+                            *word = back;
+                        }
+                    }
+                    Ok(())
+                }
+                Operation::TransferInPlace(words) => words.iter_mut().try_for_each(|word| {
+                    *word = self.exchange(*word)?;
+                    Ok(())
+                }),
                 Operation::DelayNs(ns) => {
                     CycleDelay.delay_ns(*ns);
                     Ok(())
                 }
             });
-        // Every byte is clocked out when the last read returns (the HAL waits for each
+        // Every byte is clocked out when the last exchange returns (it waited for that
         // byte's RXNE), so raising the select here ends the frame after it.
         self.chip_select.set_high();
         result

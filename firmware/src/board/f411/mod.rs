@@ -163,8 +163,9 @@ const TICK_PERIOD: NonZeroU32 = match NonZeroU32::new(TICK_TIMER_HZ / robot::ROB
 };
 
 /// The link's baud rate (8N1), bit/s: the protocol's [`link::LINK_BAUD`] (230 400). A
-/// character then takes 43.4 µs, longer than the longest control step, so the receive
-/// interrupt (below the control task) never misses a byte. Both the ST-LINK's virtual COM
+/// character then takes 43.4 µs; the receive interrupt, above every task (priority 4),
+/// takes each before the next arrives as long as nothing masks interrupts for longer
+/// (`docs/realtime.md`). Both the ST-LINK's virtual COM
 /// port and common USB-serial adapters (CP2102, CH340, FT232) run it.
 pub const LINK_BAUD: u32 = link::LINK_BAUD;
 

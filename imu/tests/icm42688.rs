@@ -61,6 +61,22 @@ fn start_up() -> Vec<Transaction<u8>> {
     .concat()
 }
 
+/// The probe, on a bus that goes as `bus`, refuses the part because `register` read
+/// `read` back after `wrote`, and uses the whole of `bus`.
+fn refused_at(bus: &[Vec<Transaction<u8>>], register: u8, wrote: u8, read: u8) {
+    let mut spi = Mock::new(&bus.concat());
+    let result = Icm42688::probe(spi.clone(), &mut Waits::default());
+    assert_eq!(
+        result.unwrap_err(),
+        ProbeError::Configuration {
+            register,
+            wrote,
+            read
+        }
+    );
+    spi.done();
+}
+
 fn burst(bytes: [u8; 5]) -> Vec<Transaction<u8>> {
     vec![
         Transaction::transaction_start(),
@@ -116,7 +132,7 @@ fn the_adaptive_full_scale_range_is_disabled_and_the_other_interface_bits_kept()
     // On the bus: read, then the field written, then read back, before any other
     // configuration register; a part whose value differs from the reset value keeps its
     // other bits.
-    let mut spi = Mock::new(
+    refused_at(
         &[
             reset_and_identity(0x47),
             read(0x4D, 0x93),
@@ -124,65 +140,41 @@ fn the_adaptive_full_scale_range_is_disabled_and_the_other_interface_bits_kept()
             read(0x4D, 0x53),
             write(0x4F, 0x06),
             read(0x4F, 0x00),
-        ]
-        .concat(),
+        ],
+        0x4F,
+        0x06,
+        0x00,
     );
-    let result = Icm42688::probe(spi.clone(), &mut Waits::default());
-    assert_eq!(
-        result.unwrap_err(),
-        ProbeError::Configuration {
-            register: 0x4F,
-            wrote: 0x06,
-            read: 0x00
-        }
-    );
-    spi.done();
 }
 
 #[test]
 fn an_interface_register_that_keeps_the_adaptive_range_refuses_the_part() {
-    let mut spi = Mock::new(
+    refused_at(
         &[
             reset_and_identity(0x47),
             read(0x4D, 0x91),
             write(0x4D, 0x51),
             read(0x4D, 0x91),
-        ]
-        .concat(),
+        ],
+        0x4D,
+        0x51,
+        0x91,
     );
-    let result = Icm42688::probe(spi.clone(), &mut Waits::default());
-    assert_eq!(
-        result.unwrap_err(),
-        ProbeError::Configuration {
-            register: 0x4D,
-            wrote: 0x51,
-            read: 0x91
-        }
-    );
-    spi.done();
 }
 
 #[test]
 fn a_register_that_does_not_keep_its_value_refuses_the_part() {
-    let mut spi = Mock::new(
+    refused_at(
         &[
             reset_and_identity(0x47),
             afsr_off(),
             write(0x4F, 0x06),
             read(0x4F, 0x00),
-        ]
-        .concat(),
+        ],
+        0x4F,
+        0x06,
+        0x00,
     );
-    let result = Icm42688::probe(spi.clone(), &mut Waits::default());
-    assert_eq!(
-        result.unwrap_err(),
-        ProbeError::Configuration {
-            register: 0x4F,
-            wrote: 0x06,
-            read: 0x00
-        }
-    );
-    spi.done();
 }
 
 #[test]

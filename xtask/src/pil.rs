@@ -468,8 +468,15 @@ fn pil(host_sim: &Path, firmware: &Path, args: &[&str], out: &Path) -> Result<St
         println!("  | {line}");
     }
     if !output.status.success() {
-        eprint!("{}", String::from_utf8_lossy(&output.stderr));
-        bail!("`{shown}` failed ({})", output.status);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        eprint!("{stderr}");
+        // The end of its standard error: host-sim prints its own error last.
+        let error: Vec<&str> = stderr.lines().rev().take(4).collect();
+        bail!(
+            "`{shown}` failed ({}): {}",
+            output.status,
+            error.into_iter().rev().collect::<Vec<_>>().join("\n")
+        );
     }
     Ok(stdout)
 }

@@ -184,13 +184,34 @@ pub fn run_all(ctx: &Context, steps: &[Step], budget_s: Option<u32>) -> bool {
         None => println!("\n==> summary ({total_s:.0} s)"),
     }
     for (name, secs, result) in &results {
-        let verdict = if result.is_ok() { "ok    " } else { "FAILED" };
-        println!("    {verdict} {name} ({secs:.1} s)");
+        match result {
+            Ok(()) => println!("    ok     {name} ({secs:.1} s)"),
+            // The reason again, so that the end of a long log says why.
+            Err(e) => println!(
+                "    FAILED {name} ({secs:.1} s)\n           {}",
+                failure_reason(e)
+            ),
+        }
     }
     let failed = results.iter().filter(|(_, _, r)| r.is_err()).count();
     println!("{} passed, {failed} failed", results.len() - failed);
     failed == 0
 }
+
+/// The first lines of a step's error (its context chain on one line each, at most
+/// [`REASON_LINES`]), for the summary.
+fn failure_reason(e: &anyhow::Error) -> String {
+    let text = format!("{e:#}");
+    let mut lines: Vec<&str> = text.lines().take(REASON_LINES + 1).collect();
+    if lines.len() > REASON_LINES {
+        lines.truncate(REASON_LINES);
+        lines.push("…");
+    }
+    lines.join("\n           ")
+}
+
+/// Lines of a failed step's error the summary repeats.
+const REASON_LINES: usize = 6;
 
 /// `cargo test` over the workspace's host crates (every crate but the target-only ones),
 /// followed by `extra`: CI's host-tests step, and the build every binary-running step
@@ -537,4 +558,32 @@ pub fn pil() -> Step {
         "pil: the firmware on an emulated Cortex-M4F against host-sim's plant (paper-circle, longest-path, encoder disconnect, link loss, with a gyro, the velocity mode)",
         crate::pil::check,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_failure_reason_keeps_its_context_and_at_most_its_first_lines() {
+        let e = anyhow::anyhow!("no answer").context("`host-sim pil velocity-steps` failed");
+        assert_eq!(
+            failure_reason(&e),
+            "`host-sim pil velocity-steps` failed: no answer"
+        );
+        let long = anyhow::anyhow!(
+            "{}",
+            (1..=9)
+                .map(|i| format!("line {i}"))
+                .collect::<Vec<_>>()
+                .join("\n")
+        );
+        let reason = failure_reason(&long);
+        assert!(reason.starts_with("line 1\n"), "{reason}");
+        assert!(
+            reason.contains("line 6") && !reason.contains("line 7"),
+            "{reason}"
+        );
+        assert!(reason.ends_with('…'), "{reason}");
+    }
 }

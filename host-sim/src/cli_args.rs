@@ -138,6 +138,11 @@ pub enum Command {
         /// into this directory.
         #[arg(long)]
         mcap_dir: Option<PathBuf>,
+        /// Every row in every configuration a user can arm (heading source × mode × armed
+        /// at rest or in motion) on the scenario: one line, the failed cells, and
+        /// matrix.json and matrix.md (the table docs/safety.md carries) in --out.
+        #[arg(long, conflicts_with = "mcap_dir")]
+        matrix: bool,
     },
     /// Processor in the loop: the firmware, built for the Cortex-M4F with its `qemu` board,
     /// runs under qemu-system-arm against this simulator's plant in lockstep, and a ground

@@ -58,6 +58,7 @@
 
 pub mod commands;
 pub mod encoder;
+pub mod fault_matrix;
 pub mod fault_suite;
 pub mod gyro;
 pub mod hardware;

@@ -86,7 +86,19 @@ fn dispatch(command: Command) -> Result<()> {
             scenario,
             law,
             out,
+            matrix: true,
+            ..
+        } => finish(&commands::faults::run_matrix(
+            &scenario,
+            LawKind::from(law),
+            out,
+        )?),
+        Command::Faults {
+            scenario,
+            law,
+            out,
             mcap_dir,
+            matrix: false,
         } => finish(&commands::faults::run(
             &scenario,
             LawKind::from(law),

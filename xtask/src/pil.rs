@@ -2,7 +2,7 @@
 //! under `qemu-system-arm` against `host-sim`'s plant in lockstep (`host-sim pil`), and
 //! `host-sim`'s built-in station configures it, uploads the path and arms it over the link.
 //!
-//! Six runs:
+//! Seven runs:
 //!
 //! 1. `paper-circle`, then `longest-path` (the most segments a path may have, followed by
 //!    projection: the control interrupt's worst case), each for its whole duration: each
@@ -11,7 +11,9 @@
 //! 2. `paper-circle` with the left encoder disconnected at 1 s, [`FAULT_RUN_S`] long
 //!    (shortened from the scenario's 30 s: the fault is detected within 0.6 s): the
 //!    motors must reach duty 0 within the fault suite's limit for that fault, and the
-//!    summary and digest must equal host-sim's for the same fault.
+//!    summary and digest must equal host-sim's for the same fault; then the same on the
+//!    gyro run's robot steering by the fused heading (its disagreement a warning, as by
+//!    default: the stall check must see the silent wheel).
 //! 3. `paper-circle` with the link cut 1 s after arming, [`FAULT_RUN_S`] long: the motors
 //!    must reach duty 0 within the heartbeat timeout (`host_sim::pil::verdict`).
 //! 4. `paper-circle` on a robot with a gyro ([`GYRO_SCENARIO`], [`GYRO_RUN_S`] long):
@@ -26,7 +28,7 @@
 //!    the armed figures include the velocity mode's control steps.
 //!
 //! The firmware's figures, read from each run's `pil.json` (every task's runs, longest
-//! run and total in instructions; the stack's high-water mark), the worst of the six
+//! run and total in instructions; the stack's high-water mark), the worst of the seven
 //! runs', are printed as the CPU-load line and table and checked against the CPU-load
 //! budget ([`ANY_STATE_LIMIT`], [`ARMED_MEAN_LIMIT`], [`ARMED_WORST_LIMIT`]) and
 //! [`STACK_LIMIT`].
@@ -68,6 +70,10 @@ pub const GYRO_RUN_S: &str = "10";
 
 /// `paper-circle` on a robot with a gyro ([`write_gyro_scenario`]): run 4.
 const GYRO_SCENARIO: &str = "paper-circle-with-gyro";
+/// `paper-circle` with an encoder disconnected ([`write_fault_scenario`]): run 2.
+const FAULT_SCENARIO: &str = "paper-circle-encoder-disconnect";
+/// The same on the gyro run's robot, steering by the fused heading: run 2 too.
+const FUSED_FAULT_SCENARIO: &str = "paper-circle-encoder-disconnect-fused";
 
 /// The paper's scenario: run 1, and the base of runs 2 and 3.
 const SCENARIO: &str = "paper-circle";
@@ -78,7 +84,7 @@ const LONGEST_PATH: &str = "longest-path";
 /// The velocity mode's built-in scenario: run 5.
 const VELOCITY_SCENARIO: &str = "velocity-steps";
 
-/// Builds the firmware for the emulated board and `host-sim`, then runs the six runs.
+/// Builds the firmware for the emulated board and `host-sim`, then runs the seven runs.
 pub fn check(ctx: &Context) -> Result<()> {
     let firmware = build_target_executables(ctx, "firmware", &["--features", "qemu"])?
         .into_iter()
@@ -88,13 +94,17 @@ pub fn check(ctx: &Context) -> Result<()> {
     let out = target_dir(ctx).join("pil");
 
     // 1. The paper's circle and the longest path the firmware accepts, each against
-    //    host-sim; 2. an encoder disconnect on the circle, against host-sim too; 3. a link
+    //    host-sim; 2. an encoder disconnect on the circle, by odometry's heading and by the
+    //    fused one, against host-sim too; 3. a link
     //    loss on the circle, which has no counterpart there; 4. the circle with a gyro,
     //    against host-sim; 5. the velocity mode, against host-sim. The figures are the
-    //    worst of the six runs.
-    let fault_scenario = out.join("paper-circle-encoder-disconnect.toml");
-    write_fault_scenario(&host_sim, &fault_scenario)?;
+    //    worst of the seven runs.
+    let fault_scenario = out.join(format!("{FAULT_SCENARIO}.toml"));
+    write_fault_scenario(&host_sim, &fault_scenario, false)?;
     let fault_scenario = path_str(&fault_scenario)?;
+    let fused_fault_scenario = out.join(format!("{FUSED_FAULT_SCENARIO}.toml"));
+    write_fault_scenario(&host_sim, &fused_fault_scenario, true)?;
+    let fused_fault_scenario = path_str(&fused_fault_scenario)?;
     let gyro_scenario = out.join(format!("{GYRO_SCENARIO}.toml"));
     write_gyro_scenario(&host_sim, &gyro_scenario)?;
     let gyro_scenario = path_str(&gyro_scenario)?;
@@ -114,7 +124,13 @@ pub fn check(ctx: &Context) -> Result<()> {
         PilRun {
             name: "encoder-disconnect",
             args: vec![fault_scenario, "--duration-s", FAULT_RUN_S],
-            host_sim_scenario: Some("paper-circle-encoder-disconnect"),
+            host_sim_scenario: Some(FAULT_SCENARIO),
+            stop_line: Some(": encoder-disconnect at "),
+        },
+        PilRun {
+            name: "encoder-disconnect-fused",
+            args: vec![fused_fault_scenario, "--duration-s", FAULT_RUN_S],
+            host_sim_scenario: Some(FUSED_FAULT_SCENARIO),
             stop_line: Some(": encoder-disconnect at "),
         },
         PilRun {
@@ -494,15 +510,25 @@ fn print_lines(output: &str, pattern: &str, expected: usize) -> Result<()> {
     Ok(())
 }
 
+/// The encoder-disconnect run's fault: the left encoder disconnected 1 s after the start.
+const ENCODER_DISCONNECT: &str =
+    "\n[[faults]]\nat_s = 1.0\nkind = \"encoder-disconnect\"\nwheel = \"left\"\n";
+
+/// The gyro run's robot (see [`write_gyro_scenario`]).
+const WITH_GYRO: &str = "\n[gyro]\nheading = \"fused\"\nlatency_periods = 1\n";
+
 /// `paper-circle` with the left encoder disconnected 1 s after the start, as a scenario
-/// file at `path`.
-fn write_fault_scenario(host_sim: &Path, path: &Path) -> Result<()> {
-    write_variant(
-        host_sim,
-        path,
-        "paper-circle-encoder-disconnect",
-        "\n[[faults]]\nat_s = 1.0\nkind = \"encoder-disconnect\"\nwheel = \"left\"\n",
-    )
+/// file at `path`; with `gyro`, on the gyro run's robot steering by the fused heading.
+fn write_fault_scenario(host_sim: &Path, path: &Path, gyro: bool) -> Result<()> {
+    let (name, extra) = if gyro {
+        (
+            FUSED_FAULT_SCENARIO,
+            format!("{WITH_GYRO}{ENCODER_DISCONNECT}"),
+        )
+    } else {
+        (FAULT_SCENARIO, ENCODER_DISCONNECT.to_string())
+    };
+    write_variant(host_sim, path, name, &extra)
 }
 
 /// `paper-circle` on a robot with a gyro, steering by odometry's heading (the firmware's
@@ -511,12 +537,7 @@ fn write_fault_scenario(host_sim: &Path, path: &Path) -> Result<()> {
 /// (`host_sim::pil::firmware`), and a reading repeated there would be integrated again
 /// and again by the disarmed robot, where `host-sim run` sees it once.
 fn write_gyro_scenario(host_sim: &Path, path: &Path) -> Result<()> {
-    write_variant(
-        host_sim,
-        path,
-        GYRO_SCENARIO,
-        "\n[gyro]\nheading = \"fused\"\nlatency_periods = 1\n",
-    )
+    write_variant(host_sim, path, GYRO_SCENARIO, WITH_GYRO)
 }
 
 /// `paper-circle` renamed `name`, with `extra` (TOML tables) appended, written to `path`.

@@ -555,7 +555,7 @@ pub fn link_qemu() -> Step {
 /// link loss and a robot with a gyro (see `crate::pil`).
 pub fn pil() -> Step {
     Step::new(
-        "pil: the firmware on an emulated Cortex-M4F against host-sim's plant (paper-circle, longest-path, encoder disconnect, link loss, with a gyro, the velocity mode)",
+        "pil: the firmware on an emulated Cortex-M4F against host-sim's plant (paper-circle, longest-path, encoder disconnect by either heading, link loss, with a gyro, the velocity mode)",
         crate::pil::check,
     )
 }

@@ -39,7 +39,12 @@ impl MissedTicks {
     }
 }
 
-/// Consecutive "driven but not moving" steps of each wheel.
+/// Each wheel's count of steps driven without the motion the drive asks for (see
+/// [`StallCheck`]): up on a step driven (|u| ≥ `min_volts`) with the wheel slower than
+/// `min_speed_rad_s` in the driven direction, down on a step neither driven nor moving,
+/// back to 0 as soon as the wheel is seen moving. A wheel whose encoder is silent under a
+/// drive that dips below `min_volts` now and then (the outer loop steering on another
+/// heading source) still reaches the limit; a wheel that turns never keeps a count.
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Stall {
     steps: [u32; 2],
@@ -60,12 +65,17 @@ impl Stall {
         let mut stalled = [false; 2];
         for (i, (volts, speed)) in wheels.into_iter().enumerate() {
             let driven = math::abs(volts) >= check.min_volts;
-            let direction = if volts >= 0.0 { 1.0 } else { -1.0 };
-            if driven && speed * direction < check.min_speed_rad_s {
-                self.steps[i] = self.steps[i].saturating_add(1);
+            let moving = if driven {
+                let direction = if volts >= 0.0 { 1.0 } else { -1.0 };
+                speed * direction >= check.min_speed_rad_s
             } else {
-                self.steps[i] = 0;
-            }
+                math::abs(speed) >= check.min_speed_rad_s
+            };
+            self.steps[i] = match (moving, driven) {
+                (true, _) => 0,
+                (false, true) => self.steps[i].saturating_add(1),
+                (false, false) => self.steps[i].saturating_sub(1),
+            };
             stalled[i] = self.steps[i] >= check.timeout_steps;
         }
         stalled
@@ -273,7 +283,7 @@ mod tests {
         assert_eq!(s.update(&t, &check), [false, false]);
         assert_eq!(s.update(&t, &check), [false, false]);
         assert_eq!(s.update(&t, &check), [true, true]);
-        // Turning the driven way resets the count; so does a small voltage.
+        // Turning the driven way resets the count; a small voltage never counts.
         s.reset();
         assert_eq!(s.update(&telemetry(4.0, 5.0, 0.0), &check), [false, false]);
         for _ in 0..5 {
@@ -284,6 +294,31 @@ mod tests {
             s.update(&telemetry(-4.0, 0.5, 0.0), &check);
         }
         assert_eq!(s.update(&telemetry(-4.0, 0.5, 0.0), &check), [true, true]);
+    }
+
+    #[test]
+    fn a_silent_wheel_under_a_drive_that_dips_now_and_then_still_stalls() {
+        let check = STALL;
+        let mut s = Stall::default();
+        let (driven, dip) = (telemetry(4.0, 0.0, 0.0), telemetry(1.0, 0.0, 0.0));
+        // Driven, a dip below min_volts, driven: the dip takes one step off, it does not
+        // start the count again (2 − 1 + 1 = 2, then 3).
+        assert_eq!(s.update(&driven, &check), [false, false]);
+        assert_eq!(s.update(&driven, &check), [false, false]);
+        assert_eq!(s.update(&dip, &check), [false, false]);
+        assert_eq!(s.update(&driven, &check), [false, false]);
+        assert_eq!(s.update(&driven, &check), [true, true]);
+        // Dips alone drain the count to 0 and no further: three driven steps again.
+        for _ in 0..10 {
+            s.update(&dip, &check);
+        }
+        assert_eq!(s.update(&driven, &check), [false, false]);
+        assert_eq!(s.update(&driven, &check), [false, false]);
+        assert_eq!(s.update(&driven, &check), [true, true]);
+        // A wheel seen turning under a small voltage (either way) clears it at once.
+        s.update(&telemetry(1.0, -2.0, 0.0), &check);
+        assert_eq!(s.update(&driven, &check), [false, false]);
+        assert_eq!(s.update(&driven, &check), [false, false]);
     }
 
     #[test]

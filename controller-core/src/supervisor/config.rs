@@ -14,11 +14,15 @@ use crate::reference::{Reference, ReferenceMode};
 
 use super::RunMode;
 
-/// Detects a wheel that does not follow its drive: driven with |u| ≥ `min_volts` while
-/// turning slower than `min_speed_rad_s` in the driven direction, for `timeout_steps`
-/// consecutive steps. Catches a stalled or blocked wheel, an unplugged motor or encoder
-/// and an encoder or motor wired with the wrong polarity (the loop then runs away to its
-/// voltage limit).
+/// Detects a wheel that does not follow its drive, from what the wheel does (its
+/// encoder) against what its loop applies, whatever the heading is estimated from:
+/// `timeout_steps` steps driven with |u| ≥ `min_volts` while turning slower than
+/// `min_speed_rad_s` in the driven direction, with no step in between that saw the wheel
+/// turn (a step neither driven nor turning takes one off the count). Catches a stalled or
+/// blocked wheel, an unplugged motor or encoder and an encoder or motor wired with the
+/// wrong polarity (the loop then runs away to its voltage limit). The count is not reset
+/// by a step below `min_volts`: steering by the gyro, the outer loop turns a wheel with a
+/// silent encoder down again and again, and the drive dips below any threshold.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(
@@ -30,7 +34,8 @@ pub struct StallCheck {
     pub min_volts: f32,
     /// Slowest wheel speed in the driven direction that counts as moving, rad/s (≥ 0).
     pub min_speed_rad_s: f32,
-    /// Consecutive control steps of "driven but not moving" before the fault (≥ 1).
+    /// Control steps of "driven but not moving", net of the steps neither driven nor
+    /// moving, before the fault (≥ 1).
     pub timeout_steps: u32,
 }
 
@@ -178,7 +183,7 @@ pub const fn ms_to_steps(rate_hz: u32, ms: u32) -> u32 {
 impl SupervisorConfig {
     /// Defaults for a loop at `control_rate_hz` (Hz): 20 ms debounce, 1 s long press, no
     /// auto-arm, no run limit, 5 overruns in a row, 500 ms background timeout, missed
-    /// ticks: more than 20 in 1 s or a gap of 10 periods, a stall after 500 ms at ≥ 3.6 V
+    /// ticks: more than 20 in 1 s or a gap of 10 periods, a stall after 400 ms (net) at ≥ 1 V
     /// below 1 rad/s, a wheel loop saturated more than half of a 1 s window, no divergence
     /// check or geofence (they depend on the path: see
     /// [`SupervisorConfig::with_path_checks`]), battery warning at 5.0 V and fault at
@@ -208,10 +213,12 @@ impl SupervisorConfig {
                 max_per_window: 20,
                 max_gap_periods: 10,
             },
+            // 1 V turns a free wheel of the default motor at (1 − k_s)/k_V ≈ 4 rad/s: a
+            // working wheel does not stay below 1 rad/s under it for most of 0.4 s.
             stall: StallCheck {
-                min_volts: 3.6,
+                min_volts: 1.0,
                 min_speed_rad_s: 1.0,
-                timeout_steps: ms_to_steps(control_rate_hz, 500),
+                timeout_steps: ms_to_steps(control_rate_hz, 400),
             },
             saturation: SaturationCheck {
                 window_steps: ms_to_steps(control_rate_hz, 1000),

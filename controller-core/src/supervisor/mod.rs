@@ -561,9 +561,14 @@ impl Supervisor {
             self.faults.set(Fault::MissedTicks);
         }
         if self.state == State::Armed {
-            let [left, right] = self.stall.update(t, &self.config.stall);
-            self.faults.set_if(Fault::StallLeft, left);
-            self.faults.set_if(Fault::StallRight, right);
+            // The tune's breakaway ramp drives wheels that do not turn yet, on purpose, up
+            // to a voltage no default can know for a motor not yet identified; the tune
+            // bounds it itself (`TuneAbort::NoBreakaway`, 0.5 s at its highest voltage).
+            if self.run_mode != RunMode::Tune {
+                let [left, right] = self.stall.update(t, &self.config.stall);
+                self.faults.set_if(Fault::StallLeft, left);
+                self.faults.set_if(Fault::StallRight, right);
+            }
             let [left, right] = self
                 .saturation
                 .update(t, periods.get(), &self.config.saturation);

@@ -10,7 +10,8 @@ use anyhow::{Context, Result};
 use controller_core::law::LawKind;
 
 use super::{create_dir, default_dir, load, ms_or, Failed, Report};
-use crate::fault_suite::{run_suite, CaseResult, Expectation, INJECT_AT_S};
+use crate::fault_matrix::{self, summary_line, Cell, Configuration};
+use crate::fault_suite::{cases, run_suite, CaseResult, Expectation, INJECT_AT_S};
 
 /// The suite's results and where `faults.json` went.
 #[derive(Clone, Debug)]
@@ -19,6 +20,9 @@ pub struct FaultsReport {
     pub scenario: String,
     /// The steering law.
     pub law: LawKind,
+    /// The scenario's own configuration (a row stated for the other heading source, or a
+    /// re-arm row, runs in the nearest one where it applies).
+    pub configuration: Configuration,
     /// One result per case, in [`crate::fault_suite::cases`] order.
     pub results: Vec<CaseResult>,
     /// `faults.json`.
@@ -29,9 +33,10 @@ impl fmt::Display for FaultsReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "{} with the {} law, armed in motion, each fault injected at {INJECT_AT_S} s:\n",
+            "{} with the {} law, {}, each fault injected {INJECT_AT_S} s after arming:\n",
             self.scenario,
-            self.law.name()
+            self.law.name(),
+            self.configuration
         )?;
         writeln!(
             f,
@@ -120,10 +125,156 @@ pub fn run(
     let json = serde_json::to_string_pretty(&results).context("serialising the faults")?;
     std::fs::write(&file, json + "\n").with_context(|| format!("writing {}", file.display()))?;
     Ok(FaultsReport {
+        configuration: Configuration::of(&scenario),
         scenario: scenario.name,
         law,
         results,
         file,
+    })
+}
+
+/// The matrix's cells and where its files went.
+#[derive(Clone, Debug)]
+pub struct MatrixReport {
+    /// The base scenario's name.
+    pub scenario: String,
+    /// Every cell, in configuration order, then row order.
+    pub cells: Vec<Cell>,
+    /// `matrix.json` (every cell) and `matrix.md` (the table).
+    pub files: [PathBuf; 2],
+}
+
+impl fmt::Display for MatrixReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for cell in self.cells.iter().filter(|c| !c.result.passed) {
+            writeln!(
+                f,
+                "not as expected: {} ({}, expected {})",
+                cell.name(),
+                outcome(&cell.result),
+                expected(&cell.result.expect)
+            )?;
+        }
+        writeln!(
+            f,
+            "{} on {}, {} configurations",
+            summary_line(&self.cells),
+            self.scenario,
+            Configuration::all().len()
+        )?;
+        write!(
+            f,
+            "wrote {} and {}",
+            self.files[0].display(),
+            self.files[1].display()
+        )
+    }
+}
+
+impl Report for MatrixReport {
+    fn verdict(&self) -> Result<(), Failed> {
+        let failed = self.cells.iter().filter(|c| !c.result.passed).count();
+        if failed == 0 {
+            Ok(())
+        } else {
+            Err(Failed(format!(
+                "{failed} cells of the fault matrix not as expected"
+            )))
+        }
+    }
+}
+
+/// What a cell did, in a few words: `stopped in 416 ms`, `warned in 200 ms`, `tripped
+/// nothing`, and for a re-arm row whether the second press re-armed.
+fn outcome(r: &CaseResult) -> String {
+    let ms = |v: Option<f64>| ms_or(v, 0, "—");
+    let done = match (r.expect, r.detected) {
+        (Expectation::Warn { .. }, true) => format!("warned in {}", ms(r.latency_s)),
+        (_, true) => format!("stopped in {}", ms(r.latency_s)),
+        (_, false) => "tripped nothing".to_string(),
+    };
+    match r.expect {
+        Expectation::Rearm { .. } if r.final_state == "Armed" => format!("{done}, re-armed"),
+        Expectation::Rearm { .. } => format!("{done}, not re-armed"),
+        _ => done,
+    }
+}
+
+/// A row's expectation, in a few words.
+fn expected(e: &Expectation) -> String {
+    let ms = |s: f64| ms_or(Some(s), 0, "—");
+    match *e {
+        Expectation::Detect { limit_s, .. } => format!("stopped within {}", ms(limit_s)),
+        Expectation::Warn { limit_s, .. } => format!("warned within {}", ms(limit_s)),
+        Expectation::Harmless => "harmless".into(),
+        Expectation::Undetectable { .. } => "undetectable".into(),
+        Expectation::Rearm {
+            limit_s,
+            armed_again,
+            ..
+        } => format!(
+            "stopped within {}, {}",
+            ms(limit_s),
+            if armed_again {
+                "re-armed"
+            } else {
+                "not re-armed"
+            }
+        ),
+    }
+}
+
+/// The matrix as a Markdown table: a row per fault with its expectation, a column per
+/// configuration, each cell what it did (`✗` before a cell not as expected; `·` where the
+/// row does not apply).
+pub fn matrix_table(cells: &[Cell]) -> String {
+    let configurations = Configuration::all();
+    let mut out = String::from("| fault | expected |");
+    for c in &configurations {
+        out += &format!(" {c} |");
+    }
+    out += "\n|---|---|";
+    out += &"---|".repeat(configurations.len());
+    out += "\n";
+    for case in cases() {
+        let expect = cells
+            .iter()
+            .find(|c| c.result.case == case.name)
+            .map_or_else(|| expected(&case.expect), |c| expected(&c.result.expect));
+        out += &format!("| {} | {expect} |", case.name);
+        for configuration in &configurations {
+            let cell = cells
+                .iter()
+                .find(|c| c.configuration == *configuration && c.result.case == case.name);
+            out += &match cell {
+                Some(c) if c.result.passed => format!(" {} |", outcome(&c.result)),
+                Some(c) => format!(" ✗ {} |", outcome(&c.result)),
+                None => " · |".to_string(),
+            };
+        }
+        out += "\n";
+    }
+    out
+}
+
+/// Runs the matrix on `scenario` with `law` and writes `matrix.json` and `matrix.md`
+/// into `out` (`None`: `host-sim-out/<scenario>/fault-matrix`).
+pub fn run_matrix(scenario: &str, law: LawKind, out: Option<PathBuf>) -> Result<MatrixReport> {
+    let scenario = load(scenario)?;
+    let cells = fault_matrix::run_matrix(&scenario, law, &Configuration::all())?;
+    let dir = out.unwrap_or_else(|| default_dir(&scenario, "fault-matrix"));
+    create_dir(&dir)?;
+    let json_file = dir.join("matrix.json");
+    let json = serde_json::to_string_pretty(&cells).context("serialising the matrix")?;
+    std::fs::write(&json_file, json + "\n")
+        .with_context(|| format!("writing {}", json_file.display()))?;
+    let table_file = dir.join("matrix.md");
+    std::fs::write(&table_file, matrix_table(&cells))
+        .with_context(|| format!("writing {}", table_file.display()))?;
+    Ok(MatrixReport {
+        scenario: scenario.name,
+        cells,
+        files: [json_file, table_file],
     })
 }
 

@@ -904,6 +904,8 @@ fn the_supervisors_own_flags_stay_latched_when_the_controller_clears_its_own() {
 fn a_low_battery_warns_then_faults() {
     let mut r = rig();
     r.press(30);
+    // The wheels turn: this is about the battery, not a stall.
+    r.moving = true;
     r.supply_v = 4.8;
     let outs = r.run(400);
     // Warning after the 200 ms debounce (and the 20 ms filter's settling), once.

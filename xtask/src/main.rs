@@ -12,7 +12,7 @@
 //! | `qemu` | runs the core under QEMU, compares its digest with the host's, checks the step budget |
 //! | `link-qemu` | runs the link crate under QEMU and talks to it over its USART: replies, corrupted frames, counters |
 //! | `docs` | `cargo doc --no-deps` with warnings denied, for the host crates and the firmware |
-//! | `figures` | regenerates `docs/figures.md` and the README's headline rows from what the simulator writes (`ci` fails when either is stale) |
+//! | `figures` | regenerates `docs/figures.md`, the README's headline rows and the fault matrix in `docs/safety.md` from what the simulator writes (`ci` fails when one is stale) |
 //! | `protocol-page` | checks `docs/protocol.md` against the `link` crate: every type, field and variant of the messages in wire order, the constants (the schema hash among them) and the example frame; names each difference with the row or section to write |
 //! | `protocol-client` | runs the Python client written from `docs/protocol.md` (`tools/protocol-client/`) against `host-sim serve` on an ephemeral port: handshake, `Info`, the configuration and telemetry decoded and checked; needs `python3` (installed with apt-get as root, otherwise named) |
 //! | `velocity-check` | `host-sim velocity-check` on `velocity-steps`: how soon a step in the command moves the limited command, when the ramp to zero starts after the last command, the largest velocity, acceleration and jerk against the limits; one line, fails when the mode's contract is broken |
@@ -81,8 +81,8 @@ commands:
   link-qemu
           run the link on an emulated Cortex-M4F and talk to it over its USART
   docs    cargo doc --no-deps with warnings denied (host crates, firmware)
-  figures regenerate docs/figures.md and the README's headline rows from the
-          simulator (CI fails when stale)
+  figures regenerate docs/figures.md, the README's headline rows and the fault
+          matrix in docs/safety.md from the simulator (CI fails when stale)
   protocol-page
           check docs/protocol.md against the link crate (types, constants, schema
           hash, example frame); names each difference
@@ -172,7 +172,7 @@ fn run() -> Result<bool> {
         ["pil"] => vec![steps::setup(), steps::pil()],
         ["docs"] => vec![steps::setup(), steps::docs()],
         ["figures"] => vec![Step::new(
-            "figures: regenerate docs/figures.md and the README's headline rows",
+            "figures: regenerate docs/figures.md, the README's headline rows and docs/safety.md's fault matrix",
             |ctx| figures::run(ctx, false),
         )],
         ["protocol-page"] => vec![steps::protocol_page()],
@@ -185,7 +185,7 @@ fn run() -> Result<bool> {
             ros2_peer::check_with(ctx, ros2_peer::CmdVel::TwistStamped)
         })],
         ["figures", "--check"] => vec![Step::new(
-            "figures: docs/figures.md and the README's headline rows up to date",
+            "figures: docs/figures.md, the README's headline rows and docs/safety.md's fault matrix up to date",
             |ctx| figures::run(ctx, true),
         )],
         ["size-of", elf] => {

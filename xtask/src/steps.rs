@@ -344,7 +344,7 @@ pub fn ci() -> Vec<Step> {
         foxglove_live(),
         ros2_peer(),
         Step::new(
-            "figures: docs/figures.md and the README's headline rows up to date with the simulator",
+            "figures: docs/figures.md, the README's headline rows and docs/safety.md's fault matrix up to date with the simulator",
             |ctx| crate::figures::run(ctx, true),
         ),
     ]

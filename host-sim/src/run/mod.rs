@@ -40,7 +40,9 @@
 //!
 //! The true error is measured at every steering period of the run against the scenario's
 //! own reference, evaluated here, independently of the controller: in time-indexed mode
-//! the reference point at that time and its heading; in path-following mode, where the
+//! the reference point at that time and its heading, the time counted while the robot
+//! is armed (its own reference holds while it is disarmed or faulted, and a re-arm
+//! resumes it where it stopped); in path-following mode, where the
 //! controller may aim ahead on purpose, the closest point of the path and the path's
 //! heading there. The controller's own estimate is measured against its own reference at
 //! its steering updates. See [`robot_files::metrics`].
@@ -317,6 +319,8 @@ pub fn run_with_logic<L: RobotLogic>(
     let mut travelled = 0.0;
     let mut last_position = (s.x_m, s.y_m);
     let mut reference_pose = Pose::default();
+    // Control periods since arming in which the robot was not armed.
+    let mut paused_periods = 0u64;
     let mut true_sample = (0.0, 0.0);
     let mut last_out = None;
 
@@ -343,6 +347,7 @@ pub fn run_with_logic<L: RobotLogic>(
         }
         let decision = step(logic, &mut hardware)?;
         let out = decision.out;
+        let step_periods = hardware.period() - period;
         let estimate = decision.estimate;
         if let (Some(t), State::Armed) = (decision.telemetry, out.state) {
             gyro_disagreed |= t.gyro.disagrees;
@@ -369,11 +374,16 @@ pub fn run_with_logic<L: RobotLogic>(
             }
         }
         let since_arming = armed_at.map(|a| period - a);
+        // The robot's reference moves only while it is armed: a pause (a press that
+        // disarms, a fault) holds it, and a re-arm resumes it where it stopped.
+        if armed_at.is_some() && out.state != State::Armed {
+            paused_periods += step_periods;
+        }
 
         // True error every steering period from arming (module doc).
         if let Some(k) = since_arming {
             if k % divider == 0 {
-                reference_pose = truth.at(k, &pose);
+                reference_pose = truth.at(k.saturating_sub(paused_periods), &pose);
                 let dx = f64::from(reference_pose.x_m) - pose.x_m;
                 let dy = f64::from(reference_pose.y_m) - pose.y_m;
                 let heading = robot_files::truth::wrap_angle(

@@ -1,9 +1,10 @@
 //! `host-sim faults`: every kind of fault, one at a time, on a built-in scenario, with
 //! what the supervisor did about it and how fast, against the limit its detector implies.
 //!
-//! Each case runs the scenario (the paper's circle by default) armed in motion, injects
-//! one fault at [`INJECT_AT_S`] (after the divergence check's settling window) and runs
-//! on for [`RUN_AFTER_S`]. A case is one of:
+//! Each case runs the scenario (the paper's circle by default) in a configuration
+//! ([`crate::fault_matrix`]: its own, or the nearest where the case applies), injects one
+//! fault [`INJECT_AT_S`] after arming (after the divergence check's settling window) and
+//! runs on for [`RUN_AFTER_S`]. A case is one of:
 //!
 //! - **detectable**: the firmware's own signals can see it; it must stop the robot within
 //!   `limit_s`, which follows from the detector's settings (stated per case);
@@ -35,8 +36,8 @@ use std::path::Path;
 use crate::fault_matrix::{Configuration, Heading, Mode};
 use crate::run::{run_scenario_with, RunError, RunOptions};
 
-/// When each case's fault is injected, s (after the paper's circle's 5.5 s divergence
-/// settling window).
+/// When each case's fault is injected, s after arming (after the paper's circle's 5.5 s
+/// divergence settling window).
 pub const INJECT_AT_S: f64 = 10.0;
 /// How long each case runs after the injection, s.
 pub const RUN_AFTER_S: f64 = 10.0;

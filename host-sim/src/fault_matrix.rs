@@ -103,11 +103,10 @@ impl Configuration {
             (None, ReferenceMode::TimeIndexed { .. }) => Mode::TimeIndexed,
             (None, ReferenceMode::PathFollowing { .. }) => Mode::PathIndexed,
         };
-        let moving = scenario.start.v_m_s != 0.0 || scenario.start.omega_rad_s != 0.0;
         Self {
             heading,
             mode,
-            start: if moving {
+            start: if moving(scenario) {
                 Start::InMotion
             } else {
                 Start::AtRest
@@ -167,8 +166,7 @@ impl Configuration {
                 });
             }
         }
-        let moving = base.start.v_m_s != 0.0 || base.start.omega_rad_s != 0.0;
-        match (self.start, moving) {
+        match (self.start, moving(base)) {
             (Start::AtRest, _) => {
                 s.start.v_m_s = 0.0;
                 s.start.omega_rad_s = 0.0;
@@ -182,6 +180,11 @@ impl Configuration {
         }
         s
     }
+}
+
+/// Whether `scenario` starts in motion (a forward speed or a yaw rate at t = 0).
+fn moving(scenario: &Scenario) -> bool {
+    scenario.start.v_m_s != 0.0 || scenario.start.omega_rad_s != 0.0
 }
 
 impl fmt::Display for Configuration {
